@@ -1,0 +1,14 @@
+"""The bus seam (publish / subscribe-latest / subscribe-queued / liveliness) and its transports."""
+
+from facesynth.bus.base import Bus, Sample, Subscription, SubscriptionClosed, Token
+from facesynth.bus.memory import MemoryBus, MemoryNetwork
+
+__all__ = [
+    "Bus",
+    "MemoryBus",
+    "MemoryNetwork",
+    "Sample",
+    "Subscription",
+    "SubscriptionClosed",
+    "Token",
+]

@@ -1,0 +1,159 @@
+"""The bus seam: how services publish and subscribe, whatever carries the bytes.
+
+Two implementations share this contract (and one contract test suite):
+:class:`facesynth.bus.zenoh_bus.ZenohBus` for real deployments and
+:class:`facesynth.bus.memory.MemoryBus` for unit tests.
+
+Subscriptions are mailboxes owned by the asyncio loop: a transport thread hands samples over
+with ``loop.call_soon_threadsafe`` and never blocks. A *latest* subscription keeps only the newest
+sample (older ones count as dropped); a *queued* one keeps up to ``maxsize`` and drops the oldest
+when full, also counted.
+"""
+
+from __future__ import annotations
+
+import abc
+import asyncio
+import collections
+import time
+from collections.abc import AsyncIterator
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True, slots=True)
+class Sample:
+    """One received payload, with the key it was published on and when it arrived."""
+
+    key: str
+    payload: bytes
+    t_received_ns: int
+
+
+class SubscriptionClosed(Exception):
+    """Raised by :meth:`Subscription.receive` once the subscription or its bus is closed."""
+
+
+class Subscription:
+    """A bounded mailbox of samples, filled by the transport, drained by one asyncio task."""
+
+    def __init__(self, key: str, maxsize: int) -> None:
+        if maxsize < 1:
+            raise ValueError("a subscription needs room for at least one sample")
+        self.key = key
+        self.maxsize = maxsize
+        self.dropped = 0
+        self.received = 0
+        self._items: collections.deque[Sample] = collections.deque()
+        self._waiter: asyncio.Future[None] | None = None
+        self._closed = False
+        self._loop = asyncio.get_running_loop()
+
+    @property
+    def closed(self) -> bool:
+        """Whether :meth:`close` was called (pending samples can no longer be received)."""
+        return self._closed
+
+    def deliver(self, sample: Sample) -> None:
+        """Add a sample; call on the subscription's event loop thread only."""
+        if self._closed:
+            return
+        self.received += 1
+        if len(self._items) >= self.maxsize:
+            self._items.popleft()
+            self.dropped += 1
+        self._items.append(sample)
+        waiter = self._waiter
+        if waiter is not None and not waiter.done():
+            waiter.set_result(None)
+
+    def deliver_threadsafe(self, key: str, payload: bytes) -> None:
+        """Hand a sample over from any thread without blocking it."""
+        sample = Sample(key, payload, time.time_ns())
+        try:
+            self._loop.call_soon_threadsafe(self.deliver, sample)
+        except RuntimeError:  # the loop is closed: the service is shutting down
+            pass
+
+    async def receive(self) -> Sample:
+        """Wait for the next sample (the newest one for a latest subscription)."""
+        while not self._items:
+            if self._closed:
+                raise SubscriptionClosed(self.key)
+            self._waiter = self._loop.create_future()
+            try:
+                await self._waiter
+            finally:
+                self._waiter = None
+        return self._items.popleft()
+
+    def receive_nowait(self) -> Sample | None:
+        """The next pending sample, or ``None``."""
+        return self._items.popleft() if self._items else None
+
+    def pending(self) -> int:
+        """How many samples wait to be received."""
+        return len(self._items)
+
+    def close(self) -> None:
+        """Stop receiving; a task waiting in :meth:`receive` gets :class:`SubscriptionClosed`."""
+        if self._closed:
+            return
+        self._closed = True
+        self._items.clear()
+        self._release()
+        waiter = self._waiter
+        if waiter is not None and not waiter.done():
+            waiter.set_result(None)
+
+    def _release(self) -> None:
+        """Undeclare transport resources; implementations override."""
+
+    def __aiter__(self) -> AsyncIterator[Sample]:
+        return self._iterate()
+
+    async def _iterate(self) -> AsyncIterator[Sample]:
+        while True:
+            try:
+                yield await self.receive()
+            except SubscriptionClosed:
+                return
+
+
+class Token(abc.ABC):
+    """A liveliness token: visible to :meth:`Bus.alive` until closed or its process dies."""
+
+    @abc.abstractmethod
+    def close(self) -> None:
+        """Withdraw the token."""
+
+
+class Bus(abc.ABC):
+    """Publish bytes on keys, subscribe to key expressions, announce liveliness."""
+
+    @abc.abstractmethod
+    def publish(self, key: str, payload: bytes) -> None:
+        """Send ``payload`` on ``key`` without blocking the caller."""
+
+    @abc.abstractmethod
+    def _subscribe(self, key_expr: str, maxsize: int) -> Subscription:
+        """Create a subscription mailbox of ``maxsize`` for ``key_expr``."""
+
+    def subscribe_latest(self, key_expr: str) -> Subscription:
+        """Subscribe keeping only the newest sample (for real-time inputs)."""
+        return self._subscribe(key_expr, 1)
+
+    def subscribe_queued(self, key_expr: str, maxsize: int = 64) -> Subscription:
+        """Subscribe keeping up to ``maxsize`` samples in order, dropping the oldest when full."""
+        return self._subscribe(key_expr, maxsize)
+
+    @abc.abstractmethod
+    def declare_token(self, key: str) -> Token:
+        """Announce liveliness on ``key``."""
+
+    @abc.abstractmethod
+    async def alive(self, key_expr: str, timeout: float = 1.0) -> list[str]:
+        """Keys of the liveliness tokens currently matching ``key_expr``."""
+
+    @abc.abstractmethod
+    async def close(self) -> None:
+        """Close every subscription and token and release the transport."""

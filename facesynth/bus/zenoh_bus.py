@@ -1,0 +1,186 @@
+"""The Zenoh implementation of the bus seam, and how a session is configured.
+
+Zenoh's Python API has no asyncio support: subscriber callbacks run on Zenoh's own threads. They
+only copy the payload and hand it to the event loop with ``call_soon_threadsafe``; they never
+block and never call Zenoh.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import os
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import zenoh
+
+from facesynth.bus.base import Bus, Subscription, Token
+
+#: Where services look for a router when given no --connect (``facesynth router``'s default).
+DEFAULT_ROUTER = "tcp/127.0.0.1:7447"
+MODES = ("peer", "client", "router")
+
+
+class ZenohConfigError(ValueError):
+    """A Zenoh configuration that cannot be used (bad file, bad endpoint, bad mode)."""
+
+
+@dataclass
+class ZenohOptions:
+    """The standard Zenoh options of every facesynth command.
+
+    ``config_file`` (or the ``ZENOH_CONFIG`` environment variable) is read first; ``mode``,
+    ``connect`` and ``listen`` override it. Multicast and gossip scouting stay off unless
+    ``scouting`` is true, so services only meet the routers and peers they are told about.
+    """
+
+    mode: str = "peer"
+    connect: list[str] = field(default_factory=list)
+    listen: list[str] = field(default_factory=list)
+    config_file: str | None = None
+    scouting: bool = False
+
+    def build(self) -> zenoh.Config:
+        """The ``zenoh.Config`` these options describe."""
+        if self.mode not in MODES:
+            raise ZenohConfigError(f"unknown Zenoh mode {self.mode!r}; use one of {MODES}")
+        path = self.config_file or os.environ.get("ZENOH_CONFIG") or None
+        try:
+            config = zenoh.Config.from_file(path) if path else zenoh.Config()
+        except Exception as exc:  # zenoh raises its own ZError for unreadable or invalid files
+            raise ZenohConfigError(f"cannot load Zenoh config {path}: {exc}") from None
+        try:
+            config.insert_json5("mode", json.dumps(self.mode))
+            if self.connect:
+                config.insert_json5("connect/endpoints", json.dumps(list(self.connect)))
+            if self.listen:
+                config.insert_json5("listen/endpoints", json.dumps(list(self.listen)))
+            if not self.scouting:
+                config.insert_json5("scouting/multicast/enabled", "false")
+                config.insert_json5("scouting/gossip/enabled", "false")
+            config.insert_json5("adminspace/enabled", "true")
+        except Exception as exc:
+            raise ZenohConfigError(f"invalid Zenoh option: {exc}") from None
+        return config
+
+
+def open_session(options: ZenohOptions) -> zenoh.Session:
+    """Open a Zenoh session, turning Zenoh's errors into :class:`ZenohConfigError`."""
+    config = options.build()
+    try:
+        return zenoh.open(config)
+    except Exception as exc:
+        where = ", ".join(options.connect or options.listen) or "the configured endpoints"
+        raise ZenohConfigError(f"cannot open a Zenoh {options.mode} session ({where}): {exc}") from None
+
+
+def router_locators(session: zenoh.Session, timeout: float = 2.0) -> list[str]:
+    """Locators a router session listens on, read from its admin space (``@/<zid>/router``)."""
+    zid = str(session.info.zid())
+    for reply in session.get(f"@/{zid}/router", timeout=timeout):
+        if reply.ok is not None:
+            info = json.loads(reply.ok.payload.to_bytes())
+            return [str(loc) for loc in info.get("locators", [])]
+    return []
+
+
+class _ZenohSubscription(Subscription):
+    def __init__(self, session: zenoh.Session, key_expr: str, maxsize: int) -> None:
+        super().__init__(key_expr, maxsize)
+        deliver = self.deliver_threadsafe
+
+        def on_sample(sample: zenoh.Sample) -> None:
+            deliver(str(sample.key_expr), sample.payload.to_bytes())
+
+        self._subscriber: Any = session.declare_subscriber(key_expr, on_sample)
+
+    def _release(self) -> None:
+        subscriber, self._subscriber = self._subscriber, None
+        if subscriber is not None:
+            try:
+                subscriber.undeclare()
+            except Exception:  # the session is already closed
+                pass
+
+
+class _ZenohToken(Token):
+    def __init__(self, token: Any) -> None:
+        self._token: Any = token
+
+    def close(self) -> None:
+        token, self._token = self._token, None
+        if token is not None:
+            try:
+                token.undeclare()
+            except Exception:
+                pass
+
+
+class ZenohBus(Bus):
+    """A bus over one Zenoh session; several buses may share a session (``owns_session``)."""
+
+    def __init__(self, session: zenoh.Session, *, owns_session: bool = True) -> None:
+        self.session = session
+        self._owns_session = owns_session
+        self._publishers: dict[str, Any] = {}
+        self._subscriptions: list[Subscription] = []
+        self._tokens: list[Token] = []
+        self._closed = False
+
+    @classmethod
+    def open(cls, options: ZenohOptions) -> ZenohBus:
+        """Open a session from ``options`` and wrap it."""
+        return cls(open_session(options))
+
+    def publish(self, key: str, payload: bytes) -> None:
+        publisher = self._publishers.get(key)
+        if publisher is None:
+            publisher = self.session.declare_publisher(
+                key, congestion_control=zenoh.CongestionControl.DROP, express=True
+            )
+            self._publishers[key] = publisher
+        publisher.put(payload)
+
+    def _subscribe(self, key_expr: str, maxsize: int) -> Subscription:
+        subscription = _ZenohSubscription(self.session, key_expr, maxsize)
+        self._subscriptions.append(subscription)
+        return subscription
+
+    def declare_token(self, key: str) -> Token:
+        token = _ZenohToken(self.session.liveliness().declare_token(key))
+        self._tokens.append(token)
+        return token
+
+    async def alive(self, key_expr: str, timeout: float = 1.0) -> list[str]:
+        def query() -> list[str]:
+            replies = self.session.liveliness().get(key_expr, timeout=timeout)
+            return sorted({str(r.ok.key_expr) for r in replies if r.ok is not None})
+
+        return await asyncio.to_thread(query)
+
+    async def close(self) -> None:
+        if self._closed:
+            return
+        self._closed = True
+        for subscription in self._subscriptions:
+            subscription.close()
+        for token in self._tokens:
+            token.close()
+        for publisher in self._publishers.values():
+            try:
+                publisher.undeclare()
+            except Exception:
+                pass
+        self._publishers.clear()
+        if self._owns_session:
+            await asyncio.to_thread(self.session.close)
+
+
+def endpoints(values: Sequence[str] | None) -> list[str]:
+    """Split repeated or comma-separated endpoint options into a list."""
+    out: list[str] = []
+    for value in values or ():
+        out.extend(part.strip() for part in value.split(",") if part.strip())
+    return out

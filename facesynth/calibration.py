@@ -1,0 +1,123 @@
+"""Performer calibrations, by name: a JSON file per performer (``<name>.json``).
+
+A calibration holds the performer's neutral face (the 68 nose-tip distances, in inter-ocular
+units) and, per point, the smallest and largest movement from that neutral seen during extreme
+expressions (``delta_min`` <= 0 <= ``delta_max``). F uses the neutral; T averages the per-point
+ranges over each servo's point group. Files are written atomically.
+
+Lookup order for a name: a path to an existing file; ``$FACESYNTH_CALIBRATIONS``;
+``~/.config/facesynth/calibrations``.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from pathlib import Path
+from typing import Literal
+
+import msgspec
+
+from facesynth.atomic import write_atomic
+from facesynth.landmarks import N_IBUG
+
+FORMAT = "facesynth.calibration"
+
+
+class CalibrationError(ValueError):
+    """A calibration that cannot be used; the message names the file and what is wrong."""
+
+
+class Calibration(msgspec.Struct, forbid_unknown_fields=True, kw_only=True):
+    """One performer's neutral face and movement ranges."""
+
+    format: Literal["facesynth.calibration"] = FORMAT
+    version: int = 1
+    name: str
+    scheme: str = "ibug68"
+    feature: Literal["nose_distance"] = "nose_distance"
+    neutral: list[float]
+    delta_min: list[float]
+    delta_max: list[float]
+    created: str = ""
+
+
+def search_dirs() -> list[Path]:
+    """Folders searched for ``<name>.json``, first match wins."""
+    dirs = []
+    if env := os.environ.get("FACESYNTH_CALIBRATIONS"):
+        dirs.extend(Path(p) for p in env.split(os.pathsep) if p)
+    dirs.append(Path.home() / ".config" / "facesynth" / "calibrations")
+    return dirs
+
+
+def resolve_calibration(name_or_path: str) -> Path:
+    """The file a calibration name or path refers to, or raise :class:`CalibrationError`."""
+    candidate = Path(name_or_path)
+    if candidate.suffix == ".json" or os.sep in name_or_path:
+        if candidate.is_file():
+            return candidate
+        raise CalibrationError(f"calibration file {name_or_path} does not exist")
+    for folder in search_dirs():
+        path = folder / f"{name_or_path}.json"
+        if path.is_file():
+            return path
+    raise CalibrationError(
+        f"no calibration named {name_or_path!r} in {', '.join(map(str, search_dirs()))}"
+    )
+
+
+def validate_calibration(calibration: Calibration) -> list[str]:
+    """Every problem of a parsed calibration (empty when valid)."""
+    problems = []
+    if calibration.version != 1:
+        problems.append(f"version {calibration.version} is not supported (this facesynth reads 1)")
+    if calibration.scheme != "ibug68":
+        problems.append(f"scheme {calibration.scheme!r} is not supported")
+    for field in ("neutral", "delta_min", "delta_max"):
+        values = getattr(calibration, field)
+        if len(values) != N_IBUG:
+            problems.append(f"{field} has {len(values)} values, needs {N_IBUG}")
+        elif not all(math.isfinite(v) for v in values):
+            problems.append(f"{field} has a value that is not a finite number")
+    if problems:
+        return problems
+    if any(v < 0 for v in calibration.neutral):
+        problems.append("neutral distances cannot be negative")
+    wrong = [
+        i for i, (lo, hi) in enumerate(zip(calibration.delta_min, calibration.delta_max, strict=True))
+        if not lo <= 0 <= hi
+    ]
+    if wrong:
+        problems.append(f"points {wrong} need delta_min <= 0 <= delta_max")
+    return problems
+
+
+def parse_calibration(data: bytes | str, source: str = "<calibration>") -> Calibration:
+    """Parse and validate calibration JSON."""
+    try:
+        calibration = msgspec.json.decode(data, type=Calibration)
+    except (msgspec.DecodeError, msgspec.ValidationError) as exc:
+        raise CalibrationError(f"{source}: {exc}") from None
+    problems = validate_calibration(calibration)
+    if problems:
+        raise CalibrationError(f"{source}: " + "; ".join(problems))
+    return calibration
+
+
+def load_calibration(name_or_path: str) -> Calibration:
+    """Load a calibration by name or path, validated."""
+    path = resolve_calibration(name_or_path)
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        raise CalibrationError(f"cannot read calibration {path}: {exc}") from None
+    return parse_calibration(data, str(path))
+
+
+def save_calibration(calibration: Calibration, path: str | os.PathLike[str]) -> Path:
+    """Validate and write a calibration atomically."""
+    problems = validate_calibration(calibration)
+    if problems:
+        raise CalibrationError("; ".join(problems))
+    return write_atomic(path, msgspec.json.format(msgspec.json.encode(calibration)))

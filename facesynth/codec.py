@@ -1,0 +1,143 @@
+"""Encode and decode facesynth messages, with the checks a type system cannot make.
+
+Every service decodes what it receives through :func:`decode`; anything malformed (not msgpack,
+wrong tag, wrong field types, NaN/inf, wrong coordinate counts, a raw frame of the wrong size)
+raises :class:`MessageError` with a precise reason, which the services count, log and drop.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, TypeVar
+
+import msgspec
+
+from schemas.messages import Features, Frame, Points, ServiceStats, ServoCommands
+
+M = TypeVar("M", Frame, Points, Features, ServoCommands, ServiceStats)
+
+_ENCODER = msgspec.msgpack.Encoder()
+_DECODERS: dict[type[Any], msgspec.msgpack.Decoder[Any]] = {
+    cls: msgspec.msgpack.Decoder(cls)
+    for cls in (Frame, Points, Features, ServoCommands, ServiceStats)
+}
+
+#: Largest frame dimension accepted (pixels); larger values are treated as corrupt.
+MAX_FRAME_SIDE = 16384
+#: Largest magnitude of a pixel coordinate accepted.
+MAX_COORD = 1e6
+#: Largest servo pulse width accepted on the wire (µs); anything larger is corrupt.
+MAX_PULSE_US = 1e5
+
+
+class MessageError(ValueError):
+    """A message that cannot be used: the reason says what is wrong with it."""
+
+
+def encode(message: msgspec.Struct) -> bytes:
+    """msgpack bytes of a message struct."""
+    return _ENCODER.encode(message)
+
+
+def decode(payload: bytes | bytearray | memoryview, cls: type[M]) -> M:
+    """Decode and validate one message of type ``cls``, or raise :class:`MessageError`."""
+    try:
+        message = _DECODERS[cls].decode(payload)
+    except (msgspec.DecodeError, msgspec.ValidationError) as exc:
+        raise MessageError(f"not a valid {cls.__name__} message: {exc}") from None
+    _VALIDATORS[cls](message)
+    return message
+
+
+def _finite(value: float, what: str, limit: float = math.inf) -> None:
+    if not math.isfinite(value) or abs(value) > limit:
+        raise MessageError(f"{what} is {value!r}: must be a finite number within ±{limit:g}")
+
+
+def _common(seq: int, t_capture_ns: int, t_media_ns: int) -> None:
+    if seq < 0:
+        raise MessageError(f"seq is {seq}: must be >= 0")
+    if t_capture_ns < 0 or t_media_ns < 0:
+        raise MessageError("timestamps must be >= 0")
+
+
+def validate_frame(frame: Frame) -> None:
+    """Check frame size, encoding and payload length."""
+    _common(frame.seq, frame.t_capture_ns, frame.t_media_ns)
+    if not (0 < frame.width <= MAX_FRAME_SIDE and 0 < frame.height <= MAX_FRAME_SIDE):
+        raise MessageError(f"frame size {frame.width}x{frame.height} is out of range")
+    _finite(frame.fps, "fps", 10_000)
+    if frame.encoding == "raw" and len(frame.data) != frame.width * frame.height * 3:
+        raise MessageError(
+            f"raw frame {frame.width}x{frame.height} needs {frame.width * frame.height * 3} "
+            f"bytes, got {len(frame.data)}"
+        )
+    if frame.encoding == "jpeg" and not frame.data.startswith(b"\xff\xd8"):
+        raise MessageError("jpeg frame does not start with a JPEG marker")
+
+
+def validate_points(points: Points) -> None:
+    """Check confidence, image size and every point set's shape and values."""
+    _common(points.seq, points.t_capture_ns, points.t_media_ns)
+    _finite(points.confidence, "confidence", 1e6)
+    if not (0 < points.image_width <= MAX_FRAME_SIDE and 0 < points.image_height <= MAX_FRAME_SIDE):
+        raise MessageError(f"image size {points.image_width}x{points.image_height} is out of range")
+    if not points.face and points.sets:
+        raise MessageError("a 'no face' message must not carry points")
+    seen: set[str] = set()
+    for point_set in points.sets:
+        if point_set.scheme in seen:
+            raise MessageError(f"point set {point_set.scheme!r} appears twice")
+        seen.add(point_set.scheme)
+        if point_set.dims not in (2, 3):
+            raise MessageError(f"point set {point_set.scheme!r} has dims {point_set.dims}")
+        if not point_set.coords or len(point_set.coords) % point_set.dims:
+            raise MessageError(
+                f"point set {point_set.scheme!r} has {len(point_set.coords)} values, "
+                f"not a positive multiple of {point_set.dims}"
+            )
+        for value in point_set.coords:
+            _finite(value, f"a coordinate of {point_set.scheme!r}", MAX_COORD)
+
+
+def validate_features(features: Features) -> None:
+    """Check that every feature value is finite and the vectors agree in length."""
+    _common(features.seq, features.t_capture_ns, features.t_media_ns)
+    if features.deltas and len(features.deltas) != len(features.distances):
+        raise MessageError(
+            f"{len(features.deltas)} deltas for {len(features.distances)} distances"
+        )
+    if not features.face and (features.distances or features.deltas):
+        raise MessageError("a 'no face' message must not carry features")
+    for value in features.distances:
+        _finite(value, "a distance", MAX_COORD)
+    for value in features.deltas:
+        _finite(value, "a delta", MAX_COORD)
+    for name, value in features.named.items():
+        _finite(value, f"feature {name!r}", MAX_COORD)
+
+
+def validate_servo_commands(commands: ServoCommands) -> None:
+    """Check that every position is a finite, plausible pulse width."""
+    _common(commands.seq, commands.t_capture_ns, commands.t_media_ns)
+    if not commands.profile:
+        raise MessageError("servo commands name no profile")
+    for name, value in commands.positions.items():
+        _finite(value, f"position of {name!r}", MAX_PULSE_US)
+        if value < 0:
+            raise MessageError(f"position of {name!r} is negative ({value})")
+
+
+def validate_stats(stats: ServiceStats) -> None:
+    """Check the figures of a stats message are finite."""
+    for name in ("uptime_s", "rate_hz", "rss_mb", "peak_rss_mb"):
+        _finite(getattr(stats, name), name)
+
+
+_VALIDATORS: dict[type[Any], Any] = {
+    Frame: validate_frame,
+    Points: validate_points,
+    Features: validate_features,
+    ServoCommands: validate_servo_commands,
+    ServiceStats: validate_stats,
+}

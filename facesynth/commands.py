@@ -1,0 +1,219 @@
+"""Implementations of the ``facesynth`` sub-commands (the parser lives in ``cli``)."""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import json
+import logging
+import time
+from typing import Any
+
+from facesynth import build, keys
+from facesynth.bus.zenoh_bus import ZenohBus, endpoints, open_session, router_locators
+from facesynth.chain import ChainResult, open_embedded, run_chain, run_single
+from facesynth.runtime import run_async, until_signalled
+from services.control.service import ControlService
+from services.features.service import serve_features
+from services.points.service import serve_points
+from services.sensor.service import SensorService
+from services.translator.service import serve_translator
+
+log = logging.getLogger("facesynth")
+
+def _single(args: argparse.Namespace, service: str, body: Any) -> int:
+    options = build.zenoh_options(args)
+    run_async(run_single(options, args.rig, service, body, stats_interval=args.stats_interval))
+    return 0
+
+def cmd_sensor(args: argparse.Namespace) -> int:
+    """``facesynth sensor``."""
+    source = build.build_source(args)
+    sensor = SensorService(source, build.sensor_options(args))
+    return _single(args, "sensor", sensor.serve)
+
+def cmd_points(args: argparse.Namespace) -> int:
+    """``facesynth points``."""
+    backend = build.build_backend(args)
+    return _single(args, "points", lambda ctx: serve_points(ctx, backend, args.queue))
+
+def cmd_features(args: argparse.Namespace) -> int:
+    """``facesynth features``."""
+    processor = build.build_processor(args, build.build_calibration(args))
+    return _single(args, "features", lambda ctx: serve_features(ctx, processor, args.queue))
+
+def cmd_translator(args: argparse.Namespace) -> int:
+    """``facesynth translator``."""
+    translator = build.build_translator(build.build_profile(args), build.build_calibration(args))
+    return _single(args, "translator", lambda ctx: serve_translator(ctx, translator, args.queue))
+
+def cmd_control(args: argparse.Namespace) -> int:
+    """``facesynth control``."""
+    control = ControlService(
+        build.build_profile(args), build.build_driver(args), watchdog_s=args.watchdog, queue=args.queue
+    )
+    return _single(args, "control", control.serve)
+
+def cmd_run(args: argparse.Namespace) -> int:
+    """``facesynth run``: the whole chain in one process."""
+    backend = build.build_backend(args)
+    replay_frames = None if build.has_source(args) else backend.frame_count()
+    source = build.build_source(args, replay_frames)
+    if backend.needs_pixels() and source.info.name == "ticks":
+        raise build.OptionError("the tracker needs images: give --video, --camera or --images")
+    profile = build.build_profile(args)
+    calibration = build.build_calibration(args)
+    processor = build.build_processor(args, calibration, profile)
+    translator = build.build_translator(profile, calibration)
+    control = ControlService(profile, build.build_driver(args), watchdog_s=args.watchdog)
+    sensor = SensorService(source, build.sensor_options(args, wait_for=[]))
+    listen = endpoints(args.listen) or ["tcp/127.0.0.1:7447"]
+    options = build.zenoh_options(args, default_mode="router")
+    options.connect = endpoints(args.connect)
+
+    async def main() -> ChainResult:
+        session, locators = await asyncio.to_thread(open_embedded, listen, options)
+        bus = ZenohBus(session)
+        log.info("embedded Zenoh router on %s (rig %s)", ", ".join(locators), args.rig)
+        try:
+            bodies = {
+                "points": lambda ctx: serve_points(ctx, backend, 2),
+                "features": lambda ctx: serve_features(ctx, processor, 8),
+                "translator": lambda ctx: serve_translator(ctx, translator, 8),
+            }
+            return await run_chain(
+                bus, args.rig, sensor, bodies, control,
+                drain_timeout=args.drain_timeout, stats_interval=args.stats_interval,
+            )
+        finally:
+            await bus.close()
+
+    result = run_async(main())
+    summary = {
+        "frames": result.frames,
+        "commands": result.commands,
+        "last_frame_executed": result.last_frame,
+        "seconds": round(result.seconds, 2),
+        "rejected": result.rejected,
+        "dropped": result.dropped,
+        "out": args.out if not args.driver_config else args.driver_config,
+    }
+    print(json.dumps(summary))
+    return 130 if result.interrupted else 0
+
+def cmd_router(args: argparse.Namespace) -> int:
+    """``facesynth router``: a Zenoh router in Python."""
+    options = build.zenoh_options(args, default_mode="router")
+    options.mode = "router"
+    if not options.listen:
+        options.listen = ["tcp/0.0.0.0:7447"]
+
+    async def main() -> None:
+        session = await asyncio.to_thread(open_session, options)
+        try:
+            print(f"facesynth router {session.info.zid()} listening on {', '.join(router_locators(session))}", flush=True)
+            await until_signalled(asyncio.Event().wait())
+        finally:
+            await asyncio.to_thread(session.close)
+
+    run_async(main())
+    return 0
+
+def cmd_status(args: argparse.Namespace) -> int:
+    """``facesynth status``: live services and their latest stats."""
+    from facesynth.codec import decode
+    from schemas.messages import ServiceStats
+
+    options = build.zenoh_options(args)
+    rig = None if args.all_rigs else args.rig
+
+    async def main() -> tuple[list[str], dict[str, ServiceStats]]:
+        bus = await asyncio.to_thread(ZenohBus.open, options)
+        try:
+            subscription = bus.subscribe_queued(keys.stats_pattern(rig), 256)
+            alive = await bus.alive(keys.health_pattern(rig), timeout=min(args.timeout, 2.0))
+            stats: dict[str, ServiceStats] = {}
+            deadline = time.monotonic() + args.timeout
+            while (remaining := deadline - time.monotonic()) > 0:
+                try:
+                    sample = await asyncio.wait_for(subscription.receive(), remaining)
+                except TimeoutError:
+                    break
+                try:
+                    stats[sample.key] = decode(sample.payload, ServiceStats)
+                except ValueError as exc:
+                    log.warning("ignored stats on %s: %s", sample.key, exc)
+            return alive, stats
+        finally:
+            await bus.close()
+
+    alive, stats = run_async(main())
+    print(format_status(alive, stats))
+    return 0 if alive else 1
+
+def format_status(alive: list[str], stats: dict[str, Any]) -> str:
+    """A table of live services with their latest stats."""
+    by_instance = {keys.parse_service_key(k): s for k, s in stats.items()}
+    header = f"{'rig':<12} {'service':<11} {'instance':<28} {'rate Hz':>8} {'p50 ms':>8} {'p99 ms':>8} {'recv':>7} {'sent':>7} {'drop':>5} {'rej':>5} {'RSS MB':>7}"
+    lines = [header]
+    for key in alive:
+        parsed = keys.parse_service_key(key)
+        if parsed is None:
+            continue
+        s = by_instance.get(parsed)
+        if s is None:
+            lines.append(f"{parsed[0]:<12} {parsed[1]:<11} {parsed[2]:<28} {'(no stats yet)':>8}")
+            continue
+        p50 = f"{s.latency_p50_ms:.2f}" if s.latency_p50_ms is not None else "-"
+        p99 = f"{s.latency_p99_ms:.2f}" if s.latency_p99_ms is not None else "-"
+        lines.append(
+            f"{parsed[0]:<12} {parsed[1]:<11} {parsed[2]:<28} {s.rate_hz:>8.1f} {p50:>8} {p99:>8} "
+            f"{s.received:>7} {s.published:>7} {s.dropped:>5} {s.rejected:>5} {s.rss_mb:>7.1f}"
+        )
+    if len(lines) == 1:
+        lines.append("(no live services)")
+    return "\n".join(lines)
+
+def cmd_profile(args: argparse.Namespace) -> int:
+    """``facesynth profile list|check|show``."""
+    from facesynth.profiles import available_profiles, load_profile
+
+    if args.action == "list":
+        for name in available_profiles():
+            print(name)
+        return 0
+    if not args.name:
+        raise build.OptionError(f"profile {args.action} needs a profile name or path")
+    profile = load_profile(args.name)
+    if args.action == "check":
+        print(f"{args.name}: ok ({len(profile.servos)} servos)")
+    else:
+        for spec in profile.servos:
+            print(f"{spec.channel:>3} {spec.name:<20} {spec.min_us:>7g} {spec.neutral_us:>7g} {spec.max_us:>7g} "
+                  f"{'reversed' if spec.reversed else '':<8} points {spec.points}")
+    return 0
+
+def cmd_bench(args: argparse.Namespace) -> int:
+    """``facesynth bench chain|tracker``."""
+    if args.what == "chain":
+        from facesynth.bench_chain import bench_chain, format_chain_bench
+
+        print(format_chain_bench(bench_chain(
+            video=args.video, seconds=args.seconds, fps=args.fps, openface_csv=args.openface_csv
+        )))
+        return 0
+    from facesynth.data import sample_video
+    from services.points.tracker.bench import bench_tracker, format_bench
+
+    backends = tuple(b for b in args.backends.split(",") if b)
+    print(format_bench(bench_tracker(args.video or str(sample_video()), backends=backends, frames=args.frames)))
+    return 0
+
+def cmd_track(args: argparse.Namespace) -> int:
+    """``facesynth track VIDEO --out FILE``."""
+    from services.points.tracker.offline import track_video
+
+    summary = track_video(args.video, args.out, backend=args.inference)
+    print(json.dumps(summary))
+    return 0
+

@@ -1,0 +1,90 @@
+"""Every Zenoh key expression facesynth uses, in one place.
+
+Data keys are namespaced by rig: ``facesynth/<rig>/<stage>``. Health (liveliness tokens) and
+stats keys add the service name and an instance id:
+``facesynth/<rig>/health/<service>/<instance>`` and ``facesynth/<rig>/stats/<service>/<instance>``.
+"""
+
+from __future__ import annotations
+
+import re
+from typing import Final, Literal
+
+PREFIX: Final = "facesynth"
+
+Stage = Literal["input", "points", "features", "servo_commands"]
+STAGES: Final[tuple[Stage, ...]] = ("input", "points", "features", "servo_commands")
+
+SERVICES: Final = ("sensor", "points", "features", "translator", "control")
+
+#: Which stage each service publishes and which it consumes.
+PUBLISHES: Final[dict[str, Stage | None]] = {
+    "sensor": "input",
+    "points": "points",
+    "features": "features",
+    "translator": "servo_commands",
+    "control": None,
+}
+CONSUMES: Final[dict[str, Stage | None]] = {
+    "sensor": None,
+    "points": "input",
+    "features": "points",
+    "translator": "features",
+    "control": "servo_commands",
+}
+
+_NAME = re.compile(r"^[A-Za-z0-9_.-]{1,64}$")
+
+
+class KeyNameError(ValueError):
+    """A rig, service or instance name that cannot be part of a key expression."""
+
+
+def check_name(value: str, what: str = "rig") -> str:
+    """Return ``value`` if it is a valid single key chunk, else raise :class:`KeyNameError`."""
+    if not _NAME.match(value):
+        raise KeyNameError(
+            f"invalid {what} name {value!r}: use 1-64 letters, digits, '_', '-' or '.'"
+        )
+    return value
+
+
+def stage_key(rig: str, stage: Stage) -> str:
+    """Data key of one stage of a rig, e.g. ``facesynth/default/points``."""
+    if stage not in STAGES:
+        raise KeyNameError(f"unknown stage {stage!r}; known: {', '.join(STAGES)}")
+    return f"{PREFIX}/{check_name(rig)}/{stage}"
+
+
+def health_key(rig: str, service: str, instance: str) -> str:
+    """Liveliness token key of one running service instance."""
+    return (
+        f"{PREFIX}/{check_name(rig)}/health/{check_name(service, 'service')}/"
+        f"{check_name(instance, 'instance')}"
+    )
+
+
+def stats_key(rig: str, service: str, instance: str) -> str:
+    """Key on which one service instance publishes its :class:`ServiceStats`."""
+    return (
+        f"{PREFIX}/{check_name(rig)}/stats/{check_name(service, 'service')}/"
+        f"{check_name(instance, 'instance')}"
+    )
+
+
+def health_pattern(rig: str | None = None) -> str:
+    """Key expression matching the liveliness tokens of one rig, or of every rig."""
+    return f"{PREFIX}/{check_name(rig) if rig else '*'}/health/**"
+
+
+def stats_pattern(rig: str | None = None) -> str:
+    """Key expression matching the stats of one rig, or of every rig."""
+    return f"{PREFIX}/{check_name(rig) if rig else '*'}/stats/**"
+
+
+def parse_service_key(key: str) -> tuple[str, str, str] | None:
+    """``(rig, service, instance)`` from a health or stats key, or ``None`` if it is neither."""
+    parts = key.split("/")
+    if len(parts) == 5 and parts[0] == PREFIX and parts[2] in ("health", "stats"):
+        return parts[1], parts[3], parts[4]
+    return None

@@ -1,0 +1,195 @@
+"""What every facesynth service shares: its context on the bus, its main loop, its process.
+
+A service is an ``async`` function taking a :class:`ServiceContext`. The runtime announces it
+with a liveliness token, publishes its :class:`ServiceStats` every ``stats_interval`` seconds,
+counts and logs rejected messages (never crashing on them), and stops it cleanly on SIGINT or
+SIGTERM.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import logging
+import os
+import signal
+import socket
+import traceback
+from collections.abc import Awaitable, Callable
+from dataclasses import dataclass, field
+from typing import Any, TypeVar
+
+import msgspec
+
+from facesynth import codec, keys
+from facesynth.bus.base import Bus, Subscription, Token
+from facesynth.stats import StageStats
+
+M = TypeVar("M")
+Body = Callable[["ServiceContext"], Awaitable[Any]]
+
+log = logging.getLogger("facesynth")
+
+
+def default_instance() -> str:
+    """An instance id unique on this network: host name and process id."""
+    host = "".join(c if c.isalnum() or c in "-_." else "-" for c in socket.gethostname())[:40]
+    return f"{host or 'host'}-{os.getpid()}"
+
+
+@dataclass
+class ServiceContext:
+    """One service instance's view of the bus and its running figures."""
+
+    bus: Bus
+    rig: str
+    service: str
+    instance: str = field(default_factory=default_instance)
+    stats_interval: float = 1.0
+
+    def __post_init__(self) -> None:
+        keys.check_name(self.rig)
+        keys.check_name(self.service, "service")
+        keys.check_name(self.instance, "instance")
+        self.stats = StageStats(self.service, self.instance, self.rig)
+        self.log = logging.getLogger(f"facesynth.{self.service}")
+        self.subscriptions: list[Subscription] = []
+        self._reject_logged = 0
+        self._token: Token | None = None
+
+    def ready(self) -> None:
+        """Announce this service (liveliness token) once its subscriptions exist."""
+        if self._token is None:
+            self._token = self.bus.declare_token(
+                keys.health_key(self.rig, self.service, self.instance)
+            )
+
+    def withdraw(self) -> None:
+        """Withdraw the liveliness token."""
+        if self._token is not None:
+            self._token.close()
+            self._token = None
+
+    def key(self, stage: keys.Stage) -> str:
+        """This rig's key for ``stage``."""
+        return keys.stage_key(self.rig, stage)
+
+    def subscribe(self, stage: keys.Stage, maxsize: int) -> Subscription:
+        """Subscribe to a stage: latest-only when ``maxsize`` is 1, else queued."""
+        key = self.key(stage)
+        if maxsize <= 1:
+            subscription = self.bus.subscribe_latest(key)
+        else:
+            subscription = self.bus.subscribe_queued(key, maxsize)
+        self.subscriptions.append(subscription)
+        return subscription
+
+    def publish(self, stage: keys.Stage, message: msgspec.Struct) -> None:
+        """Encode and publish ``message`` on a stage key, and count it."""
+        self.bus.publish(self.key(stage), codec.encode(message))
+        self.stats.record_published(getattr(message, "t_capture_ns", 0))
+
+    def reject(self, reason: str) -> None:
+        """Count and log an unusable input; logs the first ten, then every hundredth."""
+        self.stats.rejected += 1
+        if self._reject_logged < 10 or self.stats.rejected % 100 == 0:
+            self._reject_logged += 1
+            self.log.warning("dropped a message (%d so far): %s", self.stats.rejected, reason)
+
+    def dropped(self) -> int:
+        """Samples the subscriptions overwrote because the service was busy."""
+        return sum(sub.dropped for sub in self.subscriptions)
+
+    def publish_stats(self, note: str = "") -> None:
+        """Publish the current figures on this instance's stats key."""
+        self.stats.dropped = self.dropped()
+        snapshot = self.stats.snapshot(note=note)
+        key = keys.stats_key(self.rig, self.service, self.instance)
+        self.bus.publish(key, codec.encode(snapshot))
+
+
+async def serve_transform(
+    ctx: ServiceContext,
+    in_stage: keys.Stage,
+    in_type: type[M],
+    out_stage: keys.Stage,
+    transform: Callable[[M], msgspec.Struct | None],
+    maxsize: int,
+) -> None:
+    """Decode each input, transform it, publish the result; reject what cannot be used."""
+    subscription = ctx.subscribe(in_stage, maxsize)
+    ctx.ready()
+    async for sample in subscription:
+        ctx.stats.received += 1
+        try:
+            message = codec.decode(sample.payload, in_type)  # type: ignore[type-var]
+            result = transform(message)
+        except ValueError as exc:
+            ctx.reject(f"{sample.key}: {exc}")
+            continue
+        except Exception:  # a bug must not stop the robot's face: count it, log it, go on
+            ctx.reject(f"{sample.key}: internal error\n{traceback.format_exc()}")
+            continue
+        if result is not None:
+            ctx.publish(out_stage, result)
+
+
+async def _stats_loop(ctx: ServiceContext) -> None:
+    while True:
+        await asyncio.sleep(ctx.stats_interval)
+        ctx.publish_stats()
+
+
+async def run_service(ctx: ServiceContext, body: Body) -> Any:
+    """Run ``body`` with periodic stats; withdraw its liveliness token when it ends.
+
+    ``body`` calls :meth:`ServiceContext.ready` once it listens (``serve_transform`` does).
+    """
+    stats_task = asyncio.create_task(_stats_loop(ctx), name=f"{ctx.service}-stats")
+    try:
+        return await body(ctx)
+    finally:
+        stats_task.cancel()
+        with contextlib.suppress(asyncio.CancelledError):
+            await stats_task
+        with contextlib.suppress(Exception):
+            ctx.publish_stats(note="stopped")
+        ctx.withdraw()
+
+
+def run_async(main: Awaitable[M]) -> M:
+    """Run a coroutine to completion on uvloop when installed, else the default loop."""
+    try:
+        import uvloop
+    except ImportError:
+        factory = None
+    else:
+        factory = uvloop.new_event_loop
+    with asyncio.Runner(loop_factory=factory) as runner:
+        return runner.run(main)  # type: ignore[arg-type]
+
+
+async def until_signalled(main: Awaitable[M]) -> M | None:
+    """Await ``main``; on SIGINT or SIGTERM cancel it and return ``None``."""
+    loop = asyncio.get_running_loop()
+    task = asyncio.ensure_future(main)
+    stopping = False
+
+    def stop() -> None:
+        nonlocal stopping
+        stopping = True
+        task.cancel()
+
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        with contextlib.suppress(NotImplementedError, RuntimeError):
+            loop.add_signal_handler(signum, stop)
+    try:
+        return await task
+    except asyncio.CancelledError:
+        if stopping:
+            return None
+        raise
+    finally:
+        for signum in (signal.SIGINT, signal.SIGTERM):
+            with contextlib.suppress(NotImplementedError, RuntimeError):
+                loop.remove_signal_handler(signum)

@@ -1,0 +1,87 @@
+"""Running figures of one service: counts, rate, capture-to-publish latency, memory."""
+
+from __future__ import annotations
+
+import collections
+import resource
+import sys
+import time
+
+import numpy as np
+
+from schemas.messages import ServiceStats
+
+RATE_WINDOW_NS = 5_000_000_000
+
+
+def memory_mb() -> tuple[float, float]:
+    """Current and peak resident memory of this process, in MB (peak only where /proc is absent)."""
+    try:
+        with open("/proc/self/status", encoding="ascii") as handle:
+            fields = dict(line.split(":", 1) for line in handle if ":" in line)
+        return int(fields["VmRSS"].split()[0]) / 1024, int(fields["VmHWM"].split()[0]) / 1024
+    except (OSError, KeyError, ValueError):
+        peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+        peak_mb = peak / (1024 * 1024) if sys.platform == "darwin" else peak / 1024
+        return peak_mb, peak_mb
+
+
+class StageStats:
+    """Counters and a latency window for one service instance."""
+
+    def __init__(self, service: str, instance: str, rig: str, window: int = 600) -> None:
+        self.service = service
+        self.instance = instance
+        self.rig = rig
+        self.started_ns = time.time_ns()
+        self.received = 0
+        self.published = 0
+        self.rejected = 0
+        self.dropped = 0
+        self.latencies_ms: collections.deque[float] = collections.deque(maxlen=window)
+        self._published_at: collections.deque[int] = collections.deque()
+
+    def record_published(self, t_capture_ns: int, now_ns: int | None = None) -> None:
+        """One message out; its latency is measured from its source frame's capture."""
+        now = time.time_ns() if now_ns is None else now_ns
+        self.published += 1
+        if t_capture_ns > 0:
+            self.latencies_ms.append((now - t_capture_ns) / 1e6)
+        self._published_at.append(now)
+        while self._published_at and now - self._published_at[0] > RATE_WINDOW_NS:
+            self._published_at.popleft()
+
+    def rate_hz(self, now_ns: int) -> float:
+        """Publications per second over the last few seconds."""
+        times = [t for t in self._published_at if now_ns - t <= RATE_WINDOW_NS]
+        if len(times) < 2:
+            return 0.0
+        span = max(now_ns - times[0], 1)
+        return (len(times) - 1) * 1e9 / span
+
+    def snapshot(self, now_ns: int | None = None, note: str = "") -> ServiceStats:
+        """The current figures as a :class:`ServiceStats` message."""
+        now = time.time_ns() if now_ns is None else now_ns
+        p50 = p99 = None
+        if self.latencies_ms:
+            values = np.fromiter(self.latencies_ms, dtype=np.float64)
+            p50, p99 = (float(v) for v in np.percentile(values, [50, 99]))
+        rss, peak = memory_mb()
+        return ServiceStats(
+            service=self.service,
+            instance=self.instance,
+            rig=self.rig,
+            t_ns=now,
+            uptime_s=(now - self.started_ns) / 1e9,
+            received=self.received,
+            published=self.published,
+            dropped=self.dropped,
+            rejected=self.rejected,
+            rate_hz=self.rate_hz(now),
+            latency_p50_ms=p50,
+            latency_p99_ms=p99,
+            rss_mb=rss,
+            peak_rss_mb=peak,
+            window=len(self.latencies_ms),
+            note=note,
+        )

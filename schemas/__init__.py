@@ -1,0 +1,21 @@
+"""facesynth message schemas: msgspec structs for every topic (see ``messages``)."""
+
+from schemas.messages import (
+    ALL_MESSAGES,
+    Features,
+    Frame,
+    Points,
+    PointSet,
+    ServiceStats,
+    ServoCommands,
+)
+
+__all__ = [
+    "ALL_MESSAGES",
+    "Features",
+    "Frame",
+    "PointSet",
+    "Points",
+    "ServiceStats",
+    "ServoCommands",
+]

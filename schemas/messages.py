@@ -1,0 +1,147 @@
+"""Message structs for every facesynth topic.
+
+These are the wire format (msgpack, via msgspec) between independently deployed services, so
+they evolve under strict rules (see ``schemas/README.md``):
+
+* every struct has an explicit, stable tag in the ``type`` field; a tag is never reused;
+* a new field always has a default, so old senders stay readable;
+* a field is never retyped or renamed; a field that is no longer used keeps its default.
+
+Every message derived from a frame carries that frame's ``seq``, ``t_capture_ns`` (wall clock,
+``time.time_ns()`` at capture) and ``t_media_ns`` (position in the recording, or time since the
+live stream started), so latency can be measured at any stage and replays are deterministic.
+
+Semantic checks that a type system cannot express (finite numbers, coordinate counts, frame
+sizes) live in ``facesynth.codec``; this module holds structs only.
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+import msgspec
+
+TAG_FIELD = "type"
+
+FrameEncoding = Literal["jpeg", "raw", "none"]
+
+
+class Frame(msgspec.Struct, tag="frame", tag_field=TAG_FIELD, kw_only=True):
+    """One image from the sensor (topic ``…/input``).
+
+    ``encoding`` is ``"jpeg"`` (JPEG bytes), ``"raw"`` (BGR uint8, ``height*width*3`` bytes,
+    row-major) or ``"none"`` (a timing tick without pixels, used when a point stream is replayed
+    from a file and no image is needed).
+    """
+
+    seq: int
+    t_capture_ns: int
+    t_media_ns: int
+    width: int
+    height: int
+    encoding: FrameEncoding
+    data: bytes = b""
+    source: str = ""
+    fps: float = 0.0
+
+
+class PointSet(msgspec.Struct, kw_only=True):
+    """Landmarks of one scheme, flattened: ``[x0, y0, (z0,) x1, y1, …]`` in frame pixels.
+
+    Known schemes: ``ibug68`` (2D, the iBUG/CLM 68-point numbering used by the paper),
+    ``mesh468`` (3D, the MediaPipe face mesh; z in the same pixel scale), ``iris10`` (2D, right
+    iris centre + 4 contour points, then the left iris; right/left are the performer's own).
+    """
+
+    scheme: str
+    dims: int
+    coords: list[float]
+
+
+class Points(msgspec.Struct, tag="points", tag_field=TAG_FIELD, kw_only=True):
+    """Face landmarks for one frame (topic ``…/points``).
+
+    When ``face`` is false, ``sets`` is empty: a missing face is said, never replaced by stale
+    points.
+    """
+
+    seq: int
+    t_capture_ns: int
+    t_media_ns: int
+    face: bool
+    confidence: float = 0.0
+    image_width: int
+    image_height: int
+    sets: list[PointSet] = []
+    source: str = ""
+
+
+class Features(msgspec.Struct, tag="features", tag_field=TAG_FIELD, kw_only=True):
+    """Pose-free features for one frame (topic ``…/features``).
+
+    ``distances`` are the paper's features: the distance of each ``ibug68`` point to the nose tip
+    (point 30) after rotation, translation and scale are removed with the outer eye corners
+    (36, 45); unit = inter-ocular distance. ``deltas`` are the same relative to the performer's
+    neutral face; they are only meaningful when ``neutral_ready`` is true.
+    """
+
+    seq: int
+    t_capture_ns: int
+    t_media_ns: int
+    face: bool
+    neutral_ready: bool = False
+    scheme: str = "ibug68"
+    distances: list[float] = []
+    deltas: list[float] = []
+    named: dict[str, float] = {}
+
+
+class ServoCommands(msgspec.Struct, tag="servo_commands", tag_field=TAG_FIELD, kw_only=True):
+    """Servo targets for one frame (topic ``…/servo_commands``).
+
+    ``positions`` maps the profile's servo names to pulse widths in microseconds, already
+    clamped to the profile's limits. ``face`` is false while no face is tracked (the positions
+    then lead to neutral).
+    """
+
+    seq: int
+    t_capture_ns: int
+    t_media_ns: int
+    face: bool
+    profile: str
+    positions: dict[str, float]
+
+
+class ServiceStats(msgspec.Struct, tag="service_stats", tag_field=TAG_FIELD, kw_only=True):
+    """Periodic health figures of one running service (topic ``…/stats/<service>/<instance>``).
+
+    Latencies are from the source frame's capture to this service's publication, in
+    milliseconds, over the last ``window`` messages.
+    """
+
+    service: str
+    instance: str
+    rig: str
+    t_ns: int
+    uptime_s: float
+    received: int
+    published: int
+    dropped: int
+    rejected: int
+    rate_hz: float
+    latency_p50_ms: float | None = None
+    latency_p99_ms: float | None = None
+    rss_mb: float = 0.0
+    peak_rss_mb: float = 0.0
+    window: int = 0
+    note: str = ""
+
+
+#: Every message struct, in tag order, for schema export and generic decoding.
+ALL_MESSAGES: tuple[type[msgspec.Struct], ...] = (
+    Frame,
+    Points,
+    Features,
+    ServoCommands,
+    ServiceStats,
+)

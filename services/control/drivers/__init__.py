@@ -1,0 +1,1 @@
+"""Servo drivers of the control interface, chosen by a typed configuration."""

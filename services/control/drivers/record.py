@@ -1,0 +1,76 @@
+"""The ``record`` driver: one JSON line per command, flushed, so a kill loses at most one line."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Mapping
+from pathlib import Path
+from typing import IO
+
+import msgspec
+
+from services.control.core import CommandInfo
+from services.control.drivers.base import DriverError, ServoDriver
+
+
+class RecordLine(msgspec.Struct, kw_only=True):
+    """One recorded command (see the README for the format)."""
+
+    seq: int
+    frame: int | None
+    t_capture_ns: int | None
+    t_sent_ns: int
+    face: bool
+    servos: dict[str, float]
+
+
+class RecordDriver(ServoDriver):
+    """Writes ``{"seq", "frame", "t_capture_ns", "t_sent_ns", "face", "servos"}`` lines."""
+
+    def __init__(self, out: str | Path) -> None:
+        self.path = Path(out)
+        self._file: IO[bytes] | None = None
+        self._encoder = msgspec.json.Encoder()
+        self.count = 0
+
+    async def connect(self) -> None:
+        try:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            self._file = open(self.path, "wb")  # noqa: SIM115 - kept open for the run
+        except OSError as exc:
+            raise DriverError(f"cannot open record file {self.path}: {exc}") from None
+
+    async def send(self, positions: Mapping[str, float], info: CommandInfo) -> None:
+        if self._file is None:
+            raise DriverError("record driver is not connected")
+        line = RecordLine(
+            seq=self.count,
+            frame=info.frame,
+            t_capture_ns=info.t_capture_ns,
+            t_sent_ns=time.time_ns(),
+            face=info.face,
+            servos={name: round(value, 3) for name, value in positions.items()},
+        )
+        try:
+            self._file.write(self._encoder.encode(line) + b"\n")
+            self._file.flush()
+        except OSError as exc:
+            raise DriverError(f"cannot write record file {self.path}: {exc}") from None
+        self.count += 1
+
+    async def close(self) -> None:
+        if self._file is not None:
+            self._file.close()
+            self._file = None
+
+
+def read_record(path: str | Path) -> list[RecordLine]:
+    """Read a record file back (a torn last line from a kill is ignored)."""
+    decoder = msgspec.json.Decoder(RecordLine)
+    lines = []
+    with open(path, "rb") as handle:
+        for raw in handle:
+            if not raw.endswith(b"\n"):
+                break
+            lines.append(decoder.decode(raw))
+    return lines

@@ -1,0 +1,76 @@
+"""Control interface C, service shell: ``…/servo_commands`` → a servo driver.
+
+The face starts at neutral, every command is checked and clamped by :class:`ControlCore`, and
+when commands stop for ``watchdog_s`` seconds the face returns to neutral. On shutdown the face
+is put back to neutral before the driver closes.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import time
+
+from facesynth import codec
+from facesynth.bus.base import SubscriptionClosed
+from facesynth.profiles import Profile
+from facesynth.runtime import ServiceContext
+from schemas.messages import ServoCommands
+from services.control.core import CommandInfo, ControlCore, Watchdog
+from services.control.drivers.base import ServoDriver
+
+
+class ControlService:
+    """The C service; ``last_frame`` tells how far the chain has come."""
+
+    def __init__(
+        self, profile: Profile, driver: ServoDriver, *, watchdog_s: float = 0.5, queue: int = 8
+    ) -> None:
+        self.core = ControlCore(profile)
+        self.driver = driver
+        self.watchdog = Watchdog(watchdog_s)
+        self.queue = queue
+        self.last_frame = -1
+        self.progress = asyncio.Event()
+
+    async def serve(self, ctx: ServiceContext) -> None:
+        """Drive the servos until cancelled."""
+        await self.driver.connect()
+        try:
+            await self.driver.neutral(self.core.neutral())
+            subscription = ctx.subscribe("servo_commands", self.queue)
+            ctx.ready()
+            ctx.log.info(
+                "control interface on %s (profile %s, %s)",
+                ctx.key("servo_commands"),
+                self.core.profile.name,
+                type(self.driver).__name__,
+            )
+            tick = min(0.1, self.watchdog.timeout_ns / 4e9)
+            while True:
+                try:
+                    sample = await asyncio.wait_for(subscription.receive(), tick)
+                except TimeoutError:
+                    if self.watchdog.expired(time.time_ns()):
+                        ctx.log.info("no commands for %.2f s: face to neutral", self.watchdog.timeout_ns / 1e9)
+                        await self.driver.neutral(self.core.neutral())
+                    continue
+                except SubscriptionClosed:
+                    return
+                ctx.stats.received += 1
+                try:
+                    commands = codec.decode(sample.payload, ServoCommands)
+                    positions = self.core.accept(commands)
+                except ValueError as exc:
+                    ctx.reject(f"{sample.key}: {exc}")
+                    continue
+                info = CommandInfo(commands.seq, commands.t_capture_ns, commands.face)
+                await self.driver.send(positions, info)
+                self.watchdog.feed(time.time_ns())
+                ctx.stats.record_published(commands.t_capture_ns)
+                self.last_frame = max(self.last_frame, commands.seq)
+                self.progress.set()
+        finally:
+            try:
+                await self.driver.neutral(self.core.neutral())
+            finally:
+                await self.driver.close()

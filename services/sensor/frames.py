@@ -1,0 +1,79 @@
+"""Frame pixels to and from :class:`schemas.messages.Frame` (JPEG or raw BGR)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from schemas.messages import Frame
+
+
+class FrameError(ValueError):
+    """A frame whose pixels cannot be encoded or decoded."""
+
+
+def _cv2():  # type: ignore[no-untyped-def]
+    try:
+        import cv2
+    except ImportError:  # pragma: no cover - depends on the install
+        raise FrameError(
+            "OpenCV is not installed: install facesynth[tracker] on hosts that handle images"
+        ) from None
+    return cv2
+
+
+def encode_frame(
+    image: np.ndarray,
+    *,
+    seq: int,
+    t_capture_ns: int,
+    t_media_ns: int,
+    encoding: str = "jpeg",
+    quality: int = 90,
+    source: str = "",
+    fps: float = 0.0,
+) -> Frame:
+    """A Frame message holding ``image`` (H x W x 3, BGR uint8)."""
+    if image.ndim != 3 or image.shape[2] != 3 or image.dtype != np.uint8:
+        raise FrameError(f"need an HxWx3 uint8 BGR image, got {image.shape} {image.dtype}")
+    height, width = image.shape[:2]
+    if encoding == "jpeg":
+        ok, buffer = _cv2().imencode(".jpg", image, [1, int(quality)])  # IMWRITE_JPEG_QUALITY
+        if not ok:
+            raise FrameError("JPEG encoding failed")
+        data = buffer.tobytes()
+    elif encoding == "raw":
+        data = np.ascontiguousarray(image).tobytes()
+    else:
+        raise FrameError(f"unknown frame encoding {encoding!r} (use jpeg or raw)")
+    return Frame(
+        seq=seq,
+        t_capture_ns=t_capture_ns,
+        t_media_ns=t_media_ns,
+        width=width,
+        height=height,
+        encoding=encoding,  # type: ignore[arg-type]
+        data=data,
+        source=source,
+        fps=fps,
+    )
+
+
+def decode_frame(frame: Frame) -> np.ndarray:
+    """The BGR image of a frame, or raise :class:`FrameError` (e.g. a corrupt JPEG)."""
+    if frame.encoding == "raw":
+        expected = frame.width * frame.height * 3
+        if len(frame.data) != expected:
+            raise FrameError(f"raw frame needs {expected} bytes, got {len(frame.data)}")
+        return np.frombuffer(frame.data, dtype=np.uint8).reshape(frame.height, frame.width, 3)
+    if frame.encoding == "jpeg":
+        cv2 = _cv2()
+        image = cv2.imdecode(np.frombuffer(frame.data, dtype=np.uint8), cv2.IMREAD_COLOR)
+        if image is None:
+            raise FrameError(f"frame {frame.seq}: JPEG data cannot be decoded")
+        if image.shape[:2] != (frame.height, frame.width):
+            raise FrameError(
+                f"frame {frame.seq}: JPEG is {image.shape[1]}x{image.shape[0]}, "
+                f"header says {frame.width}x{frame.height}"
+            )
+        return image
+    raise FrameError(f"frame {frame.seq} has no pixels (encoding {frame.encoding!r})")

@@ -1,0 +1,156 @@
+"""Sensor S, service shell: a frame source → ``…/input``.
+
+Real-time by default (frames leave at the recording's pace); ``fast`` sends as fast as the chain
+takes them, keeping at most ``window`` frames ahead of the last servo command seen, so a replay
+loses no frame and gives the same commands every time.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import time
+from dataclasses import dataclass, field
+
+from facesynth import codec, keys
+from facesynth.runtime import ServiceContext
+from schemas.messages import Frame, ServoCommands
+from services.sensor.core import FlowWindow, Pacer
+from services.sensor.sources import FrameSource
+
+#: A nominal image size for frames without pixels (ticks).
+TICK_SIZE = (640, 480)
+
+
+@dataclass
+class SensorOptions:
+    """How the sensor sends frames."""
+
+    fast: bool = False
+    window: int = 2
+    ack_timeout: float = 2.0
+    encoding: str = "jpeg"
+    quality: int = 90
+    max_frames: int | None = None
+    wait_for: list[str] = field(default_factory=list)
+    wait_timeout: float = 10.0
+
+
+async def wait_for_services(ctx: ServiceContext, services: list[str], timeout: float) -> bool:
+    """Wait until every named service of this rig has a liveliness token."""
+    if not services:
+        return True
+    deadline = time.monotonic() + timeout
+    missing = set(services)
+    while True:
+        alive = await ctx.bus.alive(keys.health_pattern(ctx.rig), timeout=0.5)
+        present = {parsed[1] for key in alive if (parsed := keys.parse_service_key(key))}
+        missing = set(services) - present
+        if not missing:
+            return True
+        if time.monotonic() >= deadline:
+            ctx.log.warning("still waiting for %s after %.1f s: starting anyway", sorted(missing), timeout)
+            return False
+        await asyncio.sleep(0.05)
+
+
+class SensorService:
+    """Publishes the frames of one source; ``last_seq`` is the last frame sent."""
+
+    def __init__(self, source: FrameSource, options: SensorOptions) -> None:
+        self.source = source
+        self.options = options
+        self.last_seq = -1
+        self.flow = FlowWindow(options.window)
+        self._acked = asyncio.Event()
+        self.stalls = 0
+
+    async def _watch_acks(self, ctx: ServiceContext) -> None:
+        # Only the newest ack matters: overwritten ones are not data loss, so not in the stats.
+        subscription = ctx.bus.subscribe_latest(ctx.key("servo_commands"))
+        async for sample in subscription:
+            try:
+                seq = codec.decode(sample.payload, ServoCommands).seq
+            except ValueError:
+                continue
+            self.flow.ack(seq)
+            self._acked.set()
+
+    async def _wait_credit(self, ctx: ServiceContext, seq: int) -> None:
+        deadline = time.monotonic() + self.options.ack_timeout
+        while not self.flow.may_send(seq):
+            self._acked.clear()
+            remaining = deadline - time.monotonic()
+            if remaining <= 0:
+                self.stalls += 1
+                ctx.log.warning(
+                    "no servo command for frame %d after %.1f s: sending on",
+                    seq - self.flow.window,
+                    self.options.ack_timeout,
+                )
+                self.flow.ack(seq - self.flow.window)
+                return
+            try:
+                await asyncio.wait_for(self._acked.wait(), remaining)
+            except TimeoutError:
+                pass
+
+    def _frame(self, image: object, seq: int, t_media_ns: int) -> Frame:
+        from services.sensor.frames import encode_frame  # OpenCV only where pixels exist
+
+        info = self.source.info
+        now = time.time_ns()
+        if image is None:
+            width, height = TICK_SIZE
+            return Frame(
+                seq=seq, t_capture_ns=now, t_media_ns=t_media_ns, width=width, height=height,
+                encoding="none", source=info.name, fps=info.fps,
+            )
+        return encode_frame(
+            image,  # type: ignore[arg-type]
+            seq=seq,
+            t_capture_ns=now,
+            t_media_ns=t_media_ns,
+            encoding=self.options.encoding,
+            quality=self.options.quality,
+            source=info.name,
+            fps=info.fps,
+        )
+
+    async def serve(self, ctx: ServiceContext) -> int:
+        """Send every frame of the source; return the last sequence number sent."""
+        options = self.options
+        ack_task = asyncio.create_task(self._watch_acks(ctx)) if options.fast else None
+        ctx.ready()
+        await wait_for_services(ctx, options.wait_for, options.wait_timeout)
+        pacer = Pacer()
+        info = self.source.info
+        ctx.log.info(
+            "sensor: %s at %.2f fps (%s) on %s",
+            info.name, info.fps, "fast" if options.fast else "real time", ctx.key("input"),
+        )
+        try:
+            previous_media = -1
+            for seq, (image, t_media_ns) in enumerate(self.source.frames()):
+                if options.max_frames is not None and seq >= options.max_frames:
+                    break
+                if options.fast:
+                    await self._wait_credit(ctx, seq)
+                elif not info.live:
+                    if t_media_ns < previous_media:
+                        pacer.restart()
+                    delay = pacer.delay_ns(t_media_ns, time.monotonic_ns())
+                    if delay:
+                        await asyncio.sleep(delay / 1e9)
+                previous_media = t_media_ns
+                ctx.stats.received += 1
+                ctx.publish("input", self._frame(image, seq, t_media_ns))
+                self.last_seq = seq
+                await asyncio.sleep(0)
+        finally:
+            if ack_task is not None:
+                ack_task.cancel()
+                with contextlib.suppress(asyncio.CancelledError):
+                    await ack_task
+            self.source.close()
+        return self.last_seq
