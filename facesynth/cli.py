@@ -26,7 +26,7 @@ def _zenoh_arguments(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--connect", action="append", metavar="ENDPOINT", help="endpoint to connect to, e.g. tcp/192.168.1.10:7447 (repeatable; default tcp/127.0.0.1:7447)")
     group.add_argument("--listen", action="append", metavar="ENDPOINT", help="endpoint to listen on (repeatable)")
     group.add_argument("--zenoh-config", metavar="FILE", help="Zenoh JSON5 config file (default: $ZENOH_CONFIG); options above override it")
-    group.add_argument("--scouting", action="store_true", help="enable multicast/gossip scouting (off by default)")
+    group.add_argument("--scouting", action="store_true", help="enable multicast scouting (off by default: sessions meet only the endpoints they are given)")
     group.add_argument("--stats-interval", type=float, default=1.0, metavar="S", help="seconds between stats messages (default 1)")
     group.add_argument("--log-level", default="INFO", choices=("DEBUG", "INFO", "WARNING", "ERROR"))
 

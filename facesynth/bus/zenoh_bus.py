@@ -32,8 +32,10 @@ class ZenohOptions:
     """The standard Zenoh options of every facesynth command.
 
     ``config_file`` (or the ``ZENOH_CONFIG`` environment variable) is read first; ``mode``,
-    ``connect`` and ``listen`` override it. Multicast and gossip scouting stay off unless
-    ``scouting`` is true, so services only meet the routers and peers they are told about.
+    ``connect`` and ``listen`` override it. Multicast scouting stays off unless ``scouting`` is
+    true, so services only meet the routers and peers they are told about. Gossip stays on: it
+    travels only over links a session already has, and without it two peers connected to the
+    same router never exchange data (clients do; measured with eclipse-zenoh 1.10.2).
     """
 
     mode: str = "peer"
@@ -59,7 +61,6 @@ class ZenohOptions:
                 config.insert_json5("listen/endpoints", json.dumps(list(self.listen)))
             if not self.scouting:
                 config.insert_json5("scouting/multicast/enabled", "false")
-                config.insert_json5("scouting/gossip/enabled", "false")
             config.insert_json5("adminspace/enabled", "true")
         except Exception as exc:
             raise ZenohConfigError(f"invalid Zenoh option: {exc}") from None

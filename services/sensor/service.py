@@ -68,13 +68,16 @@ class SensorService:
     async def _watch_acks(self, ctx: ServiceContext) -> None:
         # Only the newest ack matters: overwritten ones are not data loss, so not in the stats.
         subscription = ctx.bus.subscribe_latest(ctx.key("servo_commands"))
-        async for sample in subscription:
-            try:
-                seq = codec.decode(sample.payload, ServoCommands).seq
-            except ValueError:
-                continue
-            self.flow.ack(seq)
-            self._acked.set()
+        try:
+            async for sample in subscription:
+                try:
+                    seq = codec.decode(sample.payload, ServoCommands).seq
+                except ValueError:
+                    continue
+                self.flow.ack(seq)
+                self._acked.set()
+        finally:
+            subscription.close()
 
     async def _wait_credit(self, ctx: ServiceContext, seq: int) -> None:
         deadline = time.monotonic() + self.options.ack_timeout

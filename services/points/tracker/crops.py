@@ -82,22 +82,32 @@ def crop_affine(rect: CropRect, size: int) -> np.ndarray:
     Use it with ``cv2.warpAffine(frame, M, (size, size))``. The crop's x axis follows
     ``rect.angle`` in the frame, so a line at that angle becomes horizontal.
     """
-    if rect.side <= 0 or not math.isfinite(rect.side):
+    if not (rect.side > 0 and math.isfinite(rect.side)):
         raise ValueError(f"crop side must be a positive finite number, got {rect.side}")
     k = size / rect.side
-    c, s = math.cos(rect.angle), math.sin(rect.angle)
+    c, s = math.cos(rect.angle) * k, math.sin(rect.angle) * k
     # q = k * R(-angle) (p - centre) + size / 2
-    a = np.array([[c, s], [-s, c]]) * k
-    t = np.array([size / 2.0, size / 2.0]) - a @ np.array([rect.cx, rect.cy])
-    return np.hstack([a, t[:, None]])
+    h = size / 2.0
+    return np.array(
+        [
+            [c, s, h - c * rect.cx - s * rect.cy],
+            [-s, c, h + s * rect.cx - c * rect.cy],
+        ]
+    )
 
 
 def invert_affine(m: np.ndarray) -> np.ndarray:
-    """Inverse of a 2x3 affine transform (float64)."""
-    m = np.asarray(m, dtype=np.float64)
-    a = m[:, :2]
-    inv = np.linalg.inv(a)
-    return np.hstack([inv, (-inv @ m[:, 2])[:, None]])
+    """Inverse of a 2x3 affine transform (float64).
+
+    Raises:
+        ValueError: the transform is singular.
+    """
+    (a, b, c), (d, e, f) = np.asarray(m, dtype=np.float64).tolist()
+    det = a * e - b * d
+    if det == 0.0 or not math.isfinite(det):
+        raise ValueError("affine transform is not invertible")
+    ia, ib, id_, ie = e / det, -b / det, -d / det, a / det
+    return np.array([[ia, ib, -(ia * c + ib * f)], [id_, ie, -(id_ * c + ie * f)]])
 
 
 def compose_affine(outer: np.ndarray, inner: np.ndarray) -> np.ndarray:
@@ -137,9 +147,8 @@ def rect_from_points(points: np.ndarray, start: int, end: int, scale: float) -> 
     Centre and size come from the axis-aligned bounding box of ``points[:, :2]``; the angle from
     ``points[start]`` to ``points[end]``; side = ``scale`` x the longer box side.
     """
-    p = np.asarray(points, dtype=np.float64)[:, :2]
-    x0, y0 = p.min(axis=0)
-    x1, y1 = p.max(axis=0)
-    return rect_from_box(
-        float(x0), float(y0), float(x1), float(y1), rotation_angle(p[start], p[end]), scale
-    )
+    p = np.asarray(points)
+    xs, ys = p[:, 0], p[:, 1]
+    x0, x1, y0, y1 = float(xs.min()), float(xs.max()), float(ys.min()), float(ys.max())
+    angle = math.atan2(float(ys[end] - ys[start]), float(xs[end] - xs[start]))
+    return rect_from_box(x0, y0, x1, y1, angle, scale)

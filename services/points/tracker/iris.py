@@ -13,6 +13,8 @@ for the 16 eye-contour points); with the wrong mirroring the error is about 0.16
 
 from __future__ import annotations
 
+import math
+
 import cv2
 import numpy as np
 
@@ -22,7 +24,7 @@ from .crops import (
     crop_affine,
     flip_horizontal_affine,
     invert_affine,
-    rect_from_points,
+    rect_from_box,
 )
 from .inference import Model, fill_input
 
@@ -51,8 +53,16 @@ EYE_CONTOUR_VERTICES: tuple[tuple[int, ...], tuple[int, ...]] = (
 
 def eye_rects(mesh: np.ndarray, scale: float = EYE_ROI_SCALE) -> tuple[CropRect, CropRect]:
     """Eye crops (subject's right eye, left eye) from a mesh in frame pixels."""
-    p = np.asarray(mesh, dtype=np.float64)[:, :2]
-    rects = tuple(rect_from_points(p[list(c)], 0, 1, scale) for c in EYE_CORNERS)
+    rects = []
+    for a, b in EYE_CORNERS:
+        xa, ya = float(mesh[a, 0]), float(mesh[a, 1])
+        xb, yb = float(mesh[b, 0]), float(mesh[b, 1])
+        rects.append(
+            rect_from_box(
+                min(xa, xb), min(ya, yb), max(xa, xb), max(ya, yb),
+                math.atan2(yb - ya, xb - xa), scale,
+            )
+        )
     return rects[0], rects[1]
 
 

@@ -8,6 +8,8 @@ MediaPipe's face-landmark graphs.
 
 from __future__ import annotations
 
+import math
+
 import cv2
 import numpy as np
 
@@ -22,7 +24,9 @@ __all__ = [
     "LEFT_EYE_OUTER",
     "FaceMesh",
     "rect_from_detection",
+    "mesh_box",
     "rect_from_mesh",
+    "rect_from_mesh_box",
     "sigmoid",
 ]
 
@@ -36,20 +40,37 @@ ROI_SCALE = 1.5
 
 def sigmoid(x: float) -> float:
     """Numerically safe logistic function."""
-    x = float(np.clip(x, -100.0, 100.0))
-    return float(1.0 / (1.0 + np.exp(-x)))
+    x = min(100.0, max(-100.0, float(x)))
+    return 1.0 / (1.0 + math.exp(-x))
 
 
 def rect_from_detection(det: Detection, scale: float = ROI_SCALE) -> CropRect:
     """Mesh crop from a detection: box centre, eye-line angle, ``scale`` x the longer side."""
     x0, y0, x1, y1 = det.box
     d = det.keypoints[1] - det.keypoints[0]
-    return rect_from_box(x0, y0, x1, y1, float(np.arctan2(d[1], d[0])), scale)
+    return rect_from_box(x0, y0, x1, y1, math.atan2(float(d[1]), float(d[0])), scale)
 
 
 def rect_from_mesh(mesh: np.ndarray, scale: float = ROI_SCALE) -> CropRect:
     """Mesh crop for the next frame from this frame's mesh (frame pixels)."""
     return rect_from_points(mesh, RIGHT_EYE_OUTER, LEFT_EYE_OUTER, scale)
+
+
+def mesh_box(mesh: np.ndarray) -> tuple[float, float, float, float]:
+    """Axis-aligned bounding box (x, y, w, h) of a mesh's x, y."""
+    xs, ys = mesh[:, 0], mesh[:, 1]
+    x0, y0 = float(xs.min()), float(ys.min())
+    return x0, y0, float(xs.max()) - x0, float(ys.max()) - y0
+
+
+def rect_from_mesh_box(
+    mesh: np.ndarray, box: tuple[float, float, float, float], scale: float = ROI_SCALE
+) -> CropRect:
+    """Same as :func:`rect_from_mesh` when ``box`` is :func:`mesh_box` of ``mesh``."""
+    a, b = mesh[RIGHT_EYE_OUTER], mesh[LEFT_EYE_OUTER]
+    angle = math.atan2(float(b[1] - a[1]), float(b[0] - a[0]))
+    x, y, w, h = box
+    return rect_from_box(x, y, x + w, y + h, angle, scale)
 
 
 class FaceMesh:

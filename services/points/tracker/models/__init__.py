@@ -1,0 +1,1 @@
+"""Bundled MediaPipe model files (data only; see PROVENANCE.md and LICENSE)."""

@@ -1,0 +1,230 @@
+"""The face tracker: detector + mesh + irises + 68-point view, for one performer.
+
+Tracking follows MediaPipe's video mode: once a face is found the next crop comes from the
+previous frame's mesh and the detector is skipped. The detector runs again when the mesh's
+presence score drops below ``min_presence`` (on the same frame, so a lost track costs no extra
+frame) and every ``redetect_every`` frames as a check. With several faces the tracker follows
+one performer: the largest (or best-scoring) face at first detection, then whichever detection
+overlaps the face it is following.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .crops import CropRect
+from .detector import Detection, FaceDetector, box_iou
+from .ibug68 import mesh_to_ibug68
+from .inference import DETECTOR, IRIS, MESH, frame_to_rgba, load_model, resolve_backend
+from .iris import IrisLandmarks
+from .mesh import FaceMesh, mesh_box, rect_from_detection, rect_from_mesh_box
+
+__all__ = ["SELECT_MODES", "FaceTracker", "TrackResult"]
+
+SELECT_MODES = ("largest", "score")
+#: A periodic detection that overlaps the tracked face at least this much confirms the track
+#: (the smoother mesh-derived crop is kept); a smaller but non-zero overlap re-anchors the crop
+#: on the detection; no overlap at all leaves the track alone (the detector may miss an
+#: occluded face, or see somebody else).
+CONFIRM_IOU = 0.5
+
+_Box = tuple[float, float, float, float]
+
+
+@dataclass(frozen=True, slots=True)
+class TrackResult:
+    """One frame's tracking result. All coordinates are frame pixels.
+
+    Attributes:
+        face: a face is being tracked on this frame. When False, every array is None.
+        presence: the mesh model's face-presence score in [0, 1] (0.0 if it did not run).
+        mesh: (468, 3) float32 — x, y, and z (relative depth in the same pixel scale).
+        iris: (10, 2) float32 — subject's right eye (image left) centre + 4 contour points,
+            then the left eye's; None also when the tracker runs with ``iris=False``.
+        ibug68: (68, 2) float32 iBUG/CLM points (see :mod:`.ibug68`).
+        box: (x, y, w, h) bounding box of the mesh.
+        detected: the face detector ran on this frame.
+        timings_ms: "detect", "mesh", "iris" and "total" milliseconds for this frame.
+    """
+
+    face: bool
+    presence: float
+    mesh: np.ndarray | None = None
+    iris: np.ndarray | None = None
+    ibug68: np.ndarray | None = None
+    box: _Box | None = None
+    detected: bool = False
+    timings_ms: dict[str, float] = field(default_factory=dict)
+
+
+def _xyxy(box: _Box) -> np.ndarray:
+    x, y, w, h = box
+    return np.array([x, y, x + w, y + h])
+
+
+class FaceTracker:
+    """Tracks one face through a stream of BGR frames. Not thread-safe: use one per stream."""
+
+    def __init__(
+        self,
+        backend: str = "auto",
+        redetect_every: int | None = 30,
+        min_presence: float = 0.5,
+        select: str = "largest",
+        *,
+        iris: bool = True,
+        num_threads: int = 1,
+        min_detection_score: float = 0.5,
+        model_dir: Path | str | None = None,
+        verify_models: bool = True,
+    ) -> None:
+        """Load the models.
+
+        Args:
+            backend: ``"auto"``, ``"litert"`` or ``"opencv"`` (see :mod:`.inference`).
+            redetect_every: also run the detector every N tracked frames; None = only when the
+                track is lost.
+            min_presence: mesh presence score below which the face counts as lost.
+            select: at first detection pick the ``"largest"`` face or the best ``"score"``.
+            iris: run the iris model (about half the per-frame cost).
+            num_threads: LiteRT threads per model.
+            min_detection_score: detector score threshold.
+            model_dir: folder with the three ``.tflite`` files (default: bundled).
+            verify_models: check each file's SHA-256 against the bundled value.
+
+        Raises:
+            ModelError: a model file is missing, unreadable or corrupt.
+            ValueError: a bad argument.
+        """
+        if select not in SELECT_MODES:
+            raise ValueError(f"select must be one of {SELECT_MODES}, got {select!r}")
+        if redetect_every is not None and redetect_every < 1:
+            raise ValueError("redetect_every must be >= 1 or None")
+        if not 0.0 <= min_presence <= 1.0:
+            raise ValueError("min_presence must be in [0, 1]")
+        self.backend = resolve_backend(backend)
+        self.redetect_every = redetect_every
+        self.min_presence = min_presence
+        self.select = select
+        self.use_iris = iris
+        kw = {"model_dir": model_dir, "num_threads": num_threads, "verify": verify_models}
+        self.detector = FaceDetector(
+            load_model(DETECTOR, self.backend, **kw), min_score=min_detection_score
+        )
+        self.mesh = FaceMesh(load_model(MESH, self.backend, **kw))
+        self.iris = IrisLandmarks(load_model(IRIS, self.backend, batch=2, **kw)) if iris else None
+        self._rgba: np.ndarray | None = None
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget the tracked face: the next frame runs the detector and picks afresh."""
+        self._rect: CropRect | None = None
+        self._box: _Box | None = None  # last known face box (kept after a loss, for stickiness)
+        self._since_detect = 0
+
+    @property
+    def tracking(self) -> bool:
+        """Whether a face is currently being tracked (the next frame may skip detection)."""
+        return self._rect is not None
+
+    # -- detection ------------------------------------------------------------------------
+
+    def _pick(self, dets: list[Detection]) -> Detection | None:
+        """Choose the detection to follow: the one overlapping the followed face, else (when
+        not tracking) the largest / best scoring; None when tracking and nothing overlaps."""
+        if self._box is not None:
+            ious = box_iou(_xyxy(self._box), np.array([d.box for d in dets]))
+            best = int(np.argmax(ious))
+            if ious[best] > 0.0:
+                return dets[best]
+            if self._rect is not None:
+                return None
+        if self.select == "score":
+            return max(dets, key=lambda d: d.score)
+        return max(dets, key=lambda d: d.area)
+
+    def _detect(self, frame: np.ndarray, timings: dict[str, float]) -> CropRect | None:
+        t = time.perf_counter()
+        dets = self.detector.detect_rgba(frame)
+        timings["detect"] += (time.perf_counter() - t) * 1e3
+        if not dets:
+            return None
+        det = self._pick(dets)
+        if det is None:
+            return None
+        rect = rect_from_detection(det)
+        if self._rect is not None and self._box is not None:
+            iou = float(box_iou(_xyxy(self._box), np.array([det.box]))[0])
+            if iou >= CONFIRM_IOU:
+                return self._rect
+        return rect
+
+    def _run_mesh(
+        self, frame: np.ndarray, rect: CropRect, timings: dict[str, float]
+    ) -> tuple[np.ndarray, float]:
+        t = time.perf_counter()
+        mesh, presence = self.mesh.run(frame, rect)
+        timings["mesh"] += (time.perf_counter() - t) * 1e3
+        return mesh, presence
+
+    # -- main entry -----------------------------------------------------------------------
+
+    def process(self, image_bgr: np.ndarray) -> TrackResult:
+        """Track the face in one uint8 BGR frame (BGRA and grey frames are accepted too).
+
+        Raises:
+            ValueError: not a uint8 image.
+        """
+        t0 = time.perf_counter()
+        timings = {"detect": 0.0, "mesh": 0.0, "iris": 0.0, "total": 0.0}
+        frame = frame_to_rgba(image_bgr, self._rgba)
+        self._rgba = frame
+
+        detected = False
+        rect = self._rect
+        periodic = self.redetect_every is not None and self._since_detect >= self.redetect_every
+        if rect is None or periodic:
+            detected = True
+            found = self._detect(frame, timings)
+            if found is not None:
+                rect = found
+            if rect is None:
+                return self._no_face(0.0, True, timings, t0)
+
+        mesh, presence = self._run_mesh(frame, rect, timings)
+        if presence < self.min_presence and not detected:
+            # Lost while tracking: look for the face again on this very frame.
+            detected = True
+            self._rect = None
+            found = self._detect(frame, timings)
+            if found is None:
+                return self._no_face(presence, True, timings, t0)
+            mesh, presence = self._run_mesh(frame, found, timings)
+        if presence < self.min_presence:
+            return self._no_face(presence, detected, timings, t0)
+
+        iris = None
+        if self.iris is not None:
+            t = time.perf_counter()
+            iris = self.iris.run(frame, mesh)
+            timings["iris"] = (time.perf_counter() - t) * 1e3
+        ibug = mesh_to_ibug68(mesh)
+
+        box = mesh_box(mesh)
+        self._rect = rect_from_mesh_box(mesh, box)
+        self._box = box
+        self._since_detect = 1 if detected else self._since_detect + 1
+        timings["total"] = (time.perf_counter() - t0) * 1e3
+        return TrackResult(True, presence, mesh, iris, ibug, box, detected, timings)
+
+    def _no_face(
+        self, presence: float, detected: bool, timings: dict[str, float], t0: float
+    ) -> TrackResult:
+        self._rect = None
+        self._since_detect = 0
+        timings["total"] = (time.perf_counter() - t0) * 1e3
+        return TrackResult(False, presence, detected=detected, timings_ms=timings)

@@ -1,0 +1,176 @@
+"""One contract, two transports: the in-memory bus and Zenoh through a real loopback router."""
+
+from __future__ import annotations
+
+import asyncio
+from collections.abc import AsyncIterator, Callable
+
+import pytest
+
+from facesynth.bus.base import Bus, SubscriptionClosed
+from facesynth.bus.memory import MemoryNetwork
+from facesynth.bus.zenoh_bus import ZenohBus, ZenohOptions
+
+DELIVERY_TIMEOUT = 5.0
+Factory = Callable[[], Bus]
+
+
+@pytest.fixture(params=["memory", "zenoh-peer", "zenoh-client"])
+async def make_bus(request: pytest.FixtureRequest) -> AsyncIterator[Factory]:
+    """A factory of buses that all see each other, for each transport."""
+    buses: list[Bus] = []
+    if request.param == "memory":
+        network = MemoryNetwork()
+
+        def factory() -> Bus:
+            buses.append(network.bus())
+            return buses[-1]
+    else:
+        locator = request.getfixturevalue("zenoh_router")
+        mode = request.param.split("-")[1]
+
+        def factory() -> Bus:
+            buses.append(ZenohBus.open(ZenohOptions(mode=mode, connect=[locator])))
+            return buses[-1]
+
+    yield factory
+    for bus in buses:
+        await bus.close()
+
+
+async def settle(bus: Bus) -> None:
+    """Give a real transport time to propagate declarations (no-op cost for memory)."""
+    if isinstance(bus, ZenohBus):
+        await asyncio.sleep(0.3)
+
+
+async def test_published_payload_arrives_on_other_bus(make_bus: Factory, key_prefix: str) -> None:
+    sender, receiver = make_bus(), make_bus()
+    subscription = receiver.subscribe_queued(f"{key_prefix}/a", 8)
+    await settle(receiver)
+    sender.publish(f"{key_prefix}/a", b"\x00payload\xff")
+    sample = await asyncio.wait_for(subscription.receive(), DELIVERY_TIMEOUT)
+    assert sample.key == f"{key_prefix}/a"
+    assert sample.payload == b"\x00payload\xff"
+    assert sample.t_received_ns > 0
+
+
+async def test_queued_keeps_order(make_bus: Factory, key_prefix: str) -> None:
+    sender, receiver = make_bus(), make_bus()
+    subscription = receiver.subscribe_queued(f"{key_prefix}/q", 100)
+    await settle(receiver)
+    for i in range(50):
+        sender.publish(f"{key_prefix}/q", str(i).encode())
+    got = [int((await asyncio.wait_for(subscription.receive(), DELIVERY_TIMEOUT)).payload) for _ in range(50)]
+    assert got == list(range(50))
+    assert subscription.dropped == 0
+
+
+async def test_queued_drops_oldest_when_full(make_bus: Factory, key_prefix: str) -> None:
+    sender, receiver = make_bus(), make_bus()
+    subscription = receiver.subscribe_queued(f"{key_prefix}/full", 3)
+    await settle(receiver)
+    for i in range(10):
+        sender.publish(f"{key_prefix}/full", str(i).encode())
+    await _wait_received(subscription, 10)
+    got = [int(s.payload) for s in iter(subscription.receive_nowait, None)]
+    assert got == [7, 8, 9]
+    assert subscription.dropped == 7
+
+
+async def test_latest_keeps_only_newest(make_bus: Factory, key_prefix: str) -> None:
+    sender, receiver = make_bus(), make_bus()
+    subscription = receiver.subscribe_latest(f"{key_prefix}/latest")
+    await settle(receiver)
+    for i in range(5):
+        sender.publish(f"{key_prefix}/latest", str(i).encode())
+    await _wait_received(subscription, 5)
+    sample = await asyncio.wait_for(subscription.receive(), DELIVERY_TIMEOUT)
+    assert sample.payload == b"4"
+    assert subscription.pending() == 0
+    assert subscription.dropped == 4
+
+
+async def test_wildcard_subscription_and_no_cross_talk(make_bus: Factory, key_prefix: str) -> None:
+    sender, receiver = make_bus(), make_bus()
+    everything = receiver.subscribe_queued(f"{key_prefix}/stats/**", 8)
+    only_a = receiver.subscribe_queued(f"{key_prefix}/stats/a/1", 8)
+    await settle(receiver)
+    sender.publish(f"{key_prefix}/stats/a/1", b"a")
+    sender.publish(f"{key_prefix}/stats/b/2", b"b")
+    sender.publish(f"{key_prefix}/other", b"x")
+    keys = sorted([(await asyncio.wait_for(everything.receive(), DELIVERY_TIMEOUT)).key for _ in range(2)])
+    assert keys == [f"{key_prefix}/stats/a/1", f"{key_prefix}/stats/b/2"]
+    assert (await asyncio.wait_for(only_a.receive(), DELIVERY_TIMEOUT)).payload == b"a"
+    await asyncio.sleep(0.2)
+    assert everything.pending() == 0 and only_a.pending() == 0
+
+
+async def test_same_bus_receives_its_own_publications(make_bus: Factory, key_prefix: str) -> None:
+    bus = make_bus()
+    subscription = bus.subscribe_queued(f"{key_prefix}/self", 4)
+    await settle(bus)
+    bus.publish(f"{key_prefix}/self", b"me")
+    assert (await asyncio.wait_for(subscription.receive(), DELIVERY_TIMEOUT)).payload == b"me"
+
+
+async def test_close_wakes_waiting_receiver(make_bus: Factory, key_prefix: str) -> None:
+    bus = make_bus()
+    subscription = bus.subscribe_queued(f"{key_prefix}/closing", 4)
+    waiter = asyncio.create_task(subscription.receive())
+    await asyncio.sleep(0.05)
+    subscription.close()
+    with pytest.raises(SubscriptionClosed):
+        await asyncio.wait_for(waiter, DELIVERY_TIMEOUT)
+    assert [s async for s in subscription] == []
+
+
+async def test_closed_subscription_receives_nothing_more(make_bus: Factory, key_prefix: str) -> None:
+    sender, receiver = make_bus(), make_bus()
+    subscription = receiver.subscribe_queued(f"{key_prefix}/gone", 4)
+    await settle(receiver)
+    subscription.close()
+    sender.publish(f"{key_prefix}/gone", b"late")
+    await asyncio.sleep(0.2)
+    assert subscription.pending() == 0 and subscription.received == 0
+
+
+async def test_liveliness_appears_and_disappears(make_bus: Factory, key_prefix: str) -> None:
+    announcer, observer = make_bus(), make_bus()
+    token = announcer.declare_token(f"{key_prefix}/health/points/one")
+    other = announcer.declare_token(f"{key_prefix}/elsewhere/x")
+    await settle(announcer)
+    assert await observer.alive(f"{key_prefix}/health/**") == [f"{key_prefix}/health/points/one"]
+    token.close()
+    await settle(announcer)
+    assert await observer.alive(f"{key_prefix}/health/**") == []
+    other.close()
+
+
+async def test_bus_close_withdraws_tokens(make_bus: Factory, key_prefix: str) -> None:
+    announcer, observer = make_bus(), make_bus()
+    announcer.declare_token(f"{key_prefix}/health/x/1")
+    await settle(announcer)
+    assert await observer.alive(f"{key_prefix}/health/**") == [f"{key_prefix}/health/x/1"]
+    await announcer.close()
+    await settle(observer)
+    assert await observer.alive(f"{key_prefix}/health/**") == []
+
+
+async def test_subscription_needs_room(make_bus: Factory, key_prefix: str) -> None:
+    with pytest.raises(ValueError, match="at least one"):
+        make_bus().subscribe_queued(f"{key_prefix}/x", 0)
+
+
+async def test_invalid_key_is_refused(make_bus: Factory) -> None:
+    bus = make_bus()
+    with pytest.raises(Exception, match="(?i)key"):
+        bus.declare_token("bad//key")
+
+
+async def _wait_received(subscription: object, count: int) -> None:
+    for _ in range(int(DELIVERY_TIMEOUT / 0.01)):
+        if getattr(subscription, "received") >= count:
+            return
+        await asyncio.sleep(0.01)
+    raise AssertionError(f"only {getattr(subscription, 'received')} of {count} samples arrived")

@@ -1,0 +1,43 @@
+"""Shared fixtures: a real Zenoh router (a Python session in router mode) on loopback."""
+
+from __future__ import annotations
+
+import uuid
+from collections.abc import Iterator
+
+import pytest
+import zenoh
+
+from facesynth.bus.zenoh_bus import ZenohOptions, open_session, router_locators
+
+
+@pytest.fixture(scope="module")
+def zenoh_router() -> Iterator[str]:
+    """A Zenoh router on tcp/127.0.0.1 (free port, scouting off); yields its locator."""
+    session = open_session(ZenohOptions(mode="router", listen=["tcp/127.0.0.1:0"]))
+    try:
+        locators = router_locators(session)
+        assert locators, "the router reports no locator"
+        yield locators[0]
+    finally:
+        session.close()
+
+
+@pytest.fixture
+def key_prefix() -> str:
+    """A key prefix no other test uses."""
+    return f"test/{uuid.uuid4().hex[:12]}"
+
+
+@pytest.fixture
+def rig() -> str:
+    """A rig name no other test uses."""
+    return f"t{uuid.uuid4().hex[:10]}"
+
+
+def client_options(locator: str, mode: str = "peer") -> ZenohOptions:
+    """Options for a session connecting to the test router."""
+    return ZenohOptions(mode=mode, connect=[locator])
+
+
+__all__ = ["client_options", "zenoh"]
