@@ -40,24 +40,30 @@ class OptionError(ValueError):
 
 
 def zenoh_options(args: argparse.Namespace, *, default_mode: str = "peer") -> ZenohOptions:
-    """Zenoh options from ``--mode/--connect/--listen/--zenoh-config/--scouting``."""
-    connect = endpoints(args.connect)
-    listen = endpoints(args.listen)
-    mode = args.mode or default_mode
-    if mode != "router" and not connect and not listen and not args.zenoh_config:
-        connect = [DEFAULT_ROUTER]
-    return ZenohOptions(
-        mode=mode,
-        connect=connect,
-        listen=listen,
+    """Zenoh options from ``--mode/--connect/--listen/--zenoh-config/--scouting``.
+
+    A config file (``--zenoh-config`` or ``$ZENOH_CONFIG``) keeps its own mode and endpoints
+    unless options override them; without one, a peer connects to the default local router.
+    """
+    options = ZenohOptions(
+        mode=args.mode,
+        connect=endpoints(args.connect),
+        listen=endpoints(args.listen),
         config_file=args.zenoh_config,
         scouting=args.scouting,
     )
+    if options.config_file_path() is None:
+        options.mode = options.mode or default_mode
+        if options.mode != "router" and not options.connect and not options.listen:
+            options.connect = [DEFAULT_ROUTER]
+    return options
 
 
 def has_source(args: argparse.Namespace) -> bool:
     """Whether a frame source was named."""
-    return any(getattr(args, name, None) is not None for name in ("video", "camera", "images", "ticks"))
+    return any(
+        getattr(args, name, None) is not None for name in ("video", "camera", "images", "ticks")
+    )
 
 
 def build_source(args: argparse.Namespace, replay_frames: int | None = None) -> FrameSource:
@@ -65,7 +71,9 @@ def build_source(args: argparse.Namespace, replay_frames: int | None = None) -> 
 
     Without one: ticks for a replayed point stream (``replay_frames``), else the bundled video.
     """
-    chosen = [n for n in ("video", "camera", "images", "ticks") if getattr(args, n, None) is not None]
+    chosen = [
+        n for n in ("video", "camera", "images", "ticks") if getattr(args, n, None) is not None
+    ]
     if len(chosen) > 1:
         raise OptionError(f"choose one frame source, not {' and '.join('--' + c for c in chosen)}")
     fps = getattr(args, "fps", None)
@@ -130,7 +138,9 @@ def build_profile(args: argparse.Namespace) -> Profile:
     return profile
 
 
-def build_processor(args: argparse.Namespace, calibration: Calibration | None, profile: Profile | None = None) -> FeatureProcessor:
+def build_processor(
+    args: argparse.Namespace, calibration: Calibration | None, profile: Profile | None = None
+) -> FeatureProcessor:
     """The feature processor, with the calibration's neutral when there is one."""
     neutral = np.asarray(calibration.neutral) if calibration is not None else None
     seconds = args.neutral_seconds

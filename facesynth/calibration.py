@@ -31,7 +31,7 @@ class CalibrationError(ValueError):
 class Calibration(msgspec.Struct, forbid_unknown_fields=True, kw_only=True):
     """One performer's neutral face and movement ranges."""
 
-    format: Literal["facesynth.calibration"] = FORMAT
+    format: Literal["facesynth.calibration"] = "facesynth.calibration"
     version: int = 1
     name: str
     scheme: str = "ibug68"
@@ -44,7 +44,7 @@ class Calibration(msgspec.Struct, forbid_unknown_fields=True, kw_only=True):
 
 def search_dirs() -> list[Path]:
     """Folders searched for ``<name>.json``, first match wins."""
-    dirs = []
+    dirs: list[Path] = []
     if env := os.environ.get("FACESYNTH_CALIBRATIONS"):
         dirs.extend(Path(p) for p in env.split(os.pathsep) if p)
     dirs.append(Path.home() / ".config" / "facesynth" / "calibrations")
@@ -85,7 +85,8 @@ def validate_calibration(calibration: Calibration) -> list[str]:
     if any(v < 0 for v in calibration.neutral):
         problems.append("neutral distances cannot be negative")
     wrong = [
-        i for i, (lo, hi) in enumerate(zip(calibration.delta_min, calibration.delta_max, strict=True))
+        i
+        for i, (lo, hi) in enumerate(zip(calibration.delta_min, calibration.delta_max, strict=True))
         if not lo <= 0 <= hi
     ]
     if wrong:

@@ -11,12 +11,18 @@ import asyncio
 import contextlib
 import logging
 import time
-from collections.abc import Awaitable, Callable
+from collections.abc import Awaitable, Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
 from facesynth.bus.base import Bus
-from facesynth.bus.zenoh_bus import ZenohBus, ZenohConfigError, ZenohOptions, open_session, router_locators
+from facesynth.bus.zenoh_bus import (
+    ZenohBus,
+    ZenohConfigError,
+    ZenohOptions,
+    open_session,
+    router_locators,
+)
 from facesynth.runtime import ServiceContext, run_service, until_signalled
 from services.control.service import ControlService
 from services.sensor.service import SensorService
@@ -26,7 +32,15 @@ log = logging.getLogger("facesynth")
 ServiceBody = Callable[[ServiceContext], Awaitable[Any]]
 
 
-async def run_single(options: ZenohOptions, rig: str, service: str, body: ServiceBody, *, instance: str | None = None, stats_interval: float = 1.0) -> Any:
+async def run_single(
+    options: ZenohOptions,
+    rig: str,
+    service: str,
+    body: ServiceBody,
+    *,
+    instance: str | None = None,
+    stats_interval: float = 1.0,
+) -> Any:
     """Open a bus, run one service until it ends or a signal arrives, close the bus."""
     bus = await asyncio.to_thread(ZenohBus.open, options)
     try:
@@ -41,13 +55,17 @@ async def run_single(options: ZenohOptions, rig: str, service: str, body: Servic
 def open_embedded(listen: list[str], options: ZenohOptions) -> tuple[Any, list[str]]:
     """A router session for ``facesynth run``; falls back to a free port if ``listen`` is taken."""
     try:
-        session = open_session(ZenohOptions(**{**options.__dict__, "mode": "router", "listen": listen}))
+        session = open_session(
+            ZenohOptions(**{**options.__dict__, "mode": "router", "listen": listen})
+        )
     except ZenohConfigError as exc:
         fallback = ["tcp/127.0.0.1:0"]
         if listen == fallback:
             raise
         log.warning("cannot listen on %s (%s); using a free port instead", ", ".join(listen), exc)
-        session = open_session(ZenohOptions(**{**options.__dict__, "mode": "router", "listen": fallback}))
+        session = open_session(
+            ZenohOptions(**{**options.__dict__, "mode": "router", "listen": fallback})
+        )
     return session, router_locators(session)
 
 
@@ -68,7 +86,7 @@ async def run_chain(
     bus: Bus,
     rig: str,
     sensor: SensorService,
-    bodies: dict[str, ServiceBody],
+    bodies: Mapping[str, ServiceBody],
     control: ControlService,
     *,
     drain_timeout: float = 3.0,
@@ -100,7 +118,9 @@ async def run_chain(
         contexts["sensor"] = sensor_ctx
         sensor_task = asyncio.create_task(run_service(sensor_ctx, sensor.serve), name="sensor")
         for task in tasks:  # a stage that fails at start-up (driver, model) ends the run
-            task.add_done_callback(lambda t: sensor_task.cancel() if not t.cancelled() and t.exception() else None)
+            task.add_done_callback(
+                lambda t: sensor_task.cancel() if not t.cancelled() and t.exception() else None
+            )
         result = await until_signalled(sensor_task)
         if result is None:
             interrupted = True
@@ -127,7 +147,7 @@ async def run_chain(
 
 
 async def _drain(control: ControlService, last_seq: int, timeout: float) -> None:
-    """Wait until ``control`` has executed frame ``last_seq`` or made no progress for ``timeout``."""
+    """Wait until ``control`` executed frame ``last_seq`` or made no progress for ``timeout``."""
     while control.last_frame < last_seq:
         control.progress.clear()
         try:

@@ -104,9 +104,7 @@ def validate_features(features: Features) -> None:
     """Check that every feature value is finite and the vectors agree in length."""
     _common(features.seq, features.t_capture_ns, features.t_media_ns)
     if features.deltas and len(features.deltas) != len(features.distances):
-        raise MessageError(
-            f"{len(features.deltas)} deltas for {len(features.distances)} distances"
-        )
+        raise MessageError(f"{len(features.deltas)} deltas for {len(features.distances)} distances")
     if not features.face and (features.distances or features.deltas):
         raise MessageError("a 'no face' message must not carry features")
     for value in features.distances:

@@ -21,10 +21,12 @@ from services.translator.service import serve_translator
 
 log = logging.getLogger("facesynth")
 
+
 def _single(args: argparse.Namespace, service: str, body: Any) -> int:
     options = build.zenoh_options(args)
     run_async(run_single(options, args.rig, service, body, stats_interval=args.stats_interval))
     return 0
+
 
 def cmd_sensor(args: argparse.Namespace) -> int:
     """``facesynth sensor``."""
@@ -32,27 +34,35 @@ def cmd_sensor(args: argparse.Namespace) -> int:
     sensor = SensorService(source, build.sensor_options(args))
     return _single(args, "sensor", sensor.serve)
 
+
 def cmd_points(args: argparse.Namespace) -> int:
     """``facesynth points``."""
     backend = build.build_backend(args)
     return _single(args, "points", lambda ctx: serve_points(ctx, backend, args.queue))
+
 
 def cmd_features(args: argparse.Namespace) -> int:
     """``facesynth features``."""
     processor = build.build_processor(args, build.build_calibration(args))
     return _single(args, "features", lambda ctx: serve_features(ctx, processor, args.queue))
 
+
 def cmd_translator(args: argparse.Namespace) -> int:
     """``facesynth translator``."""
     translator = build.build_translator(build.build_profile(args), build.build_calibration(args))
     return _single(args, "translator", lambda ctx: serve_translator(ctx, translator, args.queue))
 
+
 def cmd_control(args: argparse.Namespace) -> int:
     """``facesynth control``."""
     control = ControlService(
-        build.build_profile(args), build.build_driver(args), watchdog_s=args.watchdog, queue=args.queue
+        build.build_profile(args),
+        build.build_driver(args),
+        watchdog_s=args.watchdog,
+        queue=args.queue,
     )
     return _single(args, "control", control.serve)
+
 
 def cmd_run(args: argparse.Namespace) -> int:
     """``facesynth run``: the whole chain in one process."""
@@ -82,8 +92,13 @@ def cmd_run(args: argparse.Namespace) -> int:
                 "translator": lambda ctx: serve_translator(ctx, translator, 8),
             }
             return await run_chain(
-                bus, args.rig, sensor, bodies, control,
-                drain_timeout=args.drain_timeout, stats_interval=args.stats_interval,
+                bus,
+                args.rig,
+                sensor,
+                bodies,
+                control,
+                drain_timeout=args.drain_timeout,
+                stats_interval=args.stats_interval,
             )
         finally:
             await bus.close()
@@ -101,23 +116,29 @@ def cmd_run(args: argparse.Namespace) -> int:
     print(json.dumps(summary))
     return 130 if result.interrupted else 0
 
+
 def cmd_router(args: argparse.Namespace) -> int:
     """``facesynth router``: a Zenoh router in Python."""
     options = build.zenoh_options(args, default_mode="router")
     options.mode = "router"
-    if not options.listen:
+    if not options.listen and options.config_file_path() is None:
         options.listen = ["tcp/0.0.0.0:7447"]
 
     async def main() -> None:
         session = await asyncio.to_thread(open_session, options)
         try:
-            print(f"facesynth router {session.info.zid()} listening on {', '.join(router_locators(session))}", flush=True)
+            print(
+                f"facesynth router {session.info.zid()} listening on "
+                f"{', '.join(router_locators(session))}",
+                flush=True,
+            )
             await until_signalled(asyncio.Event().wait())
         finally:
             await asyncio.to_thread(session.close)
 
     run_async(main())
     return 0
+
 
 def cmd_status(args: argparse.Namespace) -> int:
     """``facesynth status``: live services and their latest stats."""
@@ -151,10 +172,14 @@ def cmd_status(args: argparse.Namespace) -> int:
     print(format_status(alive, stats))
     return 0 if alive else 1
 
+
 def format_status(alive: list[str], stats: dict[str, Any]) -> str:
     """A table of live services with their latest stats."""
     by_instance = {keys.parse_service_key(k): s for k, s in stats.items()}
-    header = f"{'rig':<12} {'service':<11} {'instance':<28} {'rate Hz':>8} {'p50 ms':>8} {'p99 ms':>8} {'recv':>7} {'sent':>7} {'drop':>5} {'rej':>5} {'RSS MB':>7}"
+    header = (
+        f"{'rig':<12} {'service':<11} {'instance':<28} {'rate Hz':>8} {'p50 ms':>8} "
+        f"{'p99 ms':>8} {'recv':>7} {'sent':>7} {'drop':>5} {'rej':>5} {'RSS MB':>7}"
+    )
     lines = [header]
     for key in alive:
         parsed = keys.parse_service_key(key)
@@ -174,6 +199,7 @@ def format_status(alive: list[str], stats: dict[str, Any]) -> str:
         lines.append("(no live services)")
     return "\n".join(lines)
 
+
 def cmd_profile(args: argparse.Namespace) -> int:
     """``facesynth profile list|check|show``."""
     from facesynth.profiles import available_profiles, load_profile
@@ -189,25 +215,41 @@ def cmd_profile(args: argparse.Namespace) -> int:
         print(f"{args.name}: ok ({len(profile.servos)} servos)")
     else:
         for spec in profile.servos:
-            print(f"{spec.channel:>3} {spec.name:<20} {spec.min_us:>7g} {spec.neutral_us:>7g} {spec.max_us:>7g} "
-                  f"{'reversed' if spec.reversed else '':<8} points {spec.points}")
+            print(
+                f"{spec.channel:>3} {spec.name:<20} {spec.min_us:>7g} {spec.neutral_us:>7g} "
+                f"{spec.max_us:>7g} "
+                f"{'reversed' if spec.reversed else '':<8} points {spec.points}"
+            )
     return 0
+
 
 def cmd_bench(args: argparse.Namespace) -> int:
     """``facesynth bench chain|tracker``."""
     if args.what == "chain":
         from facesynth.bench_chain import bench_chain, format_chain_bench
 
-        print(format_chain_bench(bench_chain(
-            video=args.video, seconds=args.seconds, fps=args.fps, openface_csv=args.openface_csv
-        )))
+        print(
+            format_chain_bench(
+                bench_chain(
+                    video=args.video,
+                    seconds=args.seconds,
+                    fps=args.fps,
+                    openface_csv=args.openface_csv,
+                )
+            )
+        )
         return 0
     from facesynth.data import sample_video
     from services.points.tracker.bench import bench_tracker, format_bench
 
     backends = tuple(b for b in args.backends.split(",") if b)
-    print(format_bench(bench_tracker(args.video or str(sample_video()), backends=backends, frames=args.frames)))
+    print(
+        format_bench(
+            bench_tracker(args.video or str(sample_video()), backends=backends, frames=args.frames)
+        )
+    )
     return 0
+
 
 def cmd_track(args: argparse.Namespace) -> int:
     """``facesynth track VIDEO --out FILE``."""
@@ -216,4 +258,3 @@ def cmd_track(args: argparse.Namespace) -> int:
     summary = track_video(args.video, args.out, backend=args.inference)
     print(json.dumps(summary))
     return 0
-

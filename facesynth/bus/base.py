@@ -15,6 +15,7 @@ from __future__ import annotations
 import abc
 import asyncio
 import collections
+import contextlib
 import time
 from collections.abc import AsyncIterator
 from dataclasses import dataclass
@@ -69,10 +70,9 @@ class Subscription:
     def deliver_threadsafe(self, key: str, payload: bytes) -> None:
         """Hand a sample over from any thread without blocking it."""
         sample = Sample(key, payload, time.time_ns())
-        try:
+        # A closed loop means the service is shutting down: the sample is not needed.
+        with contextlib.suppress(RuntimeError):
             self._loop.call_soon_threadsafe(self.deliver, sample)
-        except RuntimeError:  # the loop is closed: the service is shutting down
-            pass
 
     async def receive(self) -> Sample:
         """Wait for the next sample (the newest one for a latest subscription)."""

@@ -74,7 +74,9 @@ class MemoryBus(Bus):
 
     async def alive(self, key_expr: str, timeout: float = 1.0) -> list[str]:
         pattern = zenoh.KeyExpr(key_expr)
-        return sorted(k for k in self.network.tokens.values() if pattern.intersects(zenoh.KeyExpr(k)))
+        return sorted(
+            k for k in self.network.tokens.values() if pattern.intersects(zenoh.KeyExpr(k))
+        )
 
     async def close(self) -> None:
         for subscription in self._owned:

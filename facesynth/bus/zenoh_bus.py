@@ -8,6 +8,7 @@ block and never call Zenoh.
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import json
 import os
 from collections.abc import Sequence
@@ -38,23 +39,28 @@ class ZenohOptions:
     same router never exchange data (clients do; measured with eclipse-zenoh 1.10.2).
     """
 
-    mode: str = "peer"
+    mode: str | None = "peer"
     connect: list[str] = field(default_factory=list)
     listen: list[str] = field(default_factory=list)
     config_file: str | None = None
     scouting: bool = False
 
+    def config_file_path(self) -> str | None:
+        """The config file in force: ``config_file``, else ``$ZENOH_CONFIG``, else none."""
+        return self.config_file or os.environ.get("ZENOH_CONFIG") or None
+
     def build(self) -> zenoh.Config:
         """The ``zenoh.Config`` these options describe."""
-        if self.mode not in MODES:
+        if self.mode is not None and self.mode not in MODES:
             raise ZenohConfigError(f"unknown Zenoh mode {self.mode!r}; use one of {MODES}")
-        path = self.config_file or os.environ.get("ZENOH_CONFIG") or None
+        path = self.config_file_path()
         try:
             config = zenoh.Config.from_file(path) if path else zenoh.Config()
         except Exception as exc:  # zenoh raises its own ZError for unreadable or invalid files
             raise ZenohConfigError(f"cannot load Zenoh config {path}: {exc}") from None
         try:
-            config.insert_json5("mode", json.dumps(self.mode))
+            if self.mode is not None:
+                config.insert_json5("mode", json.dumps(self.mode))
             if self.connect:
                 config.insert_json5("connect/endpoints", json.dumps(list(self.connect)))
             if self.listen:
@@ -74,7 +80,8 @@ def open_session(options: ZenohOptions) -> zenoh.Session:
         return zenoh.open(config)
     except Exception as exc:
         where = ", ".join(options.connect or options.listen) or "the configured endpoints"
-        raise ZenohConfigError(f"cannot open a Zenoh {options.mode} session ({where}): {exc}") from None
+        mode = options.mode or "configured"
+        raise ZenohConfigError(f"cannot open a Zenoh {mode} session ({where}): {exc}") from None
 
 
 def router_locators(session: zenoh.Session, timeout: float = 2.0) -> list[str]:
@@ -100,10 +107,8 @@ class _ZenohSubscription(Subscription):
     def _release(self) -> None:
         subscriber, self._subscriber = self._subscriber, None
         if subscriber is not None:
-            try:
+            with contextlib.suppress(Exception):  # the session is already closed
                 subscriber.undeclare()
-            except Exception:  # the session is already closed
-                pass
 
 
 class _ZenohToken(Token):
@@ -113,10 +118,8 @@ class _ZenohToken(Token):
     def close(self) -> None:
         token, self._token = self._token, None
         if token is not None:
-            try:
+            with contextlib.suppress(Exception):  # the session is already closed
                 token.undeclare()
-            except Exception:
-                pass
 
 
 class ZenohBus(Bus):
@@ -170,10 +173,8 @@ class ZenohBus(Bus):
         for token in self._tokens:
             token.close()
         for publisher in self._publishers.values():
-            try:
+            with contextlib.suppress(Exception):  # the session is already closed
                 publisher.undeclare()
-            except Exception:
-                pass
         self._publishers.clear()
         if self._owns_session:
             await asyncio.to_thread(self.session.close)

@@ -66,7 +66,7 @@ class Profile(msgspec.Struct, forbid_unknown_fields=True, kw_only=True):
 
 def search_dirs() -> list[Path]:
     """Folders searched for ``<name>.toml``, first match wins."""
-    dirs = []
+    dirs: list[Path] = []
     if env := os.environ.get("FACESYNTH_PROFILES"):
         dirs.extend(Path(p) for p in env.split(os.pathsep) if p)
     dirs.append(Path.home() / ".config" / "facesynth" / "profiles")

@@ -51,7 +51,10 @@ class ControlService:
                     sample = await asyncio.wait_for(subscription.receive(), tick)
                 except TimeoutError:
                     if self.watchdog.expired(time.time_ns()):
-                        ctx.log.info("no commands for %.2f s: face to neutral", self.watchdog.timeout_ns / 1e9)
+                        ctx.log.info(
+                            "no commands for %.2f s: face to neutral",
+                            self.watchdog.timeout_ns / 1e9,
+                        )
                         await self.driver.neutral(self.core.neutral())
                     continue
                 except SubscriptionClosed:

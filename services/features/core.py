@@ -94,21 +94,24 @@ class FeatureProcessor:
 
     def process(self, points: Points) -> Features:
         """Features of one frame; raise :class:`FeatureError` for unusable points."""
-        header = {
-            "seq": points.seq,
-            "t_capture_ns": points.t_capture_ns,
-            "t_media_ns": points.t_media_ns,
-        }
         if not points.face:
-            return Features(face=False, neutral_ready=self.estimator.ready, **header)
+            return Features(
+                seq=points.seq,
+                t_capture_ns=points.t_capture_ns,
+                t_media_ns=points.t_media_ns,
+                face=False,
+                neutral_ready=self.estimator.ready,
+            )
         distances = nose_distances(normalise(ibug_points(points)))
         ready = self.estimator.add(points.t_media_ns, distances)
         neutral = self.estimator.neutral
         deltas = (distances - neutral).tolist() if ready and neutral is not None else []
         return Features(
+            seq=points.seq,
+            t_capture_ns=points.t_capture_ns,
+            t_media_ns=points.t_media_ns,
             face=True,
             neutral_ready=ready,
             distances=distances.tolist(),
             deltas=deltas,
-            **header,
         )

@@ -55,7 +55,9 @@ def no_face(frame: Frame, source: str, confidence: float = 0.0) -> Points:
 
 def point_set(scheme: str, array: np.ndarray) -> PointSet:
     """A PointSet from an (N, 2) or (N, 3) array."""
-    return PointSet(scheme=scheme, dims=int(array.shape[1]), coords=array.astype(float).ravel().tolist())
+    return PointSet(
+        scheme=scheme, dims=int(array.shape[1]), coords=array.astype(float).ravel().tolist()
+    )
 
 
 class PointsBackend(abc.ABC):

@@ -73,13 +73,17 @@ def _number(fields: list[str], index: int, name: str, where: str) -> float:
     try:
         value = float(fields[index])
     except ValueError:
-        raise OpenFaceError(f"{where}: column {name} is {fields[index].strip()!r}, not a number") from None
+        raise OpenFaceError(
+            f"{where}: column {name} is {fields[index].strip()!r}, not a number"
+        ) from None
     if not math.isfinite(value):
         raise OpenFaceError(f"{where}: column {name} is {value}")
     return value
 
 
-def _row(fields: list[str], columns: dict[str, int], xs: list[int], ys: list[int], where: str) -> OpenFaceRow:
+def _row(
+    fields: list[str], columns: dict[str, int], xs: list[int], ys: list[int], where: str
+) -> OpenFaceRow:
     frame = _number(fields, columns["frame"], "frame", where)
     if frame != int(frame) or frame < 0:
         raise OpenFaceError(f"{where}: frame number {frame} is not a whole number >= 0")

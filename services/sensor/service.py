@@ -49,7 +49,9 @@ async def wait_for_services(ctx: ServiceContext, services: list[str], timeout: f
         if not missing:
             return True
         if time.monotonic() >= deadline:
-            ctx.log.warning("still waiting for %s after %.1f s: starting anyway", sorted(missing), timeout)
+            ctx.log.warning(
+                "still waiting for %s after %.1f s: starting anyway", sorted(missing), timeout
+            )
             return False
         await asyncio.sleep(0.05)
 
@@ -93,10 +95,8 @@ class SensorService:
                 )
                 self.flow.ack(seq - self.flow.window)
                 return
-            try:
+            with contextlib.suppress(TimeoutError):
                 await asyncio.wait_for(self._acked.wait(), remaining)
-            except TimeoutError:
-                pass
 
     def _frame(self, image: object, seq: int, t_media_ns: int) -> Frame:
         from services.sensor.frames import encode_frame  # OpenCV only where pixels exist
@@ -106,8 +106,14 @@ class SensorService:
         if image is None:
             width, height = TICK_SIZE
             return Frame(
-                seq=seq, t_capture_ns=now, t_media_ns=t_media_ns, width=width, height=height,
-                encoding="none", source=info.name, fps=info.fps,
+                seq=seq,
+                t_capture_ns=now,
+                t_media_ns=t_media_ns,
+                width=width,
+                height=height,
+                encoding="none",
+                source=info.name,
+                fps=info.fps,
             )
         return encode_frame(
             image,  # type: ignore[arg-type]
@@ -130,7 +136,10 @@ class SensorService:
         info = self.source.info
         ctx.log.info(
             "sensor: %s at %.2f fps (%s) on %s",
-            info.name, info.fps, "fast" if options.fast else "real time", ctx.key("input"),
+            info.name,
+            info.fps,
+            "fast" if options.fast else "real time",
+            ctx.key("input"),
         )
         try:
             previous_media = -1

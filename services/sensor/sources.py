@@ -83,7 +83,7 @@ class VideoSource(FrameSource):
                 ok, image = self._capture.read()
                 if not ok:
                     return
-            yield image, int(round(index * period_ns))
+            yield image, round(index * period_ns)
             index += 1
 
     def close(self) -> None:
@@ -143,7 +143,7 @@ class FolderSource(FrameSource):
                 image = cv2.imread(str(path), cv2.IMREAD_COLOR)
                 if image is None:
                     raise SourceError(f"{path} is not a readable image")
-                yield image, int(round(index * period_ns))
+                yield image, round(index * period_ns)
                 index += 1
             if not self.loop:
                 return
@@ -161,4 +161,4 @@ class TickSource(FrameSource):
     def frames(self) -> Iterator[tuple[np.ndarray | None, int]]:
         period_ns = 1e9 / self.info.fps
         for index in range(self.count):
-            yield None, int(round(index * period_ns))
+            yield None, round(index * period_ns)

@@ -54,7 +54,9 @@ class Translator:
             low = float(np.mean(np.asarray(calibration.delta_min)[source]))
             high = float(np.mean(np.asarray(calibration.delta_max)[source]))
             # A point group that did not move during calibration keeps the profile default.
-            self._ranges.append((low if low < 0 else spec.face_min, high if high > 0 else spec.face_max))
+            self._ranges.append(
+                (low if low < 0 else spec.face_min, high if high > 0 else spec.face_max)
+            )
 
     def neutral(self) -> dict[str, float]:
         """Every servo at neutral."""

@@ -9,7 +9,5 @@ from services.translator.core import Translator
 
 async def serve_translator(ctx: ServiceContext, translator: Translator, queue: int = 8) -> None:
     """Translate every Features message until cancelled."""
-    ctx.log.info(
-        "translator on %s (profile %s)", ctx.key("features"), translator.profile.name
-    )
+    ctx.log.info("translator on %s (profile %s)", ctx.key("features"), translator.profile.name)
     await serve_transform(ctx, "features", Features, "servo_commands", translator.translate, queue)

@@ -61,7 +61,10 @@ async def test_queued_keeps_order(make_bus: Factory, key_prefix: str) -> None:
     await settle(receiver)
     for i in range(50):
         sender.publish(f"{key_prefix}/q", str(i).encode())
-    got = [int((await asyncio.wait_for(subscription.receive(), DELIVERY_TIMEOUT)).payload) for _ in range(50)]
+    got = [
+        int((await asyncio.wait_for(subscription.receive(), DELIVERY_TIMEOUT)).payload)
+        for _ in range(50)
+    ]
     assert got == list(range(50))
     assert subscription.dropped == 0
 
@@ -99,7 +102,9 @@ async def test_wildcard_subscription_and_no_cross_talk(make_bus: Factory, key_pr
     sender.publish(f"{key_prefix}/stats/a/1", b"a")
     sender.publish(f"{key_prefix}/stats/b/2", b"b")
     sender.publish(f"{key_prefix}/other", b"x")
-    keys = sorted([(await asyncio.wait_for(everything.receive(), DELIVERY_TIMEOUT)).key for _ in range(2)])
+    keys = sorted(
+        [(await asyncio.wait_for(everything.receive(), DELIVERY_TIMEOUT)).key for _ in range(2)]
+    )
     assert keys == [f"{key_prefix}/stats/a/1", f"{key_prefix}/stats/b/2"]
     assert (await asyncio.wait_for(only_a.receive(), DELIVERY_TIMEOUT)).payload == b"a"
     await asyncio.sleep(0.2)
@@ -125,7 +130,9 @@ async def test_close_wakes_waiting_receiver(make_bus: Factory, key_prefix: str) 
     assert [s async for s in subscription] == []
 
 
-async def test_closed_subscription_receives_nothing_more(make_bus: Factory, key_prefix: str) -> None:
+async def test_closed_subscription_receives_nothing_more(
+    make_bus: Factory, key_prefix: str
+) -> None:
     sender, receiver = make_bus(), make_bus()
     subscription = receiver.subscribe_queued(f"{key_prefix}/gone", 4)
     await settle(receiver)
@@ -164,13 +171,13 @@ async def test_subscription_needs_room(make_bus: Factory, key_prefix: str) -> No
 
 async def test_invalid_key_is_refused(make_bus: Factory) -> None:
     bus = make_bus()
-    with pytest.raises(Exception, match="(?i)key"):
+    with pytest.raises(Exception, match=r"(?i)key"):
         bus.declare_token("bad//key")
 
 
 async def _wait_received(subscription: object, count: int) -> None:
     for _ in range(int(DELIVERY_TIMEOUT / 0.01)):
-        if getattr(subscription, "received") >= count:
+        if subscription.received >= count:
             return
         await asyncio.sleep(0.01)
-    raise AssertionError(f"only {getattr(subscription, 'received')} of {count} samples arrived")
+    raise AssertionError(f"only {subscription.received} of {count} samples arrived")

@@ -37,7 +37,7 @@ class Spawner:
 
 @pytest.fixture
 def spawn(tmp_path: Path) -> Iterator[Spawner]:
-    """A :class:`Spawner`; every process it started is stopped (SIGTERM, then SIGKILL) at the end."""
+    """A :class:`Spawner`; its processes are stopped (SIGTERM, then SIGKILL) at the end."""
     spawner = Spawner(tmp_path)
     yield spawner
     procs = spawner.procs

@@ -33,10 +33,22 @@ FPS = 30.0
 SERVICES = ["points", "features", "translator", "control"]
 
 
-def start_downstream(spawn: Any, locator: str, rig: str, out: Path) -> dict[str, subprocess.Popen[bytes]]:
+def start_downstream(
+    spawn: Any, locator: str, rig: str, out: Path
+) -> dict[str, subprocess.Popen[bytes]]:
     common = ["--connect", locator, "--rig", rig, "--stats-interval", "0.2"]
     return {
-        "control": spawn("control", "--profile", "paper16", "--driver", "record", "--out", str(out), *common, name="control"),
+        "control": spawn(
+            "control",
+            "--profile",
+            "paper16",
+            "--driver",
+            "record",
+            "--out",
+            str(out),
+            *common,
+            name="control",
+        ),
         "translator": spawn("translator", "--profile", "paper16", *common, name="translator"),
         "features": spawn("features", *common, name="features"),
         "points": spawn("points", "--openface-csv", CSV, *common, name="points"),
@@ -66,18 +78,38 @@ def expected_commands() -> list[dict[str, float]]:
     translator = Translator(load_profile("paper16"))
     out = []
     for seq in range(replay.frame_count()):
-        frame = Frame(seq=seq, t_capture_ns=1, t_media_ns=int(round(seq * 1e9 / FPS)), width=640, height=480, encoding="none")
+        frame = Frame(
+            seq=seq,
+            t_capture_ns=1,
+            t_media_ns=round(seq * 1e9 / FPS),
+            width=640,
+            height=480,
+            encoding="none",
+        )
         commands = translator.translate(processor.process(replay.process(frame)))
         out.append(commands.positions)
     return out
 
 
-def test_five_processes_match_pure_cores_and_run(spawn: Any, zenoh_router: str, rig: str, tmp_path: Path) -> None:
+def test_five_processes_match_pure_cores_and_run(
+    spawn: Any, zenoh_router: str, rig: str, tmp_path: Path
+) -> None:
     record = tmp_path / "processes.jsonl"
     procs = start_downstream(spawn, zenoh_router, rig, record)
     sensor = spawn(
-        "sensor", "--ticks", "100", "--fps", str(FPS), "--fast", "--connect", zenoh_router, "--rig", rig,
-        "--wait-for", ",".join(SERVICES), name="sensor",
+        "sensor",
+        "--ticks",
+        "100",
+        "--fps",
+        str(FPS),
+        "--fast",
+        "--connect",
+        zenoh_router,
+        "--rig",
+        rig,
+        "--wait-for",
+        ",".join(SERVICES),
+        name="sensor",
     )
     assert sensor.wait(timeout=60) == 0, spawn.log("sensor")
     lines = wait_for_frames(record, 100, timeout=30)
@@ -102,9 +134,26 @@ def test_five_processes_match_pure_cores_and_run(spawn: Any, zenoh_router: str, 
 
     in_process = tmp_path / "run.jsonl"
     run = subprocess.run(
-        [sys.executable, "-m", "facesynth", "run", "--openface-csv", CSV, "--fast", "--fps", str(FPS),
-         "--out", str(in_process), "--listen", "tcp/127.0.0.1:0", "--rig", rig + "r"],
-        capture_output=True, text=True, timeout=60,
+        [
+            sys.executable,
+            "-m",
+            "facesynth",
+            "run",
+            "--openface-csv",
+            CSV,
+            "--fast",
+            "--fps",
+            str(FPS),
+            "--out",
+            str(in_process),
+            "--listen",
+            "tcp/127.0.0.1:0",
+            "--rig",
+            rig + "r",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=60,
     )
     assert run.returncode == 0, run.stderr
     run_lines = frame_lines(in_process)
@@ -115,7 +164,9 @@ def test_five_processes_match_pure_cores_and_run(spawn: Any, zenoh_router: str, 
 GARBAGE = [b"", b"\x00\x01\x02", b"\x81\xa4type\xa5frame", b'{"json": true}', b"\xc1" * 64]
 
 
-async def _stats_by_service(bus: ZenohBus, rig: str, want: dict[str, int], timeout: float) -> dict[str, ServiceStats]:
+async def _stats_by_service(
+    bus: ZenohBus, rig: str, want: dict[str, int], timeout: float
+) -> dict[str, ServiceStats]:
     subscription = bus.subscribe_queued(keys.stats_pattern(rig), 256)
     latest: dict[str, ServiceStats] = {}
     deadline = time.monotonic() + timeout
@@ -136,30 +187,98 @@ def bad_messages() -> list[tuple[str, bytes]]:
     """Garbage, wrong types, and well-formed messages with NaN or wrong shapes, per stage."""
     nan_points = codec.encode(
         Points(
-            seq=1, t_capture_ns=1, t_media_ns=1, face=True, image_width=640, image_height=480,
+            seq=1,
+            t_capture_ns=1,
+            t_media_ns=1,
+            face=True,
+            image_width=640,
+            image_height=480,
             sets=[PointSet(scheme="ibug68", dims=2, coords=[float("nan")] * 136)],
         )
     )
-    nan_features = codec.encode(Features(seq=1, t_capture_ns=1, t_media_ns=1, face=True, neutral_ready=True, distances=[1.0] * 68, deltas=[float("inf")] * 68))
-    short_features = codec.encode(Features(seq=1, t_capture_ns=1, t_media_ns=1, face=True, neutral_ready=True, distances=[1.0] * 3, deltas=[0.0] * 3))
-    wild_commands = codec.encode(ServoCommands(seq=1, t_capture_ns=1, t_media_ns=1, face=True, profile="paper16", positions={"jaw": float("nan")}))
-    unknown_servo = codec.encode(ServoCommands(seq=1, t_capture_ns=1, t_media_ns=1, face=True, profile="paper16", positions={"tail": 1500.0}))
-    other_profile = codec.encode(ServoCommands(seq=1, t_capture_ns=1, t_media_ns=1, face=True, profile="other", positions={"jaw": 1500.0}))
-    frame_as_points = codec.encode(Frame(seq=1, t_capture_ns=1, t_media_ns=1, width=4, height=4, encoding="none"))
+    nan_features = codec.encode(
+        Features(
+            seq=1,
+            t_capture_ns=1,
+            t_media_ns=1,
+            face=True,
+            neutral_ready=True,
+            distances=[1.0] * 68,
+            deltas=[float("inf")] * 68,
+        )
+    )
+    short_features = codec.encode(
+        Features(
+            seq=1,
+            t_capture_ns=1,
+            t_media_ns=1,
+            face=True,
+            neutral_ready=True,
+            distances=[1.0] * 3,
+            deltas=[0.0] * 3,
+        )
+    )
+    wild_commands = codec.encode(
+        ServoCommands(
+            seq=1,
+            t_capture_ns=1,
+            t_media_ns=1,
+            face=True,
+            profile="paper16",
+            positions={"jaw": float("nan")},
+        )
+    )
+    unknown_servo = codec.encode(
+        ServoCommands(
+            seq=1,
+            t_capture_ns=1,
+            t_media_ns=1,
+            face=True,
+            profile="paper16",
+            positions={"tail": 1500.0},
+        )
+    )
+    other_profile = codec.encode(
+        ServoCommands(
+            seq=1,
+            t_capture_ns=1,
+            t_media_ns=1,
+            face=True,
+            profile="other",
+            positions={"jaw": 1500.0},
+        )
+    )
+    frame_as_points = codec.encode(
+        Frame(seq=1, t_capture_ns=1, t_media_ns=1, width=4, height=4, encoding="none")
+    )
     out = []
     for stage in ("input", "points", "features", "servo_commands"):
         out.extend((stage, payload) for payload in GARBAGE)
-    out += [("points", nan_points), ("points", frame_as_points), ("features", nan_features), ("features", short_features),
-            ("servo_commands", wild_commands), ("servo_commands", unknown_servo), ("servo_commands", other_profile)]
+    out += [
+        ("points", nan_points),
+        ("points", frame_as_points),
+        ("features", nan_features),
+        ("features", short_features),
+        ("servo_commands", wild_commands),
+        ("servo_commands", unknown_servo),
+        ("servo_commands", other_profile),
+    ]
     return out
 
 
-def test_malformed_messages_on_every_key_are_counted_and_dropped(spawn: Any, zenoh_router: str, rig: str, tmp_path: Path) -> None:
+def test_malformed_messages_on_every_key_are_counted_and_dropped(
+    spawn: Any, zenoh_router: str, rig: str, tmp_path: Path
+) -> None:
     record = tmp_path / "commands.jsonl"
     procs = start_downstream(spawn, zenoh_router, rig, record)
     messages = bad_messages()
     per_service = {"points": 0, "features": 0, "translator": 0, "control": 0}
-    consumer = {"input": "points", "points": "features", "features": "translator", "servo_commands": "control"}
+    consumer = {
+        "input": "points",
+        "points": "features",
+        "features": "translator",
+        "servo_commands": "control",
+    }
     for stage, _ in messages:
         per_service[consumer[stage]] += 1
 
@@ -167,7 +286,9 @@ def test_malformed_messages_on_every_key_are_counted_and_dropped(spawn: Any, zen
         bus = ZenohBus.open(ZenohOptions(mode="peer", connect=[zenoh_router]))
         try:
             deadline = time.monotonic() + 30
-            while set(SERVICES) - {keys.parse_service_key(k)[1] for k in await bus.alive(keys.health_pattern(rig))}:  # type: ignore[index]
+            while set(SERVICES) - {
+                keys.parse_service_key(k)[1] for k in await bus.alive(keys.health_pattern(rig))
+            }:  # type: ignore[index]
                 assert time.monotonic() < deadline, "services did not come up"
                 await asyncio.sleep(0.1)
             await asyncio.sleep(0.3)

@@ -1,0 +1,123 @@
+"""The ``facesynth`` command: help everywhere, and one clear error line (exit 2) for bad input."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from facesynth.cli import build_parser, main
+
+COMMANDS = [
+    "run",
+    "sensor",
+    "points",
+    "features",
+    "translator",
+    "control",
+    "router",
+    "status",
+    "profile",
+    "bench",
+    "track",
+]
+
+
+@pytest.mark.parametrize("command", COMMANDS)
+def test_help(command: str, capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as exit_info:
+        main([command, "--help"])
+    assert exit_info.value.code == 0
+    assert "usage: facesynth " + command in capsys.readouterr().out
+
+
+def _files(tmp: Path) -> dict[str, Path]:
+    files = {
+        "bad.toml": "name = \n",
+        "unknown.toml": 'name = "x"\nwheels = 4\n[[servos]]\nname = "a"\n',
+        "bad.json": "{not json",
+        "short.json": '{"name": "p", "neutral": [1.0], "delta_min": [0.0], "delta_max": [0.0]}',
+        "driver.toml": 'driver = "teleporter"\n',
+        "garbage.csv": "a, b\n1, 2\n",
+        "garbage.mp4": "this is not a video",
+        "bad.json5": "{ mode: ",
+        "track.jsonl": '{"frame": 0, "face": true, "ibug68": [[1, 2]]}\n',
+    }
+    for name, text in files.items():
+        (tmp / name).write_text(text)
+    return {name: tmp / name for name in files}
+
+
+CASES = [
+    ("missing profile", ["translator", "--profile", "/nonexistent/robot.toml"], "does not exist"),
+    ("unknown profile", ["translator", "--profile", "no_such_robot"], "available: "),
+    ("broken profile", ["translator", "--profile", "{bad.toml}"], "not valid TOML"),
+    ("unknown profile field", ["control", "--profile", "{unknown.toml}", "--out", "x"], "wheels"),
+    ("broken calibration", ["features", "--calibration", "{bad.json}"], "JSON"),
+    ("short calibration", ["translator", "--calibration", "{short.json}"], "needs 68"),
+    ("unknown driver", ["control", "--driver-config", "{driver.toml}"], "teleporter"),
+    ("record without out", ["control"], "needs --out"),
+    ("not OpenFace", ["points", "--openface-csv", "{garbage.csv}"], "missing columns"),
+    ("bad track file", ["points", "--points-jsonl", "{track.jsonl}"], "68 finite"),
+    ("not a video", ["sensor", "--video", "{garbage.mp4}"], "cannot open"),
+    ("missing video", ["sensor", "--video", "/nonexistent.mp4"], "does not exist"),
+    ("two sources", ["sensor", "--video", "{garbage.mp4}", "--ticks", "3"], "choose one"),
+    ("bad window", ["sensor", "--ticks", "3", "--window", "0"], "--window"),
+    (
+        "broken zenoh config",
+        ["router", "--zenoh-config", "{bad.json5}"],
+        "cannot load Zenoh config",
+    ),
+    (
+        "unreachable router",
+        ["features", "--mode", "client", "--connect", "tcp/127.0.0.1:9"],
+        "cannot open a Zenoh client session",
+    ),
+    ("profile check broken", ["profile", "check", "{bad.toml}"], "not valid TOML"),
+    ("profile without name", ["profile", "check"], "needs a profile"),
+]
+
+
+@pytest.mark.parametrize(("argv", "expected"), [c[1:] for c in CASES], ids=[c[0] for c in CASES])
+def test_bad_input_gives_one_clear_error(
+    argv: list[str], expected: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    files = _files(tmp_path)
+    argv = [files[a[1:-1]].as_posix() if a.startswith("{") else a for a in argv]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert f"facesynth {argv[0]}: error: " in err
+    assert expected in err
+    assert "Traceback" not in err
+
+
+def test_bad_rig_is_named(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert (
+        main(
+            [
+                "sensor",
+                "--ticks",
+                "2",
+                "--rig",
+                "a/b",
+                "--mode",
+                "router",
+                "--listen",
+                "tcp/127.0.0.1:0",
+            ]
+        )
+        == 2
+    )
+    assert "invalid rig name 'a/b'" in capsys.readouterr().err
+
+
+def test_profile_check_and_list(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["profile", "check", "paper16"]) == 0
+    assert "paper16: ok (16 servos)" in capsys.readouterr().out
+    assert main(["profile", "list"]) == 0
+    assert "paper16" in capsys.readouterr().out.split()
+
+
+def test_rig_defaults_from_environment(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("FACESYNTH_RIG", "lab2")
+    assert build_parser().parse_args(["features"]).rig == "lab2"
