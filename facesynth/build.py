@@ -39,11 +39,13 @@ class OptionError(ValueError):
     """Options that do not fit together."""
 
 
-def zenoh_options(args: argparse.Namespace, *, default_mode: str = "peer") -> ZenohOptions:
+def zenoh_options(args: argparse.Namespace, *, default_mode: str = "client") -> ZenohOptions:
     """Zenoh options from ``--mode/--connect/--listen/--zenoh-config/--scouting``.
 
     A config file (``--zenoh-config`` or ``$ZENOH_CONFIG``) keeps its own mode and endpoints
-    unless options override them; without one, a peer connects to the default local router.
+    unless options override them; without one, a client connects to the default local router.
+    Clients send everything through the router: one fixed path per message, so nothing is lost
+    while peers would be opening direct links to each other mid-stream.
     """
     options = ZenohOptions(
         mode=args.mode,

@@ -29,7 +29,7 @@ def _zenoh_arguments(parser: argparse.ArgumentParser) -> None:
     group.add_argument(
         "--mode",
         choices=("peer", "client", "router"),
-        help="Zenoh session mode (default: peer; run: router)",
+        help="Zenoh session mode (default: client of the router; run: router)",
     )
     group.add_argument(
         "--connect",

@@ -127,9 +127,16 @@ def validate_servo_commands(commands: ServoCommands) -> None:
 
 
 def validate_stats(stats: ServiceStats) -> None:
-    """Check the figures of a stats message are finite."""
+    """Check the figures of a stats message are finite and the counts not negative."""
     for name in ("uptime_s", "rate_hz", "rss_mb", "peak_rss_mb"):
         _finite(getattr(stats, name), name)
+    for name in ("latency_p50_ms", "latency_p99_ms"):
+        value = getattr(stats, name)
+        if value is not None:
+            _finite(value, name)
+    for name in ("received", "published", "dropped", "rejected", "window"):
+        if getattr(stats, name) < 0:
+            raise MessageError(f"{name} is {getattr(stats, name)}: must be >= 0")
 
 
 _VALIDATORS: dict[type[Any], Any] = {

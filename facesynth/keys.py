@@ -1,7 +1,10 @@
 """Every Zenoh key expression facesynth uses, in one place.
 
-Data keys are namespaced by rig: ``facesynth/<rig>/<stage>``. Health (liveliness tokens) and
-stats keys add the service name and an instance id:
+Data keys are namespaced by rig: ``facesynth/<rig>/<stage>``, where the stages are
+``input`` (S), ``points`` (P), ``features`` (F), ``servo_commands`` (T) and ``servo_state``
+(C: the positions it actually applied, after its own checks and clamping).
+
+Health (liveliness tokens) and stats keys add the service name and an instance id:
 ``facesynth/<rig>/health/<service>/<instance>`` and ``facesynth/<rig>/stats/<service>/<instance>``.
 """
 
@@ -12,8 +15,9 @@ from typing import Final, Literal
 
 PREFIX: Final = "facesynth"
 
-Stage = Literal["input", "points", "features", "servo_commands"]
-STAGES: Final[tuple[Stage, ...]] = ("input", "points", "features", "servo_commands")
+Stage = Literal["input", "points", "features", "servo_commands", "servo_state"]
+#: ``servo_state`` is what a control interface actually applied (clamped positions).
+STAGES: Final[tuple[Stage, ...]] = ("input", "points", "features", "servo_commands", "servo_state")
 
 SERVICES: Final = ("sensor", "points", "features", "translator", "control")
 
@@ -23,7 +27,7 @@ PUBLISHES: Final[dict[str, Stage | None]] = {
     "points": "points",
     "features": "features",
     "translator": "servo_commands",
-    "control": None,
+    "control": "servo_state",
 }
 CONSUMES: Final[dict[str, Stage | None]] = {
     "sensor": None,
@@ -33,7 +37,7 @@ CONSUMES: Final[dict[str, Stage | None]] = {
     "control": "servo_commands",
 }
 
-_NAME = re.compile(r"^[A-Za-z0-9_.-]{1,64}$")
+_NAME = re.compile(r"[A-Za-z0-9_.-]{1,64}")
 
 
 class KeyNameError(ValueError):
@@ -42,7 +46,7 @@ class KeyNameError(ValueError):
 
 def check_name(value: str, what: str = "rig") -> str:
     """Return ``value`` if it is a valid single key chunk, else raise :class:`KeyNameError`."""
-    if not _NAME.match(value):
+    if not _NAME.fullmatch(value):
         raise KeyNameError(
             f"invalid {what} name {value!r}: use 1-64 letters, digits, '_', '-' or '.'"
         )

@@ -155,6 +155,13 @@ async def run_service(ctx: ServiceContext, body: Body) -> Any:
         with contextlib.suppress(Exception):
             ctx.publish_stats(note="stopped")
         ctx.withdraw()
+        ctx.log.info(
+            "stopped: received %d, published %d, dropped %d (input queue full), rejected %d",
+            ctx.stats.received,
+            ctx.stats.published,
+            ctx.dropped(),
+            ctx.stats.rejected,
+        )
 
 
 def run_async(main: Awaitable[M]) -> M:

@@ -18,8 +18,15 @@ INF = math.inf
 
 def _frame(**kw: Any) -> Frame:
     fields: dict[str, Any] = dict(
-        seq=3, t_capture_ns=10, t_media_ns=20, width=4, height=2, encoding="raw",
-        data=bytes(range(24)), source="cam", fps=30.0,
+        seq=3,
+        t_capture_ns=10,
+        t_media_ns=20,
+        width=4,
+        height=2,
+        encoding="raw",
+        data=bytes(range(24)),
+        source="cam",
+        fps=30.0,
     )
     fields.update(kw)
     return Frame(**fields)
@@ -27,8 +34,13 @@ def _frame(**kw: Any) -> Frame:
 
 def _points(**kw: Any) -> Points:
     fields: dict[str, Any] = dict(
-        seq=3, t_capture_ns=10, t_media_ns=20, face=True, confidence=0.9,
-        image_width=640, image_height=360,
+        seq=3,
+        t_capture_ns=10,
+        t_media_ns=20,
+        face=True,
+        confidence=0.9,
+        image_width=640,
+        image_height=360,
         sets=[PointSet(scheme="ibug68", dims=2, coords=[1.0, 2.0, 3.0, 4.0])],
     )
     fields.update(kw)
@@ -37,8 +49,14 @@ def _points(**kw: Any) -> Points:
 
 def _features(**kw: Any) -> Features:
     fields: dict[str, Any] = dict(
-        seq=3, t_capture_ns=10, t_media_ns=20, face=True, neutral_ready=True,
-        distances=[0.5, 0.25], deltas=[0.0, -0.1], named={"brow": 0.2},
+        seq=3,
+        t_capture_ns=10,
+        t_media_ns=20,
+        face=True,
+        neutral_ready=True,
+        distances=[0.5, 0.25],
+        deltas=[0.0, -0.1],
+        named={"brow": 0.2},
     )
     fields.update(kw)
     return Features(**fields)
@@ -46,7 +64,11 @@ def _features(**kw: Any) -> Features:
 
 def _commands(**kw: Any) -> ServoCommands:
     fields: dict[str, Any] = dict(
-        seq=3, t_capture_ns=10, t_media_ns=20, face=True, profile="paper16",
+        seq=3,
+        t_capture_ns=10,
+        t_media_ns=20,
+        face=True,
+        profile="paper16",
         positions={"jaw": 1500.0, "left_eyebrow": 1750.5},
     )
     fields.update(kw)
@@ -55,9 +77,21 @@ def _commands(**kw: Any) -> ServoCommands:
 
 def _stats(**kw: Any) -> ServiceStats:
     fields: dict[str, Any] = dict(
-        service="features", instance="i1", rig="default", t_ns=5, uptime_s=1.5,
-        received=10, published=9, dropped=1, rejected=0, rate_hz=24.0,
-        latency_p50_ms=3.0, latency_p99_ms=9.0, rss_mb=50.0, peak_rss_mb=60.0, window=9,
+        service="features",
+        instance="i1",
+        rig="default",
+        t_ns=5,
+        uptime_s=1.5,
+        received=10,
+        published=9,
+        dropped=1,
+        rejected=0,
+        rate_hz=24.0,
+        latency_p50_ms=3.0,
+        latency_p99_ms=9.0,
+        rss_mb=50.0,
+        peak_rss_mb=60.0,
+        window=9,
     )
     fields.update(kw)
     return ServiceStats(**fields)
@@ -78,10 +112,12 @@ def _roundtrip(message: msgspec.Struct) -> Any:
         _frame(encoding="none", data=b""),
         _points(),
         _points(face=False, sets=[]),
-        _points(sets=[
-            PointSet(scheme="ibug68", dims=2, coords=[1.0, 2.0]),
-            PointSet(scheme="mesh468", dims=3, coords=[1.0, 2.0, -3.0]),
-        ]),
+        _points(
+            sets=[
+                PointSet(scheme="ibug68", dims=2, coords=[1.0, 2.0]),
+                PointSet(scheme="mesh468", dims=3, coords=[1.0, 2.0, -3.0]),
+            ]
+        ),
         _features(),
         _features(face=False, neutral_ready=False, distances=[], deltas=[], named={}),
         _features(neutral_ready=False, deltas=[]),
@@ -91,9 +127,19 @@ def _roundtrip(message: msgspec.Struct) -> Any:
         _stats(latency_p50_ms=None, latency_p99_ms=None),
     ],
     ids=[
-        "frame-raw", "frame-jpeg", "frame-tick", "points", "points-noface", "points-two-sets",
-        "features", "features-noface", "features-no-neutral", "commands", "commands-empty",
-        "stats", "stats-no-latency",
+        "frame-raw",
+        "frame-jpeg",
+        "frame-tick",
+        "points",
+        "points-noface",
+        "points-two-sets",
+        "features",
+        "features-noface",
+        "features-no-neutral",
+        "commands",
+        "commands-empty",
+        "stats",
+        "stats-no-latency",
     ],
 )
 def test_valid_messages_round_trip(message: msgspec.Struct) -> None:
@@ -143,8 +189,13 @@ def test_garbage_is_refused(payload: bytes, detail: str) -> None:
         (_commands(), Features, "servo_commands"),
         (_stats(), Points, "service_stats"),
     ],
-    ids=["points-as-frame", "frame-as-points", "features-as-commands", "commands-as-features",
-         "stats-as-points"],
+    ids=[
+        "points-as-frame",
+        "frame-as-points",
+        "features-as-commands",
+        "commands-as-features",
+        "stats-as-points",
+    ],
 )
 def test_wrong_tag_is_refused(message: msgspec.Struct, as_cls: type, tag: str) -> None:
     with pytest.raises(MessageError) as info:
@@ -168,10 +219,14 @@ def _raw_points(**overrides: Any) -> bytes:
         ({"face": 1}, "Expected `bool`, got `int` - at `$.face`"),
         ({"image_width": None}, "Expected `int`, got `None` - at `$.image_width`"),
         ({"sets": {"ibug68": []}}, "Expected `array`, got `object` - at `$.sets`"),
-        ({"sets": [{"scheme": "ibug68", "dims": 2, "coords": ["1", "2"]}]},
-         "Expected `float`, got `str` - at `$.sets[0].coords[0]`"),
-        ({"sets": [{"scheme": "ibug68", "coords": [1.0, 2.0]}]},
-         "missing required field `dims` - at `$.sets[0]`"),
+        (
+            {"sets": [{"scheme": "ibug68", "dims": 2, "coords": ["1", "2"]}]},
+            "Expected `float`, got `str` - at `$.sets[0].coords[0]`",
+        ),
+        (
+            {"sets": [{"scheme": "ibug68", "coords": [1.0, 2.0]}]},
+            "missing required field `dims` - at `$.sets[0]`",
+        ),
     ],
     ids=["seq-str", "seq-float", "face-int", "width-null", "sets-map", "coord-str", "no-dims"],
 )
@@ -199,8 +254,10 @@ def test_missing_required_field_is_refused() -> None:
         (_frame(t_media_ns=-5), "timestamps must be >= 0"),
         (_frame(width=0, data=b""), "frame size 0x2 is out of range"),
         (_frame(height=-2), "frame size 4x-2 is out of range"),
-        (_frame(width=codec.MAX_FRAME_SIDE + 1, encoding="none", data=b""),
-         f"frame size {codec.MAX_FRAME_SIDE + 1}x2 is out of range"),
+        (
+            _frame(width=codec.MAX_FRAME_SIDE + 1, encoding="none", data=b""),
+            f"frame size {codec.MAX_FRAME_SIDE + 1}x2 is out of range",
+        ),
         (_frame(fps=NAN), "fps is nan"),
         (_frame(fps=INF), "fps is inf"),
         (_frame(fps=1e9), "fps is 1000000000.0"),
@@ -211,9 +268,20 @@ def test_missing_required_field_is_refused() -> None:
         (_frame(encoding="jpeg", data=b""), "does not start with a JPEG marker"),
     ],
     ids=[
-        "negative-seq", "negative-capture", "negative-media", "zero-width", "negative-height",
-        "huge-width", "fps-nan", "fps-inf", "fps-huge", "raw-short", "raw-long", "raw-empty",
-        "jpeg-png-bytes", "jpeg-empty",
+        "negative-seq",
+        "negative-capture",
+        "negative-media",
+        "zero-width",
+        "negative-height",
+        "huge-width",
+        "fps-nan",
+        "fps-inf",
+        "fps-huge",
+        "raw-short",
+        "raw-long",
+        "raw-empty",
+        "jpeg-png-bytes",
+        "jpeg-empty",
     ],
 )
 def test_bad_frames(frame: Frame, detail: str) -> None:
@@ -246,20 +314,38 @@ def _set(coords: list[float], scheme: str = "ibug68", dims: int = 2) -> PointSet
         (_points(sets=[_set([1.0], dims=1)]), "'ibug68' has dims 1"),
         (_points(sets=[_set([1.0, 2.0, 3.0])]), "has 3 values, not a positive multiple of 2"),
         (_points(sets=[_set([])]), "has 0 values, not a positive multiple of 2"),
-        (_points(sets=[_set([1.0, 2.0, 3.0, 4.0], scheme="mesh468", dims=3)]),
-         "'mesh468' has 4 values, not a positive multiple of 3"),
+        (
+            _points(sets=[_set([1.0, 2.0, 3.0, 4.0], scheme="mesh468", dims=3)]),
+            "'mesh468' has 4 values, not a positive multiple of 3",
+        ),
         (_points(sets=[_set([1.0, NAN])]), "a coordinate of 'ibug68' is nan"),
         (_points(sets=[_set([INF, 1.0])]), "a coordinate of 'ibug68' is inf"),
         (_points(sets=[_set([1.0, -INF])]), "a coordinate of 'ibug68' is -inf"),
         (_points(sets=[_set([1.0, 2e6])]), "a coordinate of 'ibug68' is 2000000.0"),
-        (_points(sets=[_set([1.0, 2.0]), _set([0.0, 0.0, NAN], "mesh468", 3)]),
-         "a coordinate of 'mesh468' is nan"),
+        (
+            _points(sets=[_set([1.0, 2.0]), _set([0.0, 0.0, NAN], "mesh468", 3)]),
+            "a coordinate of 'mesh468' is nan",
+        ),
     ],
     ids=[
-        "negative-seq", "negative-capture", "confidence-nan", "confidence-inf", "zero-width",
-        "huge-height", "noface-with-points", "duplicate-scheme", "dims-4", "dims-1",
-        "odd-count", "empty-coords", "mesh-not-multiple-of-3", "coord-nan", "coord-inf",
-        "coord-minus-inf", "coord-huge", "nan-in-second-set",
+        "negative-seq",
+        "negative-capture",
+        "confidence-nan",
+        "confidence-inf",
+        "zero-width",
+        "huge-height",
+        "noface-with-points",
+        "duplicate-scheme",
+        "dims-4",
+        "dims-1",
+        "odd-count",
+        "empty-coords",
+        "mesh-not-multiple-of-3",
+        "coord-nan",
+        "coord-inf",
+        "coord-minus-inf",
+        "coord-huge",
+        "nan-in-second-set",
     ],
 )
 def test_bad_points(points: Points, detail: str) -> None:
@@ -281,8 +367,7 @@ def test_largest_coordinate_is_accepted() -> None:
         (_features(deltas=[0.0]), "1 deltas for 2 distances"),
         (_features(deltas=[0.0, 0.0, 0.0]), "3 deltas for 2 distances"),
         (_features(face=False, deltas=[]), "a 'no face' message must not carry features"),
-        (_features(face=False, distances=[], deltas=[0.1]),
-         "1 deltas for 0 distances"),
+        (_features(face=False, distances=[], deltas=[0.1]), "1 deltas for 0 distances"),
         (_features(distances=[0.5, NAN]), "a distance is nan"),
         (_features(distances=[INF, 0.5]), "a distance is inf"),
         (_features(distances=[1e7, 0.5]), "a distance is 10000000.0"),
@@ -292,9 +377,19 @@ def test_largest_coordinate_is_accepted() -> None:
         (_features(named={"brow": NAN}), "feature 'brow' is nan"),
     ],
     ids=[
-        "negative-seq", "negative-media", "too-few-deltas", "too-many-deltas",
-        "noface-with-distances", "noface-with-deltas", "distance-nan", "distance-inf",
-        "distance-huge", "delta-nan", "delta-minus-inf", "delta-huge", "named-nan",
+        "negative-seq",
+        "negative-media",
+        "too-few-deltas",
+        "too-many-deltas",
+        "noface-with-distances",
+        "noface-with-deltas",
+        "distance-nan",
+        "distance-inf",
+        "distance-huge",
+        "delta-nan",
+        "delta-minus-inf",
+        "delta-huge",
+        "named-nan",
     ],
 )
 def test_bad_features(features: Features, detail: str) -> None:
@@ -311,8 +406,10 @@ def test_bad_features(features: Features, detail: str) -> None:
         (_commands(profile=""), "servo commands name no profile"),
         (_commands(positions={"jaw": NAN}), "position of 'jaw' is nan"),
         (_commands(positions={"jaw": INF}), "position of 'jaw' is inf"),
-        (_commands(positions={"jaw": 1500.0, "left_eyebrow": 2e5}),
-         "position of 'left_eyebrow' is 200000.0"),
+        (
+            _commands(positions={"jaw": 1500.0, "left_eyebrow": 2e5}),
+            "position of 'left_eyebrow' is 200000.0",
+        ),
         (_commands(positions={"jaw": -1.0}), "position of 'jaw' is negative (-1.0)"),
     ],
     ids=["negative-seq", "negative-capture", "no-profile", "nan", "inf", "huge", "negative"],

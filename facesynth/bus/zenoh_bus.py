@@ -81,7 +81,12 @@ def open_session(options: ZenohOptions) -> zenoh.Session:
     except Exception as exc:
         where = ", ".join(options.connect or options.listen) or "the configured endpoints"
         mode = options.mode or "configured"
-        raise ZenohConfigError(f"cannot open a Zenoh {mode} session ({where}): {exc}") from None
+        hint = ""
+        if options.mode == "client":
+            hint = " - is a router running there? (start one with: facesynth router)"
+        raise ZenohConfigError(
+            f"cannot open a Zenoh {mode} session ({where}): {exc}{hint}"
+        ) from None
 
 
 def router_locators(session: zenoh.Session, timeout: float = 2.0) -> list[str]:
@@ -142,7 +147,7 @@ class ZenohBus(Bus):
         publisher = self._publishers.get(key)
         if publisher is None:
             publisher = self.session.declare_publisher(
-                key, congestion_control=zenoh.CongestionControl.DROP, express=True
+                key, congestion_control=zenoh.CongestionControl.BLOCK, express=True
             )
             self._publishers[key] = publisher
         publisher.put(payload)

@@ -8,6 +8,7 @@ stopped, so the shell can return the face to neutral.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 from facesynth.profiles import Profile
@@ -46,6 +47,9 @@ class ControlCore:
         unknown = sorted(set(commands.positions) - set(self._specs))
         if unknown:
             raise CommandError(f"unknown servos for profile {self.profile.name!r}: {unknown}")
+        for name, value in commands.positions.items():
+            if math.isnan(value):
+                raise CommandError(f"position of {name!r} is {value}")
         positions = dict(self.last)
         for name, value in commands.positions.items():
             positions[name] = clamp(value, self._specs[name])

@@ -1,5 +1,7 @@
 """Control interface C, service shell: ``…/servo_commands`` → a servo driver.
 
+What was applied (after the checks and clamping) is published on ``…/servo_state``.
+
 The face starts at neutral, every command is checked and clamped by :class:`ControlCore`, and
 when commands stop for ``watchdog_s`` seconds the face returns to neutral. On shutdown the face
 is put back to neutral before the driver closes.
@@ -69,7 +71,15 @@ class ControlService:
                 info = CommandInfo(commands.seq, commands.t_capture_ns, commands.face)
                 await self.driver.send(positions, info)
                 self.watchdog.feed(time.time_ns())
-                ctx.stats.record_published(commands.t_capture_ns)
+                applied = ServoCommands(
+                    seq=commands.seq,
+                    t_capture_ns=commands.t_capture_ns,
+                    t_media_ns=commands.t_media_ns,
+                    face=commands.face,
+                    profile=commands.profile,
+                    positions=positions,
+                )
+                ctx.publish("servo_state", applied)
                 self.last_frame = max(self.last_frame, commands.seq)
                 self.progress.set()
         finally:

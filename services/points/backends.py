@@ -9,12 +9,14 @@ with the same timing and latency measurements, as live tracking. Past the end of
 from __future__ import annotations
 
 import abc
+import math
 from pathlib import Path
 from typing import Any
 
 import msgspec
 import numpy as np
 
+from facesynth.codec import MAX_COORD
 from facesynth.landmarks import IBUG68, IRIS10, MESH468, N_IBUG
 from schemas.messages import Frame, Points, PointSet
 from services.points.openface import OpenFaceRow, load_openface_csv
@@ -130,9 +132,17 @@ def _track_sets(line: TrackLine, where: str) -> list[PointSet]:
         value: Any = getattr(line, attr)
         if value is None:
             continue
-        array = np.asarray(value, dtype=np.float64)
-        if array.shape not in ((count, 2), (count, 3)) or not np.all(np.isfinite(array)):
-            raise BackendError(f"{where}: {attr} must be {count} finite [x, y] points")
+        problem = f"{where}: {attr} must be {count} finite [x, y] points within ±{MAX_COORD:g}"
+        try:
+            array = np.asarray(value, dtype=np.float64)
+        except ValueError:  # ragged lists
+            raise BackendError(problem) from None
+        if (
+            array.shape not in ((count, 2), (count, 3))
+            or not np.all(np.isfinite(array))
+            or np.any(np.abs(array) > MAX_COORD)
+        ):
+            raise BackendError(problem)
         sets.append(point_set(scheme, array))
     if not any(s.scheme == IBUG68 for s in sets):
         raise BackendError(f"{where}: a face line needs ibug68 points")
@@ -161,6 +171,8 @@ class TrackReplay(_Replay):
                 line = decoder.decode(raw)
             except (msgspec.DecodeError, msgspec.ValidationError) as exc:
                 raise BackendError(f"{where}: {exc}") from None
+            if not (math.isfinite(line.presence) and 0.0 <= line.presence <= 1.0):
+                raise BackendError(f"{where}: presence {line.presence} is not within 0..1")
             sets = _track_sets(line, where) if line.face else []
             self.lines.append((line.face, line.presence, sets))
         if not self.lines:

@@ -67,6 +67,8 @@ def decode_frame(frame: Frame) -> np.ndarray:
         return np.frombuffer(frame.data, dtype=np.uint8).reshape(frame.height, frame.width, 3)
     if frame.encoding == "jpeg":
         cv2 = _cv2()
+        if not frame.data:
+            raise FrameError(f"frame {frame.seq}: JPEG data cannot be decoded")
         image = cv2.imdecode(np.frombuffer(frame.data, dtype=np.uint8), cv2.IMREAD_COLOR)
         if image is None:
             raise FrameError(f"frame {frame.seq}: JPEG data cannot be decoded")

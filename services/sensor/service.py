@@ -67,9 +67,9 @@ class SensorService:
         self._acked = asyncio.Event()
         self.stalls = 0
 
-    async def _watch_acks(self, ctx: ServiceContext) -> None:
+    async def _watch_acks(self, ctx: ServiceContext, stage: keys.Stage) -> None:
         # Only the newest ack matters: overwritten ones are not data loss, so not in the stats.
-        subscription = ctx.bus.subscribe_latest(ctx.key("servo_commands"))
+        subscription = ctx.bus.subscribe_latest(ctx.key(stage))
         try:
             async for sample in subscription:
                 try:
@@ -80,6 +80,14 @@ class SensorService:
                 self._acked.set()
         finally:
             subscription.close()
+
+    @staticmethod
+    async def _control_alive(ctx: ServiceContext) -> bool:
+        alive = await ctx.bus.alive(keys.health_pattern(ctx.rig), timeout=0.5)
+        return any(
+            parsed is not None and parsed[1] == "control"
+            for parsed in map(keys.parse_service_key, alive)
+        )
 
     async def _wait_credit(self, ctx: ServiceContext, seq: int) -> None:
         deadline = time.monotonic() + self.options.ack_timeout
@@ -129,9 +137,17 @@ class SensorService:
     async def serve(self, ctx: ServiceContext) -> int:
         """Send every frame of the source; return the last sequence number sent."""
         options = self.options
-        ack_task = asyncio.create_task(self._watch_acks(ctx)) if options.fast else None
         ctx.ready()
         await wait_for_services(ctx, options.wait_for, options.wait_timeout)
+        ack_task = None
+        if options.fast:
+            # Credit comes from the end of the chain: what a control interface applied, or
+            # (with no control interface running) what the translator commanded.
+            stage: keys.Stage = (
+                "servo_state" if await self._control_alive(ctx) else "servo_commands"
+            )
+            ctx.log.info("--fast: at most %d frames ahead of %s", options.window, stage)
+            ack_task = asyncio.create_task(self._watch_acks(ctx, stage))
         pacer = Pacer()
         info = self.source.info
         ctx.log.info(

@@ -283,7 +283,7 @@ def test_malformed_messages_on_every_key_are_counted_and_dropped(
         per_service[consumer[stage]] += 1
 
     async def attack() -> dict[str, ServiceStats]:
-        bus = ZenohBus.open(ZenohOptions(mode="peer", connect=[zenoh_router]))
+        bus = ZenohBus.open(ZenohOptions(mode="client", connect=[zenoh_router]))
         try:
             deadline = time.monotonic() + 30
             while set(SERVICES) - {

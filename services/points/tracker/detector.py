@@ -208,7 +208,7 @@ class FaceDetector:
             borderMode=cv2.BORDER_CONSTANT,
             borderValue=(0, 0, 0, 0),
         )
-        fill_input(self.model.input[0], self._buf, 1.0 / 127.5, -1.0, self._rgb)
+        fill_input(self.model.input_view()[0], self._buf, 1.0 / 127.5, -1.0, self._rgb)
         out = self.model.run()
         boxes, kps, scores = decode_detections(
             out["regressors"][0], out["classificators"][0], self.anchors

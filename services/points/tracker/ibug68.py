@@ -58,9 +58,24 @@ def mapping_matrix(path: str = str(MAPPING_FILE)) -> np.ndarray:
     return w
 
 
+@lru_cache(maxsize=4)
+def _gather(path: str = str(MAPPING_FILE)) -> tuple[np.ndarray, np.ndarray]:
+    """The mapping as (68, K) vertex indices and (68, K, 1) weights, padded with weight 0."""
+    mapping = load_mapping(path)
+    k = max(len(v) for v, _ in mapping)
+    idx = np.zeros((NUM_POINTS, k), np.intp)
+    w = np.zeros((NUM_POINTS, k, 1), np.float32)
+    for i, (verts, weights) in enumerate(mapping):
+        idx[i, : len(verts)] = verts
+        w[i, : len(verts), 0] = weights
+    return idx, w
+
+
 def mesh_to_ibug68(mesh: np.ndarray) -> np.ndarray:
     """68 iBUG points (68, 2) float32 from a (468, >=2) mesh, same coordinates as the mesh."""
     m = np.asarray(mesh, dtype=np.float32)
     if m.ndim != 2 or m.shape[0] != 468 or m.shape[1] < 2:
         raise ValueError(f"expected a (468, 2|3) mesh, got {m.shape}")
-    return mapping_matrix() @ m[:, :2]
+    idx, w = _gather()
+    out: np.ndarray = (m[idx, :2] * w).sum(axis=1)
+    return out

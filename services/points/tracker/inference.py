@@ -96,7 +96,8 @@ def resolve_backend(backend: str) -> str:
     if backend == "auto":
         return "litert" if _litert_importable() else "opencv"
     if backend not in BACKENDS:
-        raise ValueError(f"unknown backend {backend!r}; expected one of auto, {', '.join(BACKENDS)}")
+        choices = ", ".join(("auto", *BACKENDS))
+        raise ValueError(f"unknown backend {backend!r}; expected one of {choices}")
     if backend == "litert" and not _litert_importable():
         raise ValueError("backend 'litert' requested but ai_edge_litert is not installed")
     return backend
@@ -171,14 +172,13 @@ def fill_input(
 class Model(ABC):
     """A loaded model with a preallocated NHWC float32 input.
 
-    Fill :attr:`input` (shape (batch, S, S, 3), RGB, already scaled) and call :meth:`run`.
+    Fill :meth:`input_view` (shape (batch, S, S, 3), RGB, already scaled) and call :meth:`run`.
 
     Attributes:
         backend: ``"litert"`` or ``"opencv"``.
         spec: the :class:`ModelSpec` it was loaded for.
         batch: images per call.
         input_size: S.
-        input: the NHWC float32 input buffer.
     """
 
     backend: str
@@ -187,13 +187,22 @@ class Model(ABC):
         self.spec = spec
         self.batch = batch
         self.input_size = spec.input_size
-        s = spec.input_size
-        self.input = np.zeros((batch, s, s, 3), np.float32)
+
+    @abstractmethod
+    def input_view(self) -> np.ndarray:
+        """The (batch, S, S, 3) float32 input to fill in place before :meth:`run`.
+
+        With LiteRT this is the interpreter's own tensor memory (no copy on run); do not keep
+        the array across :meth:`run` — the interpreter refuses to run while it is referenced.
+        """
 
     @abstractmethod
     def run(self) -> dict[str, np.ndarray]:
-        """Run on :attr:`input`; return every output named in ``spec.outputs`` as a float32
-        array of shape (batch, n), n the flattened per-image output size."""
+        """Run on the filled :meth:`input_view`.
+
+        Returns every output named in ``spec.outputs`` as a float32 array of shape (batch, n),
+        n the flattened per-image output size.
+        """
 
 
 class LiteRTModel(Model):
@@ -224,14 +233,18 @@ class LiteRTModel(Model):
         if missing:
             raise ModelError(f"{spec.filename}: outputs {missing} not found in {sorted(by_name)}")
         self._out_idx = [(n, by_name[n]) for n in spec.outputs]
+        self._view = self._interp.tensor(self._in_idx)
+        self.input_view()[...] = 0.0
+
+    def input_view(self) -> np.ndarray:
+        """See :meth:`Model.input_view`."""
+        view: np.ndarray = self._view()
+        return view
 
     def run(self) -> dict[str, np.ndarray]:
         """See :meth:`Model.run`."""
-        self._interp.set_tensor(self._in_idx, self.input)
         self._interp.invoke()
-        return {
-            n: self._interp.get_tensor(idx).reshape(self.batch, -1) for n, idx in self._out_idx
-        }
+        return {n: self._interp.get_tensor(idx).reshape(self.batch, -1) for n, idx in self._out_idx}
 
 
 class OpenCVModel(Model):
@@ -250,13 +263,18 @@ class OpenCVModel(Model):
             raise ModelError(f"{spec.filename}: outputs {missing} not found in {sorted(names)}")
         self._names = list(spec.outputs)
         s = spec.input_size
+        self._input = np.zeros((batch, s, s, 3), np.float32)
         self._nchw = np.zeros((batch, 3, s, s), np.float32)
         # Fail now, not on the first frame, if the graph does not accept the input shape.
         self.run()
 
+    def input_view(self) -> np.ndarray:
+        """See :meth:`Model.input_view`."""
+        return self._input
+
     def run(self) -> dict[str, np.ndarray]:
         """See :meth:`Model.run`."""
-        np.copyto(self._nchw, self.input.transpose(0, 3, 1, 2))
+        np.copyto(self._nchw, self._input.transpose(0, 3, 1, 2))
         self._net.setInput(self._nchw)
         outs = self._net.forward(self._names)
         return {

@@ -20,17 +20,15 @@ import numpy as np
 
 from .crops import (
     CropRect,
-    compose_affine,
     crop_affine,
-    flip_horizontal_affine,
     invert_affine,
     rect_from_box,
 )
 from .inference import Model, fill_input
 
 __all__ = [
-    "EYE_CORNERS",
     "EYE_CONTOUR_VERTICES",
+    "EYE_CORNERS",
     "IRIS_SIZE",
     "IrisLandmarks",
     "eye_rects",
@@ -59,8 +57,12 @@ def eye_rects(mesh: np.ndarray, scale: float = EYE_ROI_SCALE) -> tuple[CropRect,
         xb, yb = float(mesh[b, 0]), float(mesh[b, 1])
         rects.append(
             rect_from_box(
-                min(xa, xb), min(ya, yb), max(xa, xb), max(ya, yb),
-                math.atan2(yb - ya, xb - xa), scale,
+                min(xa, xb),
+                min(ya, yb),
+                max(xa, xb),
+                max(ya, yb),
+                math.atan2(yb - ya, xb - xa),
+                scale,
             )
         )
     return rects[0], rects[1]
@@ -71,8 +73,9 @@ def eye_affines(mesh: np.ndarray) -> list[np.ndarray]:
     out = []
     for rect, flip in zip(eye_rects(mesh), EYE_FLIPPED, strict=True):
         m = crop_affine(rect, IRIS_SIZE)
-        if flip:
-            m = compose_affine(flip_horizontal_affine(IRIS_SIZE), m)
+        if flip:  # flip_horizontal_affine(IRIS_SIZE) ∘ m, written out
+            m[0] *= -1.0
+            m[0, 2] += IRIS_SIZE
         out.append(m)
     return out
 
@@ -102,6 +105,7 @@ class IrisLandmarks:
         """
         affines = eye_affines(mesh)
         for i, m in enumerate(affines):
+            # (the view is re-fetched per eye and dropped before run(): see Model.input_view)
             cv2.warpAffine(
                 frame_rgba,
                 m,
@@ -111,7 +115,7 @@ class IrisLandmarks:
                 borderMode=cv2.BORDER_CONSTANT,
                 borderValue=(0, 0, 0, 0),
             )
-            fill_input(self.model.input[i], self._crops[i], 1.0 / 255.0, 0.0, self._rgb)
+            fill_input(self.model.input_view()[i], self._crops[i], 1.0 / 255.0, 0.0, self._rgb)
         out = self.model.run()
         iris = np.empty((10, 2), np.float32)
         contours = np.empty((2, 71, 2), np.float32)

@@ -18,13 +18,13 @@ from .detector import Detection
 from .inference import Model, fill_input
 
 __all__ = [
+    "LEFT_EYE_OUTER",
     "MESH_SIZE",
     "NUM_VERTICES",
     "RIGHT_EYE_OUTER",
-    "LEFT_EYE_OUTER",
     "FaceMesh",
-    "rect_from_detection",
     "mesh_box",
+    "rect_from_detection",
     "rect_from_mesh",
     "rect_from_mesh_box",
     "sigmoid",
@@ -107,7 +107,7 @@ class FaceMesh:
             borderMode=cv2.BORDER_CONSTANT,
             borderValue=(0, 0, 0, 0),
         )
-        fill_input(self.model.input[0], self._crop, 1.0 / 255.0, 0.0, self._rgb)
+        fill_input(self.model.input_view()[0], self._crop, 1.0 / 255.0, 0.0, self._rgb)
         out = self.model.run()
         pts = out["conv2d_21"][0].reshape(NUM_VERTICES, 3)
         inv = invert_affine(m)

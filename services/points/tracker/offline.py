@@ -56,7 +56,8 @@ def iter_video_frames(path: Path | str, max_frames: int | None = None) -> Iterat
 def _points(a: np.ndarray | None) -> list[list[float]] | None:
     if a is None:
         return None
-    return np.round(a[:, :2].astype(np.float64), 2).tolist()  # type: ignore[no-any-return]
+    rounded: list[list[float]] = np.round(a[:, :2].astype(np.float64), 2).tolist()
+    return rounded
 
 
 def result_to_record(frame: int, r: TrackResult) -> dict[str, Any]:

@@ -10,6 +10,7 @@ overlaps the face it is following.
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -19,7 +20,16 @@ import numpy as np
 from .crops import CropRect
 from .detector import Detection, FaceDetector, box_iou
 from .ibug68 import mesh_to_ibug68
-from .inference import DETECTOR, IRIS, MESH, frame_to_rgba, load_model, resolve_backend
+from .inference import (
+    DETECTOR,
+    IRIS,
+    MESH,
+    Model,
+    ModelSpec,
+    frame_to_rgba,
+    load_model,
+    resolve_backend,
+)
 from .iris import IrisLandmarks
 from .mesh import FaceMesh, mesh_box, rect_from_detection, rect_from_mesh_box
 
@@ -31,6 +41,14 @@ SELECT_MODES = ("largest", "score")
 #: on the detection; no overlap at all leaves the track alone (the detector may miss an
 #: occluded face, or see somebody else).
 CONFIRM_IOU = 0.5
+#: Crop hysteresis: while tracking, the mesh crop is only moved when the crop derived from the
+#: new mesh differs from the current one by more than these (centre shift and size change as a
+#: fraction of the side, roll in radians). Feeding the mesh back into its own crop otherwise
+#: keeps a still face's crop — and so its points — wandering by up to a few pixels; with the
+#: hold a still image gives identical points frame after frame.
+HOLD_SHIFT = 0.02
+HOLD_SCALE = 0.03
+HOLD_ANGLE = math.radians(2.0)
 
 _Box = tuple[float, float, float, float]
 
@@ -81,6 +99,7 @@ class FaceTracker:
         min_detection_score: float = 0.5,
         model_dir: Path | str | None = None,
         verify_models: bool = True,
+        hold_crop: bool = True,
     ) -> None:
         """Load the models.
 
@@ -95,6 +114,7 @@ class FaceTracker:
             min_detection_score: detector score threshold.
             model_dir: folder with the three ``.tflite`` files (default: bundled).
             verify_models: check each file's SHA-256 against the bundled value.
+            hold_crop: crop hysteresis while tracking (see :data:`HOLD_SHIFT`).
 
         Raises:
             ModelError: a model file is missing, unreadable or corrupt.
@@ -111,12 +131,21 @@ class FaceTracker:
         self.min_presence = min_presence
         self.select = select
         self.use_iris = iris
-        kw = {"model_dir": model_dir, "num_threads": num_threads, "verify": verify_models}
-        self.detector = FaceDetector(
-            load_model(DETECTOR, self.backend, **kw), min_score=min_detection_score
-        )
-        self.mesh = FaceMesh(load_model(MESH, self.backend, **kw))
-        self.iris = IrisLandmarks(load_model(IRIS, self.backend, batch=2, **kw)) if iris else None
+        self.hold_crop = hold_crop
+
+        def _load(spec: ModelSpec, batch: int = 1) -> Model:
+            return load_model(
+                spec,
+                self.backend,
+                model_dir=model_dir,
+                num_threads=num_threads,
+                batch=batch,
+                verify=verify_models,
+            )
+
+        self.detector = FaceDetector(_load(DETECTOR), min_score=min_detection_score)
+        self.mesh = FaceMesh(_load(MESH))
+        self.iris = IrisLandmarks(_load(IRIS, batch=2)) if iris else None
         self._rgba: np.ndarray | None = None
         self.reset()
 
@@ -203,7 +232,8 @@ class FaceTracker:
             found = self._detect(frame, timings)
             if found is None:
                 return self._no_face(presence, True, timings, t0)
-            mesh, presence = self._run_mesh(frame, found, timings)
+            rect = found
+            mesh, presence = self._run_mesh(frame, rect, timings)
         if presence < self.min_presence:
             return self._no_face(presence, detected, timings, t0)
 
@@ -215,11 +245,25 @@ class FaceTracker:
         ibug = mesh_to_ibug68(mesh)
 
         box = mesh_box(mesh)
-        self._rect = rect_from_mesh_box(mesh, box)
+        self._rect = self._next_rect(rect, rect_from_mesh_box(mesh, box))
         self._box = box
         self._since_detect = 1 if detected else self._since_detect + 1
         timings["total"] = (time.perf_counter() - t0) * 1e3
         return TrackResult(True, presence, mesh, iris, ibug, box, detected, timings)
+
+    def _next_rect(self, current: CropRect, proposed: CropRect) -> CropRect:
+        """Apply the crop hysteresis (see :data:`HOLD_SHIFT`)."""
+        if not self.hold_crop:
+            return proposed
+        side = current.side
+        d_angle = abs(math.remainder(proposed.angle - current.angle, math.tau))
+        if (
+            math.hypot(proposed.cx - current.cx, proposed.cy - current.cy) <= HOLD_SHIFT * side
+            and abs(proposed.side - side) <= HOLD_SCALE * side
+            and d_angle <= HOLD_ANGLE
+        ):
+            return current
+        return proposed
 
     def _no_face(
         self, presence: float, detected: bool, timings: dict[str, float], t0: float

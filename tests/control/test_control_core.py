@@ -1,0 +1,192 @@
+"""services.control.core: what reaches the servos, and the watchdog that returns them to neutral."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import pytest
+
+from facesynth.profiles import Profile, ServoSpec
+from schemas.messages import ServoCommands
+from services.control.core import CommandError, CommandInfo, ControlCore, Watchdog
+
+PROFILE = Profile(
+    name="rig",
+    servos=[
+        ServoSpec(
+            name="jaw",
+            channel=0,
+            points=[57],
+            min_us=1000,
+            neutral_us=1500,
+            max_us=2000,
+            face_min=-0.1,
+            face_max=0.1,
+        ),
+        ServoSpec(
+            name="brow",
+            channel=1,
+            points=[19],
+            min_us=900,
+            neutral_us=1200,
+            max_us=2100,
+            face_min=-0.1,
+            face_max=0.1,
+        ),
+        ServoSpec(
+            name="lip",
+            channel=2,
+            points=[48],
+            min_us=1100,
+            neutral_us=1400,
+            max_us=1700,
+            face_min=-0.1,
+            face_max=0.1,
+            reversed=True,
+        ),
+    ],
+)
+NEUTRAL = {"jaw": 1500.0, "brow": 1200.0, "lip": 1400.0}
+
+
+def _commands(positions: dict[str, float], **kw: Any) -> ServoCommands:
+    fields: dict[str, Any] = dict(
+        seq=1, t_capture_ns=2, t_media_ns=3, face=True, profile="rig", positions=positions
+    )
+    fields.update(kw)
+    return ServoCommands(**fields)
+
+
+def test_starts_at_neutral() -> None:
+    assert ControlCore(PROFILE).last == NEUTRAL
+
+
+@pytest.mark.parametrize(
+    ("positions", "expected"),
+    [
+        (
+            {"jaw": 1600.0, "brow": 1000.0, "lip": 1500.0},
+            {"jaw": 1600.0, "brow": 1000.0, "lip": 1500.0},
+        ),
+        (
+            {"jaw": 2500.0, "brow": 100.0, "lip": 1700.5},
+            {"jaw": 2000.0, "brow": 900.0, "lip": 1700.0},
+        ),
+        ({"jaw": 999.999}, {"jaw": 1000.0, "brow": 1200.0, "lip": 1400.0}),
+        ({"jaw": math.inf, "brow": -math.inf}, {"jaw": 2000.0, "brow": 900.0, "lip": 1400.0}),
+        ({"brow": 2100.0}, {"jaw": 1500.0, "brow": 2100.0, "lip": 1400.0}),
+        ({}, NEUTRAL),
+    ],
+    ids=[
+        "inside",
+        "clamped-each-to-its-own-limits",
+        "just-below-min",
+        "infinities",
+        "only-one-servo",
+        "empty",
+    ],
+)
+def test_accept_clamps_and_fills_in(positions: dict[str, float], expected: dict[str, float]):
+    core = ControlCore(PROFILE)
+    assert core.accept(_commands(positions)) == expected
+    assert core.last == expected
+
+
+def test_missing_servos_keep_their_last_value() -> None:
+    core = ControlCore(PROFILE)
+    core.accept(_commands({"jaw": 1900.0, "brow": 1000.0, "lip": 1200.0}))
+    assert core.accept(_commands({"brow": 2000.0})) == {
+        "jaw": 1900.0,
+        "brow": 2000.0,
+        "lip": 1200.0,
+    }
+    assert core.accept(_commands({})) == {"jaw": 1900.0, "brow": 2000.0, "lip": 1200.0}
+
+
+@pytest.mark.parametrize(
+    ("commands", "detail"),
+    [
+        (
+            _commands({"jaw": 1600.0}, profile="paper16"),
+            "commands are for profile 'paper16'; this controller drives 'rig'",
+        ),
+        (_commands({"jaw": 1600.0, "tail": 1500.0}), "unknown servos for profile 'rig': ['tail']"),
+        (
+            _commands({"zeta": 1.0, "alpha": 2.0}),
+            "unknown servos for profile 'rig': ['alpha', 'zeta']",
+        ),
+    ],
+    ids=["other-profile", "one-unknown-servo", "unknown-servos-sorted"],
+)
+def test_refused_commands_change_nothing(commands: ServoCommands, detail: str) -> None:
+    core = ControlCore(PROFILE)
+    before = core.accept(_commands({"jaw": 1800.0, "brow": 950.0}))
+    with pytest.raises(CommandError) as info:
+        core.accept(commands)
+    assert str(info.value) == detail
+    assert core.last == before  # refused whole, not half applied
+
+
+@pytest.mark.parametrize("bad", [math.nan, -math.nan], ids=["nan", "minus-nan"])
+def test_non_finite_position_never_reaches_a_servo(bad: float) -> None:
+    # codec.decode refuses NaN on the wire, but the core promises "every position is clamped to
+    # its servo's limits, whatever T computed": a NaN must not pass through clamp() unchanged.
+    core = ControlCore(PROFILE)
+    before = core.accept(_commands({"jaw": 1800.0}))
+    with pytest.raises(CommandError, match="jaw"):
+        core.accept(_commands({"jaw": bad, "brow": 1000.0}))
+    assert core.last == before
+
+
+def test_neutral_resets_the_last_positions() -> None:
+    core = ControlCore(PROFILE)
+    core.accept(_commands({"jaw": 1900.0, "lip": 1111.0}))
+    assert core.neutral() == NEUTRAL
+    assert core.last == NEUTRAL
+    assert core.accept(_commands({"brow": 1000.0})) == {**NEUTRAL, "brow": 1000.0}
+
+
+def test_command_info_is_frozen() -> None:
+    info = CommandInfo(frame=3, t_capture_ns=4, face=True)
+    with pytest.raises(AttributeError):
+        info.frame = 5  # type: ignore[misc]
+
+
+# --- Watchdog ---------------------------------------------------------------------------------
+
+MS = 1_000_000
+
+
+def test_watchdog_is_quiet_before_the_first_command() -> None:
+    dog = Watchdog(0.5)
+    assert [dog.expired(t * 1000 * MS) for t in range(10)] == [False] * 10
+
+
+def test_watchdog_fires_exactly_once_per_silence() -> None:
+    dog = Watchdog(0.5)
+    dog.feed(1000 * MS)
+    assert dog.expired(1000 * MS) is False
+    assert dog.expired(1499 * MS) is False
+    assert dog.expired(1500 * MS) is True  # exactly the timeout
+    assert [dog.expired((1500 + i * 100) * MS) for i in range(1, 20)] == [False] * 19
+    dog.feed(5000 * MS)  # commands are back
+    assert dog.expired(5400 * MS) is False
+    assert dog.expired(5600 * MS) is True  # the next silence fires again, once
+    assert dog.expired(9000 * MS) is False
+
+
+def test_feeding_keeps_the_watchdog_quiet() -> None:
+    dog = Watchdog(0.1)
+    fired = []
+    for i in range(50):  # a command every 40 ms
+        dog.feed(i * 40 * MS)
+        fired.append(dog.expired(i * 40 * MS + 39 * MS))
+    assert not any(fired)
+    assert dog.expired(49 * 40 * MS + 100 * MS) is True
+
+
+@pytest.mark.parametrize("timeout", [0.0, -1.0, math.nan], ids=["zero", "negative", "nan"])
+def test_watchdog_timeout_must_be_positive(timeout: float) -> None:
+    with pytest.raises(ValueError, match="the watchdog timeout must be positive"):
+        Watchdog(timeout)

@@ -1,0 +1,209 @@
+"""services.control.drivers: the record driver and the typed driver configuration."""
+
+from __future__ import annotations
+
+import json
+import re
+import time
+from pathlib import Path
+
+import pytest
+
+from services.control.core import CommandInfo
+from services.control.drivers.base import DriverError
+from services.control.drivers.config import (
+    DriverConfigError,
+    RecordConfig,
+    load_driver_config,
+    make_driver,
+    parse_driver_config,
+)
+from services.control.drivers.record import RecordDriver, RecordLine, read_record
+
+KEYS = {"seq", "frame", "t_capture_ns", "t_sent_ns", "face", "servos"}
+
+
+async def test_lines_have_exactly_the_documented_keys(tmp_path: Path) -> None:
+    out = tmp_path / "deep" / "dir" / "commands.jsonl"
+    driver = RecordDriver(out)
+    await driver.connect()
+    before = time.time_ns()
+    await driver.send({"jaw": 1500.0, "brow": 1234.56789}, CommandInfo(7, 1111, True))
+    await driver.neutral({"jaw": 1500.0, "brow": 1200.0})
+    after = time.time_ns()
+    await driver.close()
+    lines = [json.loads(line) for line in out.read_text().splitlines()]
+    assert len(lines) == 2
+    assert all(set(line) == KEYS for line in lines)
+    first, second = lines
+    assert first["seq"] == 0 and second["seq"] == 1
+    assert (first["frame"], first["t_capture_ns"], first["face"]) == (7, 1111, True)
+    assert first["servos"] == {"jaw": 1500.0, "brow": 1234.568}  # rounded to 0.001 µs
+    assert (second["frame"], second["t_capture_ns"], second["face"]) == (None, None, False)
+    assert second["servos"] == {"jaw": 1500.0, "brow": 1200.0}
+    assert before <= first["t_sent_ns"] <= second["t_sent_ns"] <= after
+    assert driver.count == 2
+
+
+async def test_every_line_is_flushed_while_open(tmp_path: Path) -> None:
+    out = tmp_path / "commands.jsonl"
+    driver = RecordDriver(out)
+    await driver.connect()
+    try:
+        for i in range(3):
+            await driver.send({"jaw": 1500.0 + i}, CommandInfo(i, i + 1, True))
+            # Another process reading the file now sees every line so far, complete.
+            on_disk = out.read_bytes()
+            assert on_disk.endswith(b"\n")
+            assert [line.servos["jaw"] for line in read_record(out)] == [
+                1500.0 + k for k in range(i + 1)
+            ]
+    finally:
+        await driver.close()
+
+
+async def test_connect_truncates_an_old_record(tmp_path: Path) -> None:
+    out = tmp_path / "commands.jsonl"
+    out.write_text("old content\n" * 5)
+    driver = RecordDriver(out)
+    await driver.connect()
+    await driver.send({"jaw": 1600.0}, CommandInfo(0, 1, True))
+    await driver.close()
+    assert len(read_record(out)) == 1
+
+
+def test_read_record_ignores_a_torn_last_line(tmp_path: Path) -> None:
+    out = tmp_path / "commands.jsonl"
+    good = [
+        {
+            "seq": i,
+            "frame": i,
+            "t_capture_ns": 10 + i,
+            "t_sent_ns": 20 + i,
+            "face": True,
+            "servos": {"jaw": 1500.0 + i},
+        }
+        for i in range(2)
+    ]
+    text = "".join(json.dumps(line) + "\n" for line in good)
+    out.write_text(text + '{"seq": 2, "frame": 2, "t_capt')
+    lines = read_record(out)
+    assert lines == [RecordLine(**line) for line in good]  # type: ignore[arg-type]
+    out.write_text(text + json.dumps(good[0]))  # complete JSON but no newline: still torn
+    assert len(read_record(out)) == 2
+
+
+async def test_send_before_connect(tmp_path: Path) -> None:
+    driver = RecordDriver(tmp_path / "x.jsonl")
+    with pytest.raises(DriverError, match="record driver is not connected"):
+        await driver.send({"jaw": 1500.0}, CommandInfo(0, 0, True))
+
+
+async def test_send_after_close(tmp_path: Path) -> None:
+    driver = RecordDriver(tmp_path / "x.jsonl")
+    await driver.connect()
+    await driver.close()
+    await driver.close()  # closing twice is harmless
+    with pytest.raises(DriverError, match="not connected"):
+        await driver.send({"jaw": 1500.0}, CommandInfo(0, 0, True))
+
+
+async def test_unopenable_record_file(tmp_path: Path) -> None:
+    folder = tmp_path / "a-folder"
+    folder.mkdir()
+    with pytest.raises(DriverError, match=f"cannot open record file {re.escape(str(folder))}"):
+        await RecordDriver(folder).connect()
+    blocker = tmp_path / "file"
+    blocker.write_text("")
+    with pytest.raises(DriverError, match="cannot open record file"):
+        await RecordDriver(blocker / "sub" / "x.jsonl").connect()
+
+
+# --- configuration ----------------------------------------------------------------------------
+
+
+def test_parse_record_config() -> None:
+    config = parse_driver_config({"driver": "record", "out": "c.jsonl"})
+    assert config == RecordConfig(out="c.jsonl")
+    driver = make_driver(config)
+    assert isinstance(driver, RecordDriver)
+    assert driver.path == Path("c.jsonl")
+
+
+@pytest.mark.parametrize(
+    ("data", "detail"),
+    [
+        ({"driver": "serial", "out": "x"}, "Invalid value 'serial' - at `$.driver`"),
+        ({"driver": 3, "out": "x"}, "`$.driver`"),
+        ({"driver": "record"}, "Object missing required field `out`"),
+        ({"driver": "record", "out": 5}, "Expected `str`, got `int` - at `$.out`"),
+        ({"driver": "record", "out": "x", "baud": 9600}, "Object contains unknown field `baud`"),
+    ],
+    ids=[
+        "unknown-driver",
+        "driver-not-a-string",
+        "missing-out",
+        "out-not-a-string",
+        "unknown-field",
+    ],
+)
+def test_bad_driver_configs(data: dict[str, object], detail: str) -> None:
+    with pytest.raises(DriverConfigError) as info:
+        parse_driver_config(data, "rig.toml")
+    message = str(info.value)
+    assert message.startswith("rig.toml: ")
+    assert detail in message
+    assert message.endswith("(drivers: record)")
+
+
+@pytest.mark.parametrize(
+    ("name", "text"),
+    [
+        ("driver.toml", 'driver = "record"\nout = "rec.jsonl"\n'),
+        ("driver.json", '{"driver": "record", "out": "rec.jsonl"}'),
+        ("driver.cfg", 'driver = "record"\nout = "rec.jsonl"\n'),
+    ],
+    ids=["toml", "json", "other-suffix-is-toml"],
+)
+def test_load_driver_config(tmp_path: Path, name: str, text: str) -> None:
+    path = tmp_path / name
+    path.write_text(text)
+    assert load_driver_config(path) == RecordConfig(out="rec.jsonl")
+
+
+@pytest.mark.parametrize(
+    ("name", "content", "detail"),
+    [
+        ("bad.toml", b'driver = "record\n', "not valid toml"),
+        ("bad.json", b'{"driver": "record",', "not valid json"),
+        ("bad.json", b'["record"]', "expected a table of settings"),
+        ("bad.json", b'"record"', "expected a table of settings"),
+        ("bad.toml", b'driver = "nope"\nout = "x"\n', "Invalid value 'nope'"),
+        ("bad.toml", b'driver = "record"\nout = "caf\xe9"\n', "cannot read driver config"),
+        ("noext", b"driver = \n", "not valid TOML"),
+    ],
+    ids=[
+        "bad-toml",
+        "bad-json",
+        "json-array",
+        "json-string",
+        "unknown-driver",
+        "not-utf8",
+        "no-suffix",
+    ],
+)
+def test_bad_driver_config_files(tmp_path: Path, name: str, content: bytes, detail: str) -> None:
+    path = tmp_path / name
+    path.write_bytes(content)
+    with pytest.raises(DriverConfigError) as info:
+        load_driver_config(path)
+    message = str(info.value)
+    assert str(path) in message
+    assert detail in message
+
+
+def test_missing_driver_config(tmp_path: Path) -> None:
+    path = tmp_path / "gone.toml"
+    where = re.escape(str(path))
+    with pytest.raises(DriverConfigError, match=f"cannot read driver config {where}"):
+        load_driver_config(path)
