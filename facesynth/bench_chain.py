@@ -42,6 +42,8 @@ class ChainBench:
     peak_rss_mb: dict[str, float] = field(default_factory=dict)
     dropped: dict[str, int] = field(default_factory=dict)
     backend: str = ""
+    encoding: str = "jpeg"
+    mode: str = "client"
 
 
 def _facesynth(*args: str, log: Path) -> subprocess.Popen[bytes]:
@@ -98,6 +100,9 @@ def bench_chain(
     seconds: float = 15.0,
     fps: float = 30.0,
     openface_csv: str | None = None,
+    encoding: str = "jpeg",
+    threads: int = 1,
+    mode: str = "client",
 ) -> ChainBench:
     """Run the benchmark and return its figures."""
     frames = max(1, int(seconds * fps))
@@ -109,9 +114,13 @@ def bench_chain(
         procs: dict[str, subprocess.Popen[bytes]] = {}
         try:
             locator = _router_locator(router_log, router)
-            common = ["--connect", locator, "--rig", rig, "--stats-interval", "0.5"]
+            common = ["--connect", locator, "--rig", rig, "--stats-interval", "0.5", "--mode", mode]
             record = folder / "commands.jsonl"
-            points_args = ["--openface-csv", openface_csv, "--loop-replay"] if openface_csv else []
+            points_args = (
+                ["--openface-csv", openface_csv, "--loop-replay"]
+                if openface_csv
+                else ["--threads", str(threads)]
+            )
             procs["control"] = _facesynth(
                 "control",
                 "--driver",
@@ -137,6 +146,8 @@ def bench_chain(
                 "points,features,translator,control",
                 "--wait-timeout",
                 "60",
+                "--encoding",
+                encoding,
                 *common,
                 log=folder / "sensor.log",
             )
@@ -183,7 +194,9 @@ def bench_chain(
         seconds=span,
         fps=fps,
         peak_rss_mb=rss,
-        backend="openface replay" if openface_csv else "tracker",
+        backend="openface replay" if openface_csv else f"tracker ({threads} thread(s))",
+        encoding=encoding,
+        mode=mode,
     )
     if latencies.size:
         p50, p99, worst = np.percentile(latencies, [50, 99, 100])
@@ -199,8 +212,10 @@ def bench_chain(
 def format_chain_bench(result: ChainBench) -> str:
     """The figures as a printable table."""
     lines = [
-        f"facesynth bench chain: 5 processes + router on loopback, P = {result.backend}, "
-        f"{result.frames_sent} frames at {result.fps:g} fps, {os.cpu_count()} cores",
+        f"facesynth bench chain: 5 {result.mode} processes + router on loopback, "
+        f"P = {result.backend}, "
+        f"{result.frames_sent} {result.encoding} frames at {result.fps:g} fps, "
+        f"{os.cpu_count()} cores",
         f"{'stage':<11} {'p50 ms':>8} {'p99 ms':>8} {'dropped':>8} {'peak RSS MB':>12}"
         "   (latency: capture → this stage publishes)",
     ]

@@ -124,7 +124,9 @@ def build_backend(args: argparse.Namespace) -> PointsBackend:
         return TrackReplay(args.points_jsonl, loop=loop)
     from services.points.tracking import TrackerBackend  # OpenCV and the models: tracker hosts
 
-    return TrackerBackend(backend=args.inference)
+    if not 1 <= args.threads <= 64:
+        raise OptionError("--threads must be 1..64")
+    return TrackerBackend(backend=args.inference, num_threads=args.threads)
 
 
 def build_calibration(args: argparse.Namespace) -> Calibration | None:

@@ -114,6 +114,9 @@ def _points_arguments(parser: argparse.ArgumentParser) -> None:
         default="auto",
         help="tracker inference backend (default auto: LiteRT when installed)",
     )
+    group.add_argument(
+        "--threads", type=int, default=1, help="tracker inference threads (default 1)"
+    )
 
 
 def _mapping_arguments(
@@ -289,6 +292,13 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--frames", type=int, help="tracker: frames to measure (default: the whole video)"
+    )
+    p.add_argument(
+        "--encoding", choices=("jpeg", "raw"), default="jpeg", help="chain: frame encoding"
+    )
+    p.add_argument("--threads", type=int, default=1, help="chain: tracker inference threads")
+    p.add_argument(
+        "--mode", choices=("client", "peer"), default="client", help="chain: Zenoh mode of services"
     )
     p.add_argument(
         "--backends", default="litert,opencv", help="tracker: inference backends to compare"

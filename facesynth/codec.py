@@ -11,6 +11,7 @@ import math
 from typing import Any, TypeVar
 
 import msgspec
+import numpy as np
 
 from schemas.messages import Features, Frame, Points, ServiceStats, ServoCommands
 
@@ -52,6 +53,16 @@ def decode(payload: bytes | bytearray | memoryview, cls: type[M]) -> M:
 def _finite(value: float, what: str, limit: float = math.inf) -> None:
     if not math.isfinite(value) or abs(value) > limit:
         raise MessageError(f"{what} is {value!r}: must be a finite number within ±{limit:g}")
+
+
+def _all_finite(values: list[float], what: str, limit: float) -> None:
+    """Check a list of numbers at once (vectorised: a mesh has 1,404 of them)."""
+    if not values:
+        return
+    array = np.asarray(values, dtype=np.float64)
+    bad = ~np.isfinite(array) | (np.abs(array) > limit)
+    if bad.any():
+        _finite(float(array[int(np.argmax(bad))]), what, limit)
 
 
 def _common(seq: int, t_capture_ns: int, t_media_ns: int) -> None:
@@ -96,8 +107,7 @@ def validate_points(points: Points) -> None:
                 f"point set {point_set.scheme!r} has {len(point_set.coords)} values, "
                 f"not a positive multiple of {point_set.dims}"
             )
-        for value in point_set.coords:
-            _finite(value, f"a coordinate of {point_set.scheme!r}", MAX_COORD)
+        _all_finite(point_set.coords, f"a coordinate of {point_set.scheme!r}", MAX_COORD)
 
 
 def validate_features(features: Features) -> None:
@@ -107,10 +117,8 @@ def validate_features(features: Features) -> None:
         raise MessageError(f"{len(features.deltas)} deltas for {len(features.distances)} distances")
     if not features.face and (features.distances or features.deltas):
         raise MessageError("a 'no face' message must not carry features")
-    for value in features.distances:
-        _finite(value, "a distance", MAX_COORD)
-    for value in features.deltas:
-        _finite(value, "a delta", MAX_COORD)
+    _all_finite(features.distances, "a distance", MAX_COORD)
+    _all_finite(features.deltas, "a delta", MAX_COORD)
     for name, value in features.named.items():
         _finite(value, f"feature {name!r}", MAX_COORD)
 

@@ -235,6 +235,9 @@ def cmd_bench(args: argparse.Namespace) -> int:
                     seconds=args.seconds,
                     fps=args.fps,
                     openface_csv=args.openface_csv,
+                    encoding=args.encoding,
+                    threads=args.threads,
+                    mode=args.mode,
                 )
             )
         )

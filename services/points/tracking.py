@@ -19,11 +19,18 @@ class TrackerBackend(PointsBackend):
     name = "tracker"
 
     def __init__(
-        self, backend: str = "auto", *, redetect_every: int = 30, select: str = "largest"
+        self,
+        backend: str = "auto",
+        *,
+        redetect_every: int = 30,
+        select: str = "largest",
+        num_threads: int = 1,
     ) -> None:
         from services.points.tracker import FaceTracker
 
-        self.tracker = FaceTracker(backend=backend, redetect_every=redetect_every, select=select)
+        self.tracker = FaceTracker(
+            backend=backend, redetect_every=redetect_every, select=select, num_threads=num_threads
+        )
 
     def needs_pixels(self) -> bool:
         return True
