@@ -20,6 +20,7 @@ import msgspec
 
 from facesynth.atomic import write_atomic
 from facesynth.landmarks import N_IBUG
+from facesynth.named_files import NamedFiles
 
 FORMAT = "facesynth.calibration"
 
@@ -42,29 +43,20 @@ class Calibration(msgspec.Struct, forbid_unknown_fields=True, kw_only=True):
     created: str = ""
 
 
+CALIBRATIONS = NamedFiles("calibration", ".json", "FACESYNTH_CALIBRATIONS")
+
+
 def search_dirs() -> list[Path]:
     """Folders searched for ``<name>.json``, first match wins."""
-    dirs: list[Path] = []
-    if env := os.environ.get("FACESYNTH_CALIBRATIONS"):
-        dirs.extend(Path(p) for p in env.split(os.pathsep) if p)
-    dirs.append(Path.home() / ".config" / "facesynth" / "calibrations")
-    return dirs
+    return CALIBRATIONS.search_dirs()
 
 
 def resolve_calibration(name_or_path: str) -> Path:
     """The file a calibration name or path refers to, or raise :class:`CalibrationError`."""
-    candidate = Path(name_or_path)
-    if candidate.suffix == ".json" or os.sep in name_or_path:
-        if candidate.is_file():
-            return candidate
-        raise CalibrationError(f"calibration file {name_or_path} does not exist")
-    for folder in search_dirs():
-        path = folder / f"{name_or_path}.json"
-        if path.is_file():
-            return path
-    raise CalibrationError(
-        f"no calibration named {name_or_path!r} in {', '.join(map(str, search_dirs()))}"
-    )
+    try:
+        return CALIBRATIONS.resolve(name_or_path)
+    except LookupError as exc:
+        raise CalibrationError(str(exc)) from None
 
 
 def validate_calibration(calibration: Calibration) -> list[str]:

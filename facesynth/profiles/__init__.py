@@ -12,13 +12,13 @@ Lookup order for a name: a path to an existing file; ``$FACESYNTH_PROFILES``;
 from __future__ import annotations
 
 import math
-import os
 import tomllib
 from pathlib import Path
 
 import msgspec
 
 from facesynth.landmarks import N_IBUG
+from facesynth.named_files import NamedFiles
 
 PACKAGE_DIR = Path(__file__).parent
 
@@ -64,35 +64,25 @@ class Profile(msgspec.Struct, forbid_unknown_fields=True, kw_only=True):
         return {spec.name: spec.neutral_us for spec in self.servos}
 
 
+PROFILES = NamedFiles("profile", ".toml", "FACESYNTH_PROFILES", PACKAGE_DIR, list_available=True)
+
+
 def search_dirs() -> list[Path]:
     """Folders searched for ``<name>.toml``, first match wins."""
-    dirs: list[Path] = []
-    if env := os.environ.get("FACESYNTH_PROFILES"):
-        dirs.extend(Path(p) for p in env.split(os.pathsep) if p)
-    dirs.append(Path.home() / ".config" / "facesynth" / "profiles")
-    dirs.append(PACKAGE_DIR)
-    return dirs
+    return PROFILES.search_dirs()
 
 
 def available_profiles() -> list[str]:
     """Names of every profile found in the search folders."""
-    names = {p.stem for d in search_dirs() if d.is_dir() for p in d.glob("*.toml")}
-    return sorted(names)
+    return PROFILES.available()
 
 
 def resolve_profile(name_or_path: str) -> Path:
     """The file a profile name or path refers to, or raise :class:`ProfileError`."""
-    candidate = Path(name_or_path)
-    if candidate.suffix == ".toml" or os.sep in name_or_path:
-        if candidate.is_file():
-            return candidate
-        raise ProfileError(f"profile file {name_or_path} does not exist")
-    for folder in search_dirs():
-        path = folder / f"{name_or_path}.toml"
-        if path.is_file():
-            return path
-    known = ", ".join(available_profiles()) or "none"
-    raise ProfileError(f"no profile named {name_or_path!r} (available: {known})")
+    try:
+        return PROFILES.resolve(name_or_path)
+    except LookupError as exc:
+        raise ProfileError(str(exc)) from None
 
 
 def parse_profile(text: str, source: str = "<profile>") -> Profile:
