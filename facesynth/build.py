@@ -126,7 +126,14 @@ def build_backend(args: argparse.Namespace) -> PointsBackend:
 
     if not 1 <= args.threads <= 64:
         raise OptionError("--threads must be 1..64")
-    return TrackerBackend(backend=args.inference, num_threads=args.threads)
+    if args.redetect_every < 1:
+        raise OptionError("--redetect-every must be at least 1")
+    return TrackerBackend(
+        backend=args.inference,
+        num_threads=args.threads,
+        select=args.select,
+        redetect_every=args.redetect_every,
+    )
 
 
 def build_calibration(args: argparse.Namespace) -> Calibration | None:

@@ -117,6 +117,19 @@ def _points_arguments(parser: argparse.ArgumentParser) -> None:
     group.add_argument(
         "--threads", type=int, default=1, help="tracker inference threads (default 1)"
     )
+    group.add_argument(
+        "--select",
+        choices=("largest", "score"),
+        default="largest",
+        help="several faces: follow the largest (default) or best-scoring one, then stick to it",
+    )
+    group.add_argument(
+        "--redetect-every",
+        type=int,
+        default=30,
+        metavar="N",
+        help="while tracking, re-check with the face detector every N frames (default 30)",
+    )
 
 
 def _mapping_arguments(

@@ -63,6 +63,8 @@ CASES = [
     ("missing video", ["sensor", "--video", "/nonexistent.mp4"], "does not exist"),
     ("two sources", ["sensor", "--video", "{garbage.mp4}", "--ticks", "3"], "choose one"),
     ("bad window", ["sensor", "--ticks", "3", "--window", "0"], "--window"),
+    ("bad threads", ["points", "--threads", "0"], "--threads"),
+    ("bad redetect", ["points", "--redetect-every", "0"], "--redetect-every"),
     (
         "broken zenoh config",
         ["router", "--zenoh-config", "{bad.json5}"],
