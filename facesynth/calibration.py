@@ -19,6 +19,7 @@ from typing import Literal
 import msgspec
 
 from facesynth.atomic import write_atomic
+from facesynth.feature_names import NAMES
 from facesynth.landmarks import N_IBUG
 from facesynth.named_files import NamedFiles
 
@@ -41,6 +42,13 @@ class Calibration(msgspec.Struct, forbid_unknown_fields=True, kw_only=True):
     delta_min: list[float]
     delta_max: list[float]
     created: str = ""
+    # Named features (facesynth.feature_names): the neutral's raw values and, relative to it,
+    # the calibrated extremes; features missing here keep their defaults.
+    named_neutral: dict[str, float] = {}
+    named_min: dict[str, float] = {}
+    named_max: dict[str, float] = {}
+    # The neutral face mesh (468 x 3, flattened), for head pose relative to neutral.
+    neutral_mesh: list[float] = []
 
 
 CALIBRATIONS = NamedFiles("calibration", ".json", "FACESYNTH_CALIBRATIONS")
@@ -72,8 +80,27 @@ def validate_calibration(calibration: Calibration) -> list[str]:
             problems.append(f"{field} has {len(values)} values, needs {N_IBUG}")
         elif not all(math.isfinite(v) for v in values):
             problems.append(f"{field} has a value that is not a finite number")
+    for field in ("named_neutral", "named_min", "named_max"):
+        values = getattr(calibration, field)
+        unknown = sorted(set(values) - set(NAMES))
+        if unknown:
+            problems.append(f"{field} names unknown features {unknown}")
+        if not all(math.isfinite(v) for v in values.values()):
+            problems.append(f"{field} has a value that is not a finite number")
+    if calibration.neutral_mesh and (
+        len(calibration.neutral_mesh) != 468 * 3
+        or not all(math.isfinite(v) for v in calibration.neutral_mesh)
+    ):
+        problems.append("neutral_mesh needs 1404 finite values (468 x 3) or none")
     if problems:
         return problems
+    wrong_named = sorted(
+        name
+        for name in set(calibration.named_min) | set(calibration.named_max)
+        if not calibration.named_min.get(name, -1.0) < 0 < calibration.named_max.get(name, 1.0)
+    )
+    if wrong_named:
+        problems.append(f"named features {wrong_named} need named_min < 0 < named_max")
     if any(v < 0 for v in calibration.neutral):
         problems.append("neutral distances cannot be negative")
     wrong = [

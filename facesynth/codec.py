@@ -115,12 +115,18 @@ def validate_features(features: Features) -> None:
     _common(features.seq, features.t_capture_ns, features.t_media_ns)
     if features.deltas and len(features.deltas) != len(features.distances):
         raise MessageError(f"{len(features.deltas)} deltas for {len(features.distances)} distances")
-    if not features.face and (features.distances or features.deltas):
+    if not features.face and (
+        features.distances or features.deltas or features.named or features.displacements
+    ):
         raise MessageError("a 'no face' message must not carry features")
     _all_finite(features.distances, "a distance", MAX_COORD)
     _all_finite(features.deltas, "a delta", MAX_COORD)
-    for name, value in features.named.items():
-        _finite(value, f"feature {name!r}", MAX_COORD)
+    _all_finite(features.displacements, "a displacement", MAX_COORD)
+    if features.displacements and len(features.displacements) % 2:
+        raise MessageError(f"{len(features.displacements)} displacement values: not x, y pairs")
+    for table in (features.named, features.raw):
+        for name, value in table.items():
+            _finite(value, f"feature {name!r}", MAX_COORD)
 
 
 def validate_servo_commands(commands: ServoCommands) -> None:

@@ -83,6 +83,12 @@ class Features(msgspec.Struct, tag="features", tag_field=TAG_FIELD, kw_only=True
     (point 30) after rotation, translation and scale are removed with the outer eye corners
     (36, 45); unit = inter-ocular distance. ``deltas`` are the same relative to the performer's
     neutral face; they are only meaningful when ``neutral_ready`` is true.
+
+    ``named`` are the named features of ``facesynth.feature_names`` (head pose, gaze per eye,
+    eye openness, brow, lid, cheek, lip and jaw actions), relative to neutral and scaled to the
+    calibrated range (0 neutral, ±1 calibrated extremes); ``raw`` the same unscaled.
+    ``displacements`` are each ibug68 point's movement from neutral in the eye-aligned face frame,
+    flattened ``[dx0, dy0, dx1, …]`` in inter-ocular units, y up.
     """
 
     seq: int
@@ -94,6 +100,8 @@ class Features(msgspec.Struct, tag="features", tag_field=TAG_FIELD, kw_only=True
     distances: list[float] = []
     deltas: list[float] = []
     named: dict[str, float] = {}
+    raw: dict[str, float] = {}
+    displacements: list[float] = []
 
 
 class ServoCommands(msgspec.Struct, tag="servo_commands", tag_field=TAG_FIELD, kw_only=True):
