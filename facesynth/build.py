@@ -8,8 +8,6 @@ from __future__ import annotations
 
 import argparse
 
-import numpy as np
-
 from facesynth.bus.zenoh_bus import DEFAULT_ROUTER, ZenohOptions, endpoints
 from facesynth.calibration import Calibration, load_calibration
 from facesynth.data import sample_video
@@ -153,13 +151,17 @@ def build_processor(
     args: argparse.Namespace, calibration: Calibration | None, profile: Profile | None = None
 ) -> FeatureProcessor:
     """The feature processor, with the calibration's neutral when there is one."""
-    neutral = np.asarray(calibration.neutral) if calibration is not None else None
     seconds = args.neutral_seconds
     if seconds is None:
         seconds = profile.neutral_seconds if profile is not None else 1.0
     if not seconds > 0:
         raise OptionError("--neutral-seconds must be positive")
-    return FeatureProcessor(neutral=neutral, neutral_seconds=seconds)
+    auto = bool(getattr(args, "auto_range", False))
+    if calibration is not None:
+        return FeatureProcessor.from_calibration(
+            calibration, neutral_seconds=seconds, auto_range=auto
+        )
+    return FeatureProcessor(neutral_seconds=seconds, auto_range=auto)
 
 
 def build_translator(profile: Profile, calibration: Calibration | None) -> Translator:

@@ -151,6 +151,12 @@ def _mapping_arguments(
         )
     if neutral:
         group.add_argument(
+            "--auto-range",
+            action="store_true",
+            help="without a calibration: adapt the neutral (rolling median) and the feature "
+            "ranges (slowly decaying extremes) to the running stream",
+        )
+        group.add_argument(
             "--neutral-seconds",
             type=float,
             metavar="S",
@@ -276,6 +282,31 @@ def build_parser() -> argparse.ArgumentParser:
     _queue_argument(p, 8)
     _zenoh_arguments(p)
 
+    p = add(
+        "calibrate",
+        commands.cmd_calibrate,
+        "record a performer's neutral face and expression ranges (guided, or from a video)",
+    )
+    p.add_argument("name", help="calibration name (then: --calibration NAME)")
+    _source_arguments(p)
+    _points_arguments(p)
+    p.add_argument(
+        "--schedule",
+        metavar="STEP=START-END,…",
+        help="for a video: when each step happens, in seconds, e.g. neutral=0-2,smile=5-7",
+    )
+    p.add_argument(
+        "--steps",
+        default="neutral,raise_eyebrows,frown,look_left,look_right,look_up,look_down,"
+        "raise_cheeks,open_mouth,smile",
+        help="live camera: the steps to guide through, in order (default: the paper's ten)",
+    )
+    p.add_argument(
+        "--seconds", type=float, default=4.0, help="live camera: seconds per step (default 4)"
+    )
+    p.add_argument("--out", help="output file (default ~/.config/facesynth/calibrations/NAME.json)")
+    p.add_argument("--log-level", default="WARNING", choices=("DEBUG", "INFO", "WARNING", "ERROR"))
+
     p = add("router", commands.cmd_router, "run a Zenoh router (for hosts without zenohd)")
     _zenoh_arguments(p)
     p.set_defaults(mode="router")
@@ -292,7 +323,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("name", nargs="?", help="profile name or TOML path (check, show)")
 
     p = add("bench", commands.cmd_bench, "benchmarks: the five-process chain, or the tracker")
-    p.add_argument("what", choices=("chain", "tracker"))
+    p.add_argument("what", choices=("chain", "tracker", "smoothing"))
     p.add_argument("video", nargs="?", help="video (default: the bundled performer video)")
     p.add_argument(
         "--seconds", type=float, default=15.0, help="chain: seconds of real-time input (default 15)"
@@ -310,6 +341,10 @@ def build_parser() -> argparse.ArgumentParser:
         "--encoding", choices=("jpeg", "raw"), default="jpeg", help="chain: frame encoding"
     )
     p.add_argument("--threads", type=int, default=1, help="chain: tracker inference threads")
+    p.add_argument("--profile", default="paper16", help="smoothing: profile to measure")
+    p.add_argument(
+        "--track", help="smoothing: a facesynth track file to measure tracking noise from"
+    )
     p.add_argument(
         "--mode", choices=("client", "peer"), default="client", help="chain: Zenoh mode of services"
     )

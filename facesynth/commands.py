@@ -202,7 +202,9 @@ def format_status(alive: list[str], stats: dict[str, Any]) -> str:
 
 def cmd_profile(args: argparse.Namespace) -> int:
     """``facesynth profile list|check|show``."""
-    from facesynth.profiles import available_profiles, load_profile
+    import sys
+
+    from facesynth.profiles import ProfileError, available_profiles, describe_source, load_profile
 
     if args.action == "list":
         for name in available_profiles():
@@ -210,21 +212,32 @@ def cmd_profile(args: argparse.Namespace) -> int:
         return 0
     if not args.name:
         raise build.OptionError(f"profile {args.action} needs a profile name or path")
-    profile = load_profile(args.name)
     if args.action == "check":
+        try:
+            profile = load_profile(args.name)
+        except ProfileError as exc:  # every problem, one line each, as the CLI's errors
+            for problem in exc.problems:
+                print(f"facesynth profile: error: {problem}", file=sys.stderr)
+            return 2
         print(f"{args.name}: ok ({len(profile.servos)} servos)")
-    else:
-        for spec in profile.servos:
-            print(
-                f"{spec.channel:>3} {spec.name:<20} {spec.min_us:>7g} {spec.neutral_us:>7g} "
-                f"{spec.max_us:>7g} "
-                f"{'reversed' if spec.reversed else '':<8} points {spec.points}"
-            )
+        return 0
+    profile = load_profile(args.name)
+    for spec in profile.servos:
+        print(
+            f"{spec.channel:>3} {spec.name:<20} {spec.min_us:>7g} {spec.neutral_us:>7g} "
+            f"{spec.max_us:>7g} "
+            f"{'reversed' if spec.reversed else '':<8} {describe_source(spec)}"
+        )
     return 0
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
     """``facesynth bench chain|tracker``."""
+    if args.what == "smoothing":
+        from facesynth.bench_smoothing import bench_smoothing, format_smoothing
+
+        print(format_smoothing(bench_smoothing(args.profile, track=args.track)))
+        return 0
     if args.what == "chain":
         from facesynth.bench_chain import bench_chain, format_chain_bench
 
@@ -251,6 +264,14 @@ def cmd_bench(args: argparse.Namespace) -> int:
             bench_tracker(args.video or str(sample_video()), backends=backends, frames=args.frames)
         )
     )
+    return 0
+
+
+def cmd_calibrate(args: argparse.Namespace) -> int:
+    """``facesynth calibrate NAME``."""
+    from facesynth.calibrate_cli import run_calibration
+
+    run_calibration(args)
     return 0
 
 

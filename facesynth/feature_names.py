@@ -6,8 +6,9 @@ negative direction (one-sided features rarely go negative). Values beyond the ca
 are clamped to ±``SCALED_LIMIT``. ``Features.raw`` holds the same features unscaled (relative to
 neutral, in the units below), which is what calibration records.
 
-Right/left are the performer's own. Directions: x positive = toward the performer's left,
-y positive = up, as the performer sees it.
+Default ranges were measured on the bundled performer video with the tracker (the range a
+clear expression reaches); a calibration replaces them. Right/left are the performer's own.
+Directions: x positive = toward the performer's left, y positive = up, as the performer sees it.
 """
 
 from __future__ import annotations
@@ -39,21 +40,21 @@ FEATURES: Final[tuple[NamedFeature, ...]] = (
     NamedFeature("head_yaw", "degrees", "head turned toward the performer's left", -30.0, 30.0),
     NamedFeature("head_pitch", "degrees", "head tilted up (chin up)", -20.0, 20.0),
     NamedFeature(
-        "head_roll", "degrees", "head tilted toward the performer's left shoulder", -20.0, 20.0
+        "head_roll", "degrees", "head tilted toward the performer's left shoulder", -25.0, 25.0
     ),
     NamedFeature(
-        "gaze_right_x", "eye widths", "right eye looks toward the performer's left", -0.12, 0.12
+        "gaze_right_x", "eye widths", "right eye looks toward the performer's left", -0.15, 0.15
     ),
     NamedFeature("gaze_right_y", "eye widths", "right eye looks up", -0.08, 0.08),
     NamedFeature(
-        "gaze_left_x", "eye widths", "left eye looks toward the performer's left", -0.12, 0.12
+        "gaze_left_x", "eye widths", "left eye looks toward the performer's left", -0.15, 0.15
     ),
     NamedFeature("gaze_left_y", "eye widths", "left eye looks up", -0.08, 0.08),
     *_sided(
         "eye_open",
         "lid gap / eye width",
         "eye opened wider than neutral (negative: closing)",
-        -0.25,
+        -0.15,
         0.1,
     ),
     *_sided("brow_raise_inner", IOD, "inner end of the brow raised", -0.03, 0.08),
@@ -61,11 +62,11 @@ FEATURES: Final[tuple[NamedFeature, ...]] = (
     *_sided("brow_lower", IOD, "brow pulled down and together (frown)", -0.02, 0.06),
     *_sided("lid_tighten", IOD, "lower lid raised", -0.02, 0.04),
     *_sided("cheek_raise", IOD, "cheek raised", -0.02, 0.05),
-    *_sided("lip_corner_pull", IOD, "lip corner pulled up and out (smile)", -0.03, 0.08),
+    *_sided("lip_corner_pull", IOD, "lip corner pulled up and out (smile)", -0.05, 0.12),
     *_sided("lip_corner_depress", IOD, "lip corner pulled down", -0.02, 0.05),
-    NamedFeature("jaw_open", IOD, "jaw dropped (chin down)", -0.03, 0.35),
-    NamedFeature("lips_part", IOD, "inner lips apart", -0.02, 0.25),
-    NamedFeature("lip_pucker", IOD, "mouth narrowed (pucker)", -0.05, 0.08),
+    NamedFeature("jaw_open", IOD, "jaw dropped (chin down)", -0.05, 0.25),
+    NamedFeature("lips_part", IOD, "inner lips apart", -0.02, 0.2),
+    NamedFeature("lip_pucker", IOD, "mouth narrowed (pucker)", -0.15, 0.08),
 )
 
 BY_NAME: Final[dict[str, NamedFeature]] = {feature.name: feature for feature in FEATURES}

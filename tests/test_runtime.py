@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import itertools
 from collections.abc import Mapping
 from typing import Any
 
@@ -137,8 +138,12 @@ async def test_control_clamps_rejects_and_returns_to_neutral_on_silence() -> Non
     assert moved == [
         {**load_profile("paper16").neutral_positions(), "jaw": 2000.0, "right_eyebrow": 1000.0}
     ]
-    await _until(lambda: driver.sent[-1][1].frame is None and len(driver.sent) >= 3)
-    assert set(driver.sent[-1][0].values()) == {1500.0}
+    await _until(lambda: set(driver.sent[-1][0].values()) == {1500.0} and len(driver.sent) >= 3)
+    # The return to neutral is a ramp (paper16: neutral_ramp_s 0.5), not a jump.
+    ramp = [positions["jaw"] for positions, info in driver.sent if info.frame is None][1:]
+    assert len(ramp) > 3, ramp
+    assert all(a > b for a, b in itertools.pairwise(ramp)), ramp
+    assert ramp[0] < 2000.0 and ramp[-1] == 1500.0
     count = len(driver.sent)
     await asyncio.sleep(0.3)
     assert len(driver.sent) == count, "the watchdog fires once per silence"

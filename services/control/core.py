@@ -61,6 +61,24 @@ class ControlCore:
         self.last = self.profile.neutral_positions()
         return dict(self.last)
 
+    def ramp_to_neutral(self, steps: int) -> list[dict[str, float]]:
+        """Positions that take the face from where it is to neutral in ``steps`` even steps.
+
+        The last one is exactly neutral; each is remembered as the last position when sent
+        (call :meth:`mark_sent`), so a ramp interrupted by new commands resumes from there.
+        """
+        start = dict(self.last)
+        target = self.profile.neutral_positions()
+        count = max(1, steps)
+        return [
+            {name: start[name] + (target[name] - start[name]) * (i / count) for name in target}
+            for i in range(1, count + 1)
+        ]
+
+    def mark_sent(self, positions: dict[str, float]) -> None:
+        """Remember positions sent outside :meth:`accept` (a ramp step)."""
+        self.last = dict(positions)
+
 
 class Watchdog:
     """Says once, after ``timeout_ns`` without a command, that the face should go neutral."""

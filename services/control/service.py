@@ -3,13 +3,15 @@
 What was applied (after the checks and clamping) is published on ``…/servo_state``.
 
 The face starts at neutral, every command is checked and clamped by :class:`ControlCore`, and
-when commands stop for ``watchdog_s`` seconds the face returns to neutral. On shutdown the face
+when commands stop for ``watchdog_s`` seconds the face returns to neutral, ramped over the
+profile's ``neutral_ramp_s`` (new commands interrupt the ramp). On shutdown the face
 is put back to neutral before the driver closes.
 """
 
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import time
 
 from facesynth import codec
@@ -19,6 +21,9 @@ from facesynth.runtime import ServiceContext
 from schemas.messages import ServoCommands
 from services.control.core import CommandInfo, ControlCore, Watchdog
 from services.control.drivers.base import ServoDriver
+
+#: Steps per second of a return to neutral.
+RAMP_RATE_HZ = 25
 
 
 class ControlService:
@@ -33,6 +38,8 @@ class ControlService:
         self.queue = queue
         self.last_frame = -1
         self.progress = asyncio.Event()
+        #: Seconds to return to neutral when commands stop (the profile's ``neutral_ramp_s``).
+        self.ramp_s = max(0.0, profile.neutral_ramp_s)
 
     async def serve(self, ctx: ServiceContext) -> None:
         """Drive the servos until cancelled."""
@@ -48,42 +55,68 @@ class ControlService:
                 type(self.driver).__name__,
             )
             tick = min(0.1, self.watchdog.timeout_ns / 4e9)
-            while True:
-                try:
-                    sample = await asyncio.wait_for(subscription.receive(), tick)
-                except TimeoutError:
-                    if self.watchdog.expired(time.time_ns()):
-                        ctx.log.info(
-                            "no commands for %.2f s: face to neutral",
-                            self.watchdog.timeout_ns / 1e9,
-                        )
-                        await self.driver.neutral(self.core.neutral())
-                    continue
-                except SubscriptionClosed:
-                    return
-                ctx.stats.received += 1
-                try:
-                    commands = codec.decode(sample.payload, ServoCommands)
-                    positions = self.core.accept(commands)
-                except ValueError as exc:
-                    ctx.reject(f"{sample.key}: {exc}")
-                    continue
-                info = CommandInfo(commands.seq, commands.t_capture_ns, commands.face)
-                await self.driver.send(positions, info)
-                self.watchdog.feed(time.time_ns())
-                applied = ServoCommands(
-                    seq=commands.seq,
-                    t_capture_ns=commands.t_capture_ns,
-                    t_media_ns=commands.t_media_ns,
-                    face=commands.face,
-                    profile=commands.profile,
-                    positions=positions,
-                )
-                ctx.publish("servo_state", applied)
-                self.last_frame = max(self.last_frame, commands.seq)
-                self.progress.set()
+            ramp: asyncio.Task[None] | None = None
+            try:
+                while True:
+                    try:
+                        sample = await asyncio.wait_for(subscription.receive(), tick)
+                    except TimeoutError:
+                        if self.watchdog.expired(time.time_ns()):
+                            ctx.log.info(
+                                "no commands for %.2f s: face to neutral over %.2f s",
+                                self.watchdog.timeout_ns / 1e9,
+                                self.ramp_s,
+                            )
+                            ramp = asyncio.create_task(self._ramp_to_neutral())
+                        continue
+                    except SubscriptionClosed:
+                        return
+                    ctx.stats.received += 1
+                    try:
+                        commands = codec.decode(sample.payload, ServoCommands)
+                        positions = self.core.accept(commands)
+                    except ValueError as exc:
+                        ctx.reject(f"{sample.key}: {exc}")
+                        continue
+                    await _cancel(ramp)  # commands are back: they take over
+                    ramp = None
+                    info = CommandInfo(commands.seq, commands.t_capture_ns, commands.face)
+                    await self.driver.send(positions, info)
+                    self.watchdog.feed(time.time_ns())
+                    applied = ServoCommands(
+                        seq=commands.seq,
+                        t_capture_ns=commands.t_capture_ns,
+                        t_media_ns=commands.t_media_ns,
+                        face=commands.face,
+                        profile=commands.profile,
+                        positions=positions,
+                    )
+                    ctx.publish("servo_state", applied)
+                    self.last_frame = max(self.last_frame, commands.seq)
+                    self.progress.set()
+            finally:
+                await _cancel(ramp)
         finally:
             try:
                 await self.driver.neutral(self.core.neutral())
             finally:
                 await self.driver.close()
+
+    async def _ramp_to_neutral(self) -> None:
+        """Move to neutral in even steps over ``ramp_s`` (at once when it is 0)."""
+        steps = max(1, round(self.ramp_s * RAMP_RATE_HZ))
+        for positions in self.core.ramp_to_neutral(steps):
+            await self.driver.send(
+                positions, CommandInfo(frame=None, t_capture_ns=None, face=False)
+            )
+            self.core.mark_sent(positions)
+            if steps > 1:
+                await asyncio.sleep(self.ramp_s / steps)
+
+
+async def _cancel(task: asyncio.Task[None] | None) -> None:
+    """Cancel a return to neutral that is still running."""
+    if task is not None and not task.done():
+        task.cancel()
+        with contextlib.suppress(asyncio.CancelledError):
+            await task

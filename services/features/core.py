@@ -1,25 +1,66 @@
-"""Feature processor F, pure core: the paper's pose-free features (section 2.2.2).
+"""Feature processor F, pure core: the paper's pose-free features (section 2.2.2) and more.
 
 The two outer eye corners (36, 45) define a face frame: origin at their midpoint, x axis along
 the eye line, unit length = their distance (inter-ocular distance, IOD). In that frame the
 distance of every point to the nose tip (30) no longer depends on the head's in-plane position,
 rotation or scale. Features are also given relative to the performer's neutral face: from a
 calibration, or the median over the first second (media time) in which a face is seen.
+
+Beyond the paper, once the neutral is known every face frame also carries:
+
+* ``displacements``: each of the 68 points' movement from the neutral in the eye-corner frame
+  (IOD units, y up);
+* ``raw`` / ``named``: the named features of ``facesynth.feature_names`` relative to the neutral,
+  unscaled / scaled to the calibrated (or default) ranges (``services.features.expressions``);
+  gaze goes through the blink/wink rule of ``services.features.gaze``.
+
+The neutral covers the 68 distances, the 68 points (for displacements), the named features and
+the neutral mesh (the face frame and head-pose origin when points carry a 3D ``mesh468``). A
+calibration gives what it has; the first ``neutral_seconds`` with a face give the rest. Named
+features come from the mesh when the neutral has one (then a frame without a 3D mesh carries
+none: its 2D values would not match the neutral's), else from the 68 points alone (also when a
+calibration has a named neutral but no neutral mesh). With
+``auto_range=True`` the neutral then follows a rolling median and the ranges adapt
+(``services.features.autorange``).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from facesynth.landmarks import IBUG68, LEFT_EYE_OUTER, N_IBUG, NOSE_TIP, RIGHT_EYE_OUTER
+from facesynth.calibration import Calibration
+from facesynth.landmarks import IBUG68, IRIS10, MESH468, N_IBUG, NOSE_TIP
 from schemas.messages import Features, Points
+from services.features.expressions import (
+    default_ranges,
+    ranges_from,
+    raw_features,
+    relative,
+    scale,
+)
+from services.features.frame import MIN_IOD_PX, FeatureError, normalise
+from services.features.gaze import SIDES, GazeHold
+from services.features.neutral import AutoNeutral, NeutralFace, NeutralWindow, Sample, neutral_face
+from services.features.pose import N_MESH, MeshReference
 
-#: Eye corners closer than this (pixels) cannot define a face frame.
-MIN_IOD_PX = 1e-3
+__all__ = [
+    "MIN_IOD_PX",
+    "FeatureError",
+    "FeatureProcessor",
+    "NeutralEstimator",
+    "NeutralFace",
+    "Sample",
+    "ibug_points",
+    "neutral_face",
+    "normalise",
+    "nose_distances",
+    "optional_points",
+]
 
-
-class FeatureError(ValueError):
-    """Points from which no features can be computed (missing scheme, degenerate eyes)."""
+N_IRIS = 10
+GAZE = tuple(f"gaze_{side}_{axis}" for side in SIDES for axis in "xy")
+#: y of the eye-corner frame points down; displacements (like the named features) use y up.
+_Y_UP = np.array([1.0, -1.0])
 
 
 def ibug_points(points: Points) -> np.ndarray:
@@ -34,16 +75,23 @@ def ibug_points(points: Points) -> np.ndarray:
     raise FeatureError(f"no ibug68 point set in the message (has: {schemes})")
 
 
-def normalise(points: np.ndarray) -> np.ndarray:
-    """Points in the eye-corner face frame: translation, rotation and scale removed."""
-    right, left = points[RIGHT_EYE_OUTER], points[LEFT_EYE_OUTER]
-    axis = left - right
-    iod = float(np.hypot(axis[0], axis[1]))
-    if not np.isfinite(iod) or iod < MIN_IOD_PX:
-        raise FeatureError(f"outer eye corners are {iod:.3g} px apart: no face frame")
-    cos, sin = axis / iod
-    rotation = np.array([[cos, sin], [-sin, cos]])
-    return ((points - (right + left) / 2.0) @ rotation.T) / iod
+def optional_points(points: Points, scheme: str, count: int, dims: int) -> np.ndarray | None:
+    """A point set as a (count, dims) array; None if absent or without ``dims`` dimensions.
+
+    A set with the wrong number of values raises :class:`FeatureError`. A ``mesh468`` with 2
+    dimensions (no depth) is of no use for pose and counts as absent.
+    """
+    for point_set in points.sets:
+        if point_set.scheme == scheme:
+            if point_set.dims < dims:
+                return None
+            if len(point_set.coords) != count * point_set.dims:
+                raise FeatureError(f"{scheme} set has {len(point_set.coords)} values")
+            array = np.asarray(point_set.coords, dtype=np.float64)
+            if not np.all(np.isfinite(array)):
+                raise FeatureError(f"{scheme} set has a value that is not a finite number")
+            return array.reshape(count, point_set.dims)[:, :dims]
+    return None
 
 
 def nose_distances(normalised: np.ndarray) -> np.ndarray:
@@ -85,12 +133,74 @@ class NeutralEstimator:
 class FeatureProcessor:
     """Points messages in, Features messages out."""
 
-    def __init__(self, neutral: np.ndarray | None = None, neutral_seconds: float = 1.0) -> None:
+    def __init__(
+        self,
+        neutral: np.ndarray | None = None,
+        neutral_seconds: float = 1.0,
+        *,
+        calibration: Calibration | None = None,
+        auto_range: bool = False,
+    ) -> None:
+        """Args:
+        neutral: the neutral's 68 nose-tip distances (else the calibration's, else measured).
+        neutral_seconds: seconds of face the missing parts of the neutral are measured over.
+        calibration: a performer's calibration: neutral distances, named neutral and ranges,
+            neutral mesh (each used if present).
+        auto_range: adapt the neutral (rolling median) and the ranges to the stream.
+        """
         self.estimator = NeutralEstimator(neutral_seconds)
+        if calibration is not None and neutral is None:
+            neutral = np.asarray(calibration.neutral, dtype=np.float64)
         if neutral is not None:
             if neutral.shape != (N_IBUG,) or not np.all(np.isfinite(neutral)):
                 raise FeatureError("a neutral needs 68 finite distances")
             self.estimator.neutral = neutral.astype(np.float64)
+        self.named_neutral: dict[str, float] | None = None
+        self.reference: MeshReference | None = None
+        self.ranges = default_ranges()
+        if calibration is not None:
+            if calibration.named_neutral:
+                self.named_neutral = dict(calibration.named_neutral)
+            if calibration.neutral_mesh:
+                mesh = np.asarray(calibration.neutral_mesh, dtype=np.float64)
+                self.reference = MeshReference(mesh.reshape(N_MESH, 3))
+            self.ranges = ranges_from(calibration.named_min, calibration.named_max)
+        #: Whether the named features come from the mesh (a calibration's neutral mesh, or a
+        #: calibration's named neutral without one: 2D; otherwise the measured neutral decides).
+        self.use_mesh: bool | None = None
+        if self.reference is not None:
+            self.use_mesh = True
+        elif self.named_neutral is not None:
+            self.use_mesh = False
+        self.frame_neutral: np.ndarray | None = None
+        self.window = NeutralWindow(neutral_seconds)
+        self.gaze = GazeHold()
+        self.auto_range = auto_range
+        self.auto: AutoNeutral | None = None
+
+    @classmethod
+    def from_calibration(
+        cls, calibration: Calibration, *, neutral_seconds: float = 1.0, auto_range: bool = False
+    ) -> FeatureProcessor:
+        """A processor with a performer's calibration (see ``__init__``)."""
+        return cls(neutral_seconds=neutral_seconds, calibration=calibration, auto_range=auto_range)
+
+    def _complete_neutral(self) -> None:
+        neutral = neutral_face(
+            self.window.samples, self.reference, use_mesh=self.use_mesh is not False
+        )
+        self.window.samples = []
+        self.frame_neutral = neutral.frame
+        self.reference = neutral.reference
+        self.use_mesh = neutral.reference is not None
+        named = neutral.named
+        named.update(self.named_neutral or {})  # a calibration's values win
+        self.named_neutral = named
+        if self.auto_range:
+            distances = self.estimator.neutral
+            if distances is None:
+                distances = nose_distances(neutral.frame)
+            self.auto = AutoNeutral(named, distances, neutral.frame, self.ranges)
 
     def process(self, points: Points) -> Features:
         """Features of one frame; raise :class:`FeatureError` for unusable points."""
@@ -102,16 +212,73 @@ class FeatureProcessor:
                 face=False,
                 neutral_ready=self.estimator.ready,
             )
-        distances = nose_distances(normalise(ibug_points(points)))
-        ready = self.estimator.add(points.t_media_ns, distances)
-        neutral = self.estimator.neutral
-        deltas = (distances - neutral).tolist() if ready and neutral is not None else []
+        ibug = ibug_points(points)
+        frame = normalise(ibug)
+        mesh = optional_points(points, MESH468, N_MESH, 3)
+        iris = optional_points(points, IRIS10, N_IRIS, 2)
+        distances = nose_distances(frame)
+        t = points.t_media_ns
+        ready = self.estimator.add(t, distances)
+        if self.frame_neutral is None and self.window.add(t, Sample(ibug, frame, mesh, iris)):
+            self._complete_neutral()
+        distance_neutral = self.estimator.neutral if ready else None
+        frame_neutral = self.frame_neutral
+        named: dict[str, float] = {}
+        rel: dict[str, float] = {}
+        raw = self._raw(ibug, mesh, iris)
+        if raw is not None and self.named_neutral is not None:
+            named_neutral = self.named_neutral if self.auto is None else self.auto.named
+            self.gaze.observe(raw, named_neutral)
+            if self.auto is not None:
+                named_neutral, auto_distances, frame_neutral = self.auto.update(
+                    t, self._learnable(raw), distances, frame
+                )
+                if distance_neutral is not None:
+                    distance_neutral = auto_distances
+            rel = relative(raw, named_neutral)
+            held = self.gaze.hold(rel)
+            for key in GAZE:
+                rel.pop(key, None)
+            rel.update(held)
+            ranges = self.ranges if self.auto is None else self.auto.range.update(t, rel)
+            named = scale(rel, ranges)
+        deltas = (distances - distance_neutral).tolist() if distance_neutral is not None else []
+        displacements = (
+            ((frame - frame_neutral) * _Y_UP).ravel().tolist() if frame_neutral is not None else []
+        )
         return Features(
             seq=points.seq,
             t_capture_ns=points.t_capture_ns,
-            t_media_ns=points.t_media_ns,
+            t_media_ns=t,
             face=True,
             neutral_ready=ready,
             distances=distances.tolist(),
             deltas=deltas,
+            named=named,
+            raw=rel,
+            displacements=displacements,
         )
+
+    def _raw(
+        self, ibug: np.ndarray, mesh: np.ndarray | None, iris: np.ndarray | None
+    ) -> dict[str, float] | None:
+        """Absolute named values, or None when the neutral cannot place them."""
+        if self.use_mesh is None:
+            return None
+        try:
+            if self.use_mesh:
+                if mesh is None or self.reference is None:
+                    return None  # the neutral is in the mesh's frame: 2D values would not match
+                return raw_features(ibug, mesh, iris, self.reference)
+            return raw_features(ibug, None, iris)
+        except FeatureError:  # a degenerate mesh: this frame has the paper's features only
+            return None
+
+    def _learnable(self, raw: dict[str, float]) -> dict[str, float]:
+        """Raw values the rolling neutral may learn from: no gaze of a closed eye."""
+        learn = dict(raw)
+        for side in SIDES:
+            if self.gaze.closed[side]:
+                learn.pop(f"gaze_{side}_x", None)
+                learn.pop(f"gaze_{side}_y", None)
+        return learn

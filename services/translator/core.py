@@ -1,19 +1,55 @@
-"""Translator T, pure core: features to servo positions (the paper's section 2.2.3).
+"""Translator T, pure core: features to servo positions (the paper's section 2.2.3, extended).
 
-Per servo: average the movement (delta from neutral) of its point group; map it linearly from
-the face range [face_min, 0, face_max] onto [min_us, neutral_us, max_us] (swapped for reversed
-servos); clamp to the servo's limits. While no face is tracked, or the neutral is not known yet,
-every servo sits at neutral.
+Per frame, per servo:
+
+1. **Source value.** A ``points`` servo takes the mean delta of its point group (the paper);
+   a ``feature`` servo one named feature (``Features.named``, scaled: 0 neutral, ±1 the
+   calibrated extremes); a ``mix`` servo the weighted sum of named features (an antagonist pair
+   on one servo). With ``mirror``, right and left are swapped first (and x directions negated).
+   ``points`` given with ``feature``/``mix`` are a fallback, used only while no frame since the
+   start (or :meth:`Translator.reset`) has carried the named features.
+2. **Smoothing.** Each distinct signal used (a point group, a named feature) goes through its
+   own One Euro filter (:mod:`services.translator.filters`), with time from ``t_media_ns``.
+   Point groups are filtered in range units (divided by half their face range), so one set of
+   parameters fits groups and named features alike.
+3. **Dead-band and gain.** ``|value| <= deadband`` gives 0, beyond it the dead-band is subtracted
+   (continuous); then the value is multiplied by ``gain``. The dead-band is in source units (IOD
+   for points, scaled for named features; for points used as a fallback of named features, it
+   is taken in scaled units, i.e. times half the group's face range).
+4. **Mapping.** Points: linearly from the face range [face_min, 0, face_max] (profile default or
+   calibration) onto [min_us, neutral_us, max_us]; named: ``+1 -> max_us``, ``-1 -> min_us``.
+   Reversed servos swap the directions. The target is clamped to the servo's limits.
+5. **Missing input.** A servo whose source is absent from a tracked frame (a named feature the
+   stream lacks, no deltas) holds its position. While no face is tracked, or the neutral is not
+   known yet, the target is neutral.
+6. **Motion.** Targets go through a rate limiter per servo (``max_speed`` µs/s, ``max_accel``
+   µs/s², 0 = unlimited). A servo without ``max_speed`` is still ramped on a change of tracking
+   state: when the face is lost it goes to neutral linearly in ``neutral_ramp_s``; when the face
+   comes back it catches up at its full travel per ``neutral_ramp_s``, then tracks unlimited.
+7. **Safety.** Exclusive rules (:mod:`services.translator.safety`) on targets and on outputs,
+   then every position is clamped to its limits (always last).
+
+The first frame after construction or :meth:`Translator.reset` initialises every filter and
+limiter (no history to smooth or limit against). In a chain this is a neutral frame: F needs a
+second of face before its neutral is ready.
 """
 
 from __future__ import annotations
+
+import math
+from collections.abc import Mapping
 
 import numpy as np
 
 from facesynth.calibration import Calibration
 from facesynth.landmarks import MIRROR, N_IBUG
-from facesynth.profiles import Profile, ServoSpec
+from facesynth.profiles import Profile, ServoSpec, Smoothing
 from schemas.messages import Features, ServoCommands
+from services.translator.filters import OneEuroFilter, RateLimiter
+from services.translator.safety import apply_exclusive
+
+#: Named features whose sign flips in a mirror image (x directions and in-plane turns).
+MIRROR_NEGATED = frozenset({"gaze_right_x", "gaze_left_x", "head_yaw", "head_roll"})
 
 
 class TranslationError(ValueError):
@@ -34,59 +70,280 @@ def interpolate(movement: float, face_min: float, face_max: float, spec: ServoSp
     return clamp(position, spec)
 
 
+def scaled_position(value: float, spec: ServoSpec) -> float:
+    """Servo position for a scaled value (0 neutral, +1 max_us, -1 min_us; reversed swaps)."""
+    if spec.reversed:
+        value = -value
+    if value >= 0:
+        position = spec.neutral_us + value * (spec.max_us - spec.neutral_us)
+    else:
+        position = spec.neutral_us + value * (spec.neutral_us - spec.min_us)
+    return clamp(position, spec)
+
+
 def clamp(position: float, spec: ServoSpec) -> float:
     """``position`` limited to the servo's [min_us, max_us]."""
     return min(max(position, spec.min_us), spec.max_us)
 
 
+def deadband(value: float, width: float) -> float:
+    """0 within ``±width``, else ``value`` moved toward 0 by ``width`` (continuous)."""
+    if abs(value) <= width:
+        return 0.0
+    return value - math.copysign(width, value)
+
+
+def mirror_named(named: Mapping[str, float]) -> dict[str, float]:
+    """Named features of the mirror image: right and left swapped, x directions negated."""
+    out = {}
+    for name, value in named.items():
+        if name.endswith("_right") or "_right_" in name:
+            name = name.replace("_right", "_left", 1)
+        elif name.endswith("_left") or "_left_" in name:
+            name = name.replace("_left", "_right", 1)
+        out[name] = -value if name in MIRROR_NEGATED else value
+    return out
+
+
+def _filter(params: Smoothing | None) -> OneEuroFilter | None:
+    if params is None:
+        return None
+    return OneEuroFilter(params.min_cutoff, params.beta, params.d_cutoff)
+
+
+def _params(params: Smoothing | None) -> tuple[float, float, float] | None:
+    return None if params is None else (params.min_cutoff, params.beta, params.d_cutoff)
+
+
+class _Servo:
+    """Per-servo wiring: source, range, filters, limiter."""
+
+    def __init__(self, spec: ServoSpec, face_range: tuple[float, float], params: Smoothing | None):
+        self.spec = spec
+        self.group = np.asarray(spec.points, dtype=np.intp)
+        self.range = face_range
+        self.weights = spec.weights()
+        key = _params(params)
+        # Signals shared by several servos with the same parameters share one filter.
+        self.group_key = ("points", tuple(spec.points), face_range, key)
+        self.feature_keys = {name: ("feature", name, key) for name in self.weights or {}}
+        self.params = params
+        self.limiter = RateLimiter(spec.max_speed, spec.max_accel)
+        self.seen = False  # the named features were in a frame since reset()
+        self.ramp: float | None = None  # speed of a ramp after a tracking change (µs/s)
+
+    @property
+    def unlimited(self) -> bool:
+        return self.spec.max_speed <= 0 and self.spec.max_accel <= 0 and self.ramp is None
+
+
 class Translator:
-    """Features messages in, ServoCommands messages out, for one profile."""
+    """Features messages in, ServoCommands messages out, for one profile (stateful)."""
 
     def __init__(self, profile: Profile, calibration: Calibration | None = None) -> None:
         self.profile = profile
-        self._groups = [np.asarray(spec.points, dtype=np.intp) for spec in profile.servos]
+        self._specs = {spec.name: spec for spec in profile.servos}
         self._ranges: list[tuple[float, float]] = []
-        for spec, group in zip(profile.servos, self._groups, strict=True):
-            if calibration is None:
-                self._ranges.append((spec.face_min, spec.face_max))
-                continue
-            source = MIRROR[group] if profile.mirror else group
-            low = float(np.mean(np.asarray(calibration.delta_min)[source]))
-            high = float(np.mean(np.asarray(calibration.delta_max)[source]))
-            # A point group that did not move during calibration keeps the profile default.
-            self._ranges.append(
-                (low if low < 0 else spec.face_min, high if high > 0 else spec.face_max)
-            )
+        for spec in profile.servos:
+            self._ranges.append(self._face_range(spec, calibration))
+        self._servos = [
+            _Servo(spec, face_range, profile.smoothing_for(spec))
+            for spec, face_range in zip(profile.servos, self._ranges, strict=True)
+        ]
+        self._filters: dict[tuple[object, ...], OneEuroFilter | None] = {}
+        for servo in self._servos:
+            if len(servo.group):
+                self._filters[servo.group_key] = _filter(servo.params)
+            for key in servo.feature_keys.values():
+                self._filters[key] = _filter(servo.params)
+        self.reset()
+
+    def _face_range(self, spec: ServoSpec, calibration: Calibration | None) -> tuple[float, float]:
+        if not spec.points or spec.face_min is None or spec.face_max is None:
+            return (-1.0, 1.0)  # named features are scaled by F
+        if calibration is None:
+            return (spec.face_min, spec.face_max)
+        group = np.asarray(spec.points, dtype=np.intp)
+        source = MIRROR[group] if self.profile.mirror else group
+        low = float(np.mean(np.asarray(calibration.delta_min)[source]))
+        high = float(np.mean(np.asarray(calibration.delta_max)[source]))
+        # A point group that did not move during calibration keeps the profile default.
+        return (low if low < 0 else spec.face_min, high if high > 0 else spec.face_max)
+
+    def reset(self) -> None:
+        """Forget every filter and limiter: the next frame starts afresh."""
+        for flt in self._filters.values():
+            if flt is not None:
+                flt.reset()
+        for servo in self._servos:
+            servo.limiter.reset()
+            servo.seen = False
+            servo.ramp = None
+        self._tracking: bool | None = None
 
     def neutral(self) -> dict[str, float]:
         """Every servo at neutral."""
         return self.profile.neutral_positions()
 
-    def positions(self, deltas: np.ndarray) -> dict[str, float]:
-        """Servo positions for 68 deltas from neutral."""
-        if deltas.shape != (N_IBUG,):
-            raise TranslationError(f"need {N_IBUG} deltas, got {deltas.shape[0]}")
-        if self.profile.mirror:
-            deltas = deltas[MIRROR]
-        out = {}
-        for spec, group, (low, high) in zip(
-            self.profile.servos, self._groups, self._ranges, strict=True
-        ):
-            out[spec.name] = interpolate(float(deltas[group].mean()), low, high, spec)
-        return out
+    # --- sources --------------------------------------------------------------------------
+
+    def _deltas(self, deltas: list[float] | np.ndarray) -> np.ndarray:
+        array = np.asarray(deltas, dtype=np.float64)
+        if array.shape != (N_IBUG,):
+            raise TranslationError(f"need {N_IBUG} deltas, got {array.shape[0]}")
+        return array[MIRROR] if self.profile.mirror else array
+
+    def _group_value(
+        self, servo: _Servo, deltas: np.ndarray, t_ns: int | None, cache: dict[object, float]
+    ) -> float:
+        key = servo.group_key
+        if key not in cache:
+            movement = float(deltas[servo.group].mean())
+            flt = self._filters.get(key)
+            if flt is not None and t_ns is not None:
+                low, high = servo.range
+                half = (high - low) / 2.0
+                movement = flt(movement / half, t_ns) * half
+            cache[key] = movement
+        return cache[key]
+
+    def _feature_value(
+        self,
+        key: tuple[object, ...],
+        value: float,
+        t_ns: int | None,
+        cache: dict[object, float],
+    ) -> float:
+        if key not in cache:
+            flt = self._filters.get(key)
+            cache[key] = flt(value, t_ns) if flt is not None and t_ns is not None else value
+        return cache[key]
+
+    def _target(
+        self,
+        servo: _Servo,
+        deltas: np.ndarray | None,
+        named: Mapping[str, float],
+        t_ns: int | None,
+        cache: dict[object, float],
+    ) -> float | None:
+        """The servo's target position (None: its source is missing from this frame).
+
+        Sources are filtered when ``t_ns`` is given; ``cache`` holds each signal's value for
+        this frame, so a signal shared by several servos is computed (and filtered) once.
+        """
+        spec = servo.spec
+        if servo.weights is not None:
+            if all(math.isfinite(named.get(name, math.nan)) for name in servo.weights):
+                servo.seen = True
+                value = sum(
+                    weight * self._feature_value(servo.feature_keys[name], named[name], t_ns, cache)
+                    for name, weight in servo.weights.items()
+                )
+                return scaled_position(deadband(value, spec.deadband) * spec.gain, spec)
+            if servo.seen or not spec.points:
+                return None  # hold; points are only a fallback while the features never came
+        if deltas is None:
+            return None
+        low, high = servo.range
+        width = spec.deadband
+        if servo.weights is not None:  # a fallback: the dead-band is in scaled units
+            width *= (high - low) / 2.0
+        movement = deadband(self._group_value(servo, deltas, t_ns, cache), width) * spec.gain
+        return interpolate(movement, low, high, spec)
+
+    def _targets(
+        self, deltas: np.ndarray | None, named: Mapping[str, float], t_ns: int | None
+    ) -> list[float | None]:
+        cache: dict[object, float] = {}
+        return [self._target(servo, deltas, named, t_ns, cache) for servo in self._servos]
+
+    def positions(
+        self, deltas: np.ndarray, named: Mapping[str, float] | None = None
+    ) -> dict[str, float]:
+        """Unfiltered, unlimited positions for 68 deltas (and named features) from neutral.
+
+        Stateless: the paper's mapping per servo; servos whose source is missing are at neutral.
+        """
+        array = self._deltas(deltas)
+        named = mirror_named(named or {}) if self.profile.mirror else (named or {})
+        saved = [servo.seen for servo in self._servos]
+        targets = self._targets(array, named, None)
+        for servo, seen in zip(self._servos, saved, strict=True):
+            servo.seen = seen
+        return {
+            servo.spec.name: servo.spec.neutral_us if target is None else target
+            for servo, target in zip(self._servos, targets, strict=True)
+        }
+
+    # --- one frame ------------------------------------------------------------------------
+
+    def _start_ramps(self, tracking: bool) -> None:
+        """A change of tracking state: ramp the servos that have no speed bound."""
+        ramp_s = self.profile.neutral_ramp_s
+        for servo in self._servos:
+            spec, position = servo.spec, servo.limiter.position
+            if spec.max_speed > 0 or ramp_s <= 0 or position is None:
+                servo.ramp = None
+            elif tracking:
+                servo.ramp = (spec.max_us - spec.min_us) / ramp_s
+            else:
+                distance = abs(position - spec.neutral_us)
+                servo.ramp = distance / ramp_s if distance > 0 else None
+
+    def _move(self, servo: _Servo, target: float, t_ns: int) -> float:
+        limiter = servo.limiter
+        if servo.unlimited:
+            limiter.position, limiter.velocity, limiter.t_ns = target, 0.0, t_ns
+            return target
+        position = limiter(target, t_ns, servo.ramp)
+        if servo.ramp is not None and abs(position - target) < 1e-6:
+            servo.ramp = None
+        return position
+
+    def step(self, features: Features) -> dict[str, float]:
+        """Servo positions for one frame; updates the filters and limiters."""
+        t_ns = features.t_media_ns
+        tracking = features.face and features.neutral_ready
+        deltas = self._deltas(features.deltas) if tracking and features.deltas else None
+        named: Mapping[str, float] = {}
+        if tracking:
+            named = mirror_named(features.named) if self.profile.mirror else features.named
+            tracking = deltas is not None or bool(named)
+        raw = self._targets(deltas, named, t_ns) if tracking else [None] * len(self._servos)
+        targets = {}
+        for servo, target in zip(self._servos, raw, strict=True):
+            spec = servo.spec
+            if not tracking:
+                target = spec.neutral_us
+            elif target is None:  # missing source: hold
+                held = servo.limiter.position
+                target = spec.neutral_us if held is None else held
+            targets[spec.name] = target
+        rules = self.profile.safety.exclusive
+        targets = apply_exclusive(targets, rules, self._specs)
+        if self._tracking is not None and tracking != self._tracking:
+            self._start_ramps(tracking)
+        self._tracking = tracking
+        out = {
+            servo.spec.name: self._move(servo, targets[servo.spec.name], t_ns)
+            for servo in self._servos
+        }
+        safe = apply_exclusive(out, rules, self._specs)
+        for servo in self._servos:
+            name = servo.spec.name
+            if safe[name] != out[name]:
+                servo.limiter.position, servo.limiter.velocity = safe[name], 0.0
+            safe[name] = clamp(safe[name], servo.spec)
+        return safe
 
     def translate(self, features: Features) -> ServoCommands:
         """Servo commands for one frame's features."""
-        tracking = features.face and features.neutral_ready and bool(features.deltas)
-        if tracking:
-            positions = self.positions(np.asarray(features.deltas, dtype=np.float64))
-        else:
-            positions = self.neutral()
         return ServoCommands(
             seq=features.seq,
             t_capture_ns=features.t_capture_ns,
             t_media_ns=features.t_media_ns,
             face=features.face,
             profile=self.profile.name,
-            positions=positions,
+            positions=self.step(features),
         )

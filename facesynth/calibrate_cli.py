@@ -1,0 +1,93 @@
+"""``facesynth calibrate NAME``: guide a performer through the face-section expressions.
+
+Live camera: prompts on the terminal, ``--seconds`` per step (10 steps x 4 s = 40 s by default).
+Video: ``--schedule "neutral=9.6-10.4,smile=14-15,…"`` says when each step happens. Frames go
+straight through the tracker and the feature maths in this process (no bus needed); the result
+is written atomically to ``~/.config/facesynth/calibrations/NAME.json`` (or ``--out``), where
+``--calibration NAME`` finds it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime
+import sys
+import time
+from pathlib import Path
+from typing import TextIO
+
+from facesynth import build
+from facesynth.calibration import CALIBRATIONS, save_calibration
+from facesynth.keys import check_name
+from services.features.calibrate import (
+    PROMPTS,
+    STEPS,
+    CalibrationRecorder,
+    CalibrationStepError,
+    parse_schedule,
+    step_at,
+)
+from services.features.expressions import raw_features
+from services.sensor.frames import encode_frame
+
+
+def default_path(name: str) -> Path:
+    """Where a calibration called ``name`` is saved by default."""
+    return CALIBRATIONS.search_dirs()[-1] / f"{name}.json"
+
+
+def _guided_schedule(steps: list[str], seconds: float) -> list[tuple[str, float, float]]:
+    return [(step, i * seconds, (i + 1) * seconds) for i, step in enumerate(steps)]
+
+
+def run_calibration(args: argparse.Namespace, out: TextIO = sys.stdout) -> Path:
+    """Record and save a calibration; return its path."""
+    check_name(args.name, "calibration")
+    source = build.build_source(args)
+    if args.schedule:
+        schedule = parse_schedule(args.schedule)
+    elif source.info.live:
+        steps = [s.strip() for s in args.steps.split(",") if s.strip()]
+        unknown = [s for s in steps if s not in STEPS]
+        if unknown or "neutral" not in steps:
+            raise CalibrationStepError(
+                f"--steps needs neutral and known steps ({', '.join(STEPS)})"
+            )
+        if not args.seconds >= 1.5:
+            raise CalibrationStepError("--seconds must be at least 1.5")
+        schedule = _guided_schedule(steps, args.seconds)
+    else:
+        raise CalibrationStepError(
+            "a recording has no prompts: give --schedule STEP=START-END,… (seconds into it)"
+        )
+    backend = build.build_backend(args)
+    recorder = CalibrationRecorder(args.name, raw_features)
+    end_s = max(end for _, _, end in schedule)
+    current = None
+    for seq, (image, t_media_ns) in enumerate(source.frames()):
+        t_s = t_media_ns / 1e9
+        if t_s >= end_s:
+            break
+        found = step_at(schedule, t_s)
+        if found is None:
+            continue
+        step, t_in_step = found
+        if step != current and source.info.live:
+            current = step
+            print(f"\n>>> {step.replace('_', ' ').upper()}: {PROMPTS[step]}", file=out, flush=True)
+        if image is None:
+            raise CalibrationStepError("calibration needs images: give --camera or --video")
+        frame = encode_frame(
+            image, seq=seq, t_capture_ns=time.time_ns(), t_media_ns=t_media_ns, encoding="raw"
+        )
+        recorder.add(step, t_in_step, backend.process(frame))
+    source.close()
+    calibration = recorder.build(
+        created=datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds")
+    )
+    path = Path(args.out) if args.out else default_path(args.name)
+    save_calibration(calibration, path)
+    for step, (used, seen) in recorder.summary().items():
+        print(f"{step:<15} {used:>4} of {seen:>4} frames used", file=out)
+    print(f"calibration {args.name!r} written to {path}", file=out)
+    return path

@@ -1,0 +1,233 @@
+"""Head pose and the pose-free face frame of the 468-vertex mesh (pure numpy).
+
+The face frame: origin midway between the outer eye corners (mesh vertices 33 and 263), x axis
+along the eye line toward the performer's left, y axis up (from the base of the nose, vertex 2,
+toward the nasion, vertex 168, made orthogonal to x), z = x × y toward the camera (the way the
+face looks); unit = inter-ocular distance (IOD) of the outer eye corners. Mesh coordinates are
+image pixels (x right, y down) with z away from the camera, a right-handed frame like the face
+frame, so mapping one to the other is a proper rotation.
+
+Head pose is the rotation from the neutral mesh to the current one, fitted (Kabsch/Umeyama, with
+scale) on vertices that expressions hardly move: forehead, nose bridge, eye corners, cheekbones.
+The same fit maps the current mesh onto the neutral's face frame, so expression features read
+from the aligned mesh do not change when the head turns.
+
+Angles, in degrees, as ``facesynth.feature_names`` defines them: yaw positive = head turned
+toward the performer's left; pitch positive = chin up; roll positive = head tilted toward the
+performer's left shoulder. They are intrinsic yaw (about y), then pitch (about x), then roll
+(about z).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Final
+
+import numpy as np
+
+from services.features.frame import FeatureError
+
+N_MESH: Final = 468
+
+#: Outer eye corners (performer's right, left), the base of the nose and the nasion.
+MESH_RIGHT_EYE_OUTER: Final = 33
+MESH_LEFT_EYE_OUTER: Final = 263
+MESH_NOSE_BASE: Final = 2
+MESH_NASION: Final = 168
+
+#: Vertices expressions hardly move: forehead, nose bridge and tip, eye corners, cheekbones and
+#: the sides of the face at eye level. Mirror-symmetric (each pair appears on both sides).
+STABLE_VERTICES: Final[tuple[int, ...]] = (
+    # forehead (midline, then pairs)
+    10,
+    151,
+    9,
+    109,
+    338,
+    67,
+    297,
+    # nose bridge and tip
+    168,
+    6,
+    197,
+    195,
+    5,
+    4,
+    # eye corners (outer, inner)
+    33,
+    263,
+    133,
+    362,
+    # cheekbones and the sides of the face at eye level
+    234,
+    454,
+    127,
+    356,
+    116,
+    345,
+    143,
+    372,
+)
+
+#: Below this the fitted scale (or a reference's IOD) means a collapsed face.
+MIN_SCALE: Final = 1e-6
+
+
+class PoseError(FeatureError):
+    """A mesh from which no face frame or pose can be computed."""
+
+
+def face_axes(mesh: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+    """The face frame of a (468, 3) mesh: origin (3,), axes (3, 3) as rows x, y, z, and IOD."""
+    right, left = mesh[MESH_RIGHT_EYE_OUTER], mesh[MESH_LEFT_EYE_OUTER]
+    eye_line = left - right
+    iod = float(np.linalg.norm(eye_line))
+    if not np.isfinite(iod) or iod < MIN_SCALE:
+        raise PoseError(f"mesh eye corners are {iod:.3g} px apart: no face frame")
+    x = eye_line / iod
+    # Image y points down: "up" is from the nose base toward the nasion.
+    up = mesh[MESH_NASION] - mesh[MESH_NOSE_BASE]
+    up = up - float(up @ x) * x
+    norm = float(np.linalg.norm(up))
+    if not np.isfinite(norm) or norm < MIN_SCALE:
+        raise PoseError("mesh nose is degenerate: no face frame")
+    y = up / norm
+    # x right, y down, z away is right-handed, so is (x, y, x × y); here x × y faces the camera.
+    z = np.cross(x, y)
+    return (right + left) / 2.0, np.stack([x, y, z]), iod
+
+
+#: A similarity transform (scale, rotation, shift): ``points -> scale * points @ R.T + shift``.
+Similarity = tuple[float, np.ndarray, np.ndarray]
+
+
+def apply(transform: Similarity, points: np.ndarray) -> np.ndarray:
+    """Points mapped by a similarity transform."""
+    scale, rotation, shift = transform
+    result: np.ndarray = scale * points @ rotation.T + shift
+    return result
+
+
+def own_frame(mesh: np.ndarray) -> Similarity:
+    """The transform from mesh coordinates to the mesh's own face frame."""
+    origin, axes, iod = face_axes(mesh)
+    return 1.0 / iod, axes, -(origin @ axes.T) / iod
+
+
+def to_face_frame(mesh: np.ndarray) -> np.ndarray:
+    """A mesh in its own face frame (IOD units, x toward the performer's left, y up)."""
+    return apply(own_frame(mesh), mesh)
+
+
+def _det3(m: np.ndarray) -> float:
+    """Determinant of a 3x3 matrix (cheaper than np.linalg.det for one small matrix)."""
+    return float(
+        m[0, 0] * (m[1, 1] * m[2, 2] - m[1, 2] * m[2, 1])
+        - m[0, 1] * (m[1, 0] * m[2, 2] - m[1, 2] * m[2, 0])
+        + m[0, 2] * (m[1, 0] * m[2, 1] - m[1, 1] * m[2, 0])
+    )
+
+
+def similarity_fit(source: np.ndarray, target: np.ndarray) -> Similarity:
+    """Scale, rotation and translation with ``target ≈ scale * source @ rotation.T + shift``.
+
+    Least squares (Umeyama 1991); the rotation is proper (no reflection).
+    """
+    mean_s, mean_t = source.mean(axis=0), target.mean(axis=0)
+    cs, ct = source - mean_s, target - mean_t
+    var_s = float((cs * cs).sum())
+    if not np.isfinite(var_s) or var_s < MIN_SCALE:
+        raise PoseError("the stable mesh vertices are collapsed: no pose")
+    u, sigma, vt = np.linalg.svd(ct.T @ cs)
+    rotation = u @ vt
+    d = np.ones(3)
+    if _det3(rotation) < 0:  # a reflection: flip the least significant axis
+        d[2] = -1.0
+        rotation = (u * d) @ vt
+    scale = float((sigma * d).sum()) / var_s
+    if not scale > MIN_SCALE:
+        raise PoseError("the fitted mesh scale is not positive: no pose")
+    return scale, rotation, mean_t - scale * mean_s @ rotation.T
+
+
+def euler_degrees(rotation: np.ndarray) -> tuple[float, float, float]:
+    """(yaw, pitch, roll) in degrees of a rotation of the face frame (see the module doc)."""
+    r = rotation
+    yaw = math.atan2(r[0, 2], r[2, 2])
+    about_x = math.asin(max(-1.0, min(1.0, -r[1, 2])))
+    about_z = math.atan2(r[1, 0], r[1, 1])
+    # Positive rotation about x turns the face down and about z tilts the top toward -x (the
+    # performer's right): the contract's pitch and roll are the opposite.
+    return math.degrees(yaw), -math.degrees(about_x), -math.degrees(about_z)
+
+
+def rotation_from_euler(yaw: float, pitch: float, roll: float) -> np.ndarray:
+    """The face-frame rotation with these angles in degrees (inverse of :func:`euler_degrees`)."""
+    a, b, g = math.radians(yaw), -math.radians(pitch), -math.radians(roll)
+    ry = np.array([[math.cos(a), 0, math.sin(a)], [0, 1, 0], [-math.sin(a), 0, math.cos(a)]])
+    rx = np.array([[1, 0, 0], [0, math.cos(b), -math.sin(b)], [0, math.sin(b), math.cos(b)]])
+    rz = np.array([[math.cos(g), -math.sin(g), 0], [math.sin(g), math.cos(g), 0], [0, 0, 1]])
+    result: np.ndarray = ry @ rx @ rz
+    return result
+
+
+#: The face frame of a face looking straight at the camera, as rows in mesh coordinates.
+FRONTAL_AXES: Final = np.diag([1.0, -1.0, -1.0])
+
+
+def camera_pose(mesh: np.ndarray) -> tuple[float, float, float]:
+    """(yaw, pitch, roll) of a mesh's face frame against the camera's axes (no neutral)."""
+    _, axes, _ = face_axes(mesh)
+    return euler_degrees(FRONTAL_AXES @ axes.T)
+
+
+class MeshReference:
+    """A neutral mesh prepared for aligning others onto its face frame."""
+
+    def __init__(self, neutral_mesh: np.ndarray) -> None:
+        mesh = np.asarray(neutral_mesh, dtype=np.float64)
+        if mesh.shape != (N_MESH, 3) or not np.all(np.isfinite(mesh)):
+            raise PoseError(f"a neutral mesh needs ({N_MESH}, 3) finite values")
+        self.mesh = mesh
+        origin, self.axes, self.iod = face_axes(mesh)
+        self.canonical: np.ndarray = (mesh - origin) @ self.axes.T / self.iod
+        self._stable = np.asarray(STABLE_VERTICES)
+        self._target = self.canonical[self._stable]
+
+    def fit(self, mesh: np.ndarray) -> Similarity:
+        """The transform from a mesh's coordinates onto the neutral's face frame."""
+        return similarity_fit(mesh[self._stable], self._target)
+
+    def head_rotation(self, transform: Similarity) -> np.ndarray:
+        """The head rotation from the neutral, in the face frame, of a :meth:`fit` result
+        (:func:`euler_degrees` gives the head pose relative to the neutral)."""
+        # If current = Q @ neutral (mesh coordinates), rotation = axes @ Q.T, so the head
+        # rotation in face-frame coordinates, axes @ Q @ axes.T, is axes @ rotation.T.
+        head: np.ndarray = self.axes @ transform[1].T
+        return head
+
+    def align(self, mesh: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The mesh in the neutral's face frame, and the head rotation from the neutral."""
+        transform = self.fit(mesh)
+        return apply(transform, mesh), self.head_rotation(transform)
+
+
+def roll_2d(right_eye_outer: np.ndarray, left_eye_outer: np.ndarray) -> float:
+    """Head roll in degrees from the image eye line (image y down; positive = toward the left
+    shoulder, which lowers the performer's left eye, on the image's right)."""
+    dx, dy = left_eye_outer[:2] - right_eye_outer[:2]
+    return math.degrees(math.atan2(dy, dx))
+
+
+def median_mesh(meshes: list[np.ndarray]) -> np.ndarray:
+    """The element-wise median of meshes after aligning each onto the first (its coordinates)."""
+    if not meshes:
+        raise PoseError("no meshes to take a median of")
+    first = np.asarray(meshes[0], dtype=np.float64)
+    stable = np.asarray(STABLE_VERTICES)
+    aligned = [first]
+    for mesh in meshes[1:]:
+        scale, rotation, shift = similarity_fit(mesh[stable], first[stable])
+        aligned.append(scale * mesh @ rotation.T + shift)
+    result: np.ndarray = np.median(np.stack(aligned), axis=0)
+    return result
