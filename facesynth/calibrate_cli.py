@@ -31,6 +31,10 @@ from services.features.expressions import raw_features
 from services.sensor.frames import encode_frame
 
 
+#: Seconds skipped at the start of each live step: the performer is still changing expression.
+LIVE_SETTLE_S = 0.7
+
+
 def default_path(name: str) -> Path:
     """Where a calibration called ``name`` is saved by default."""
     return CALIBRATIONS.search_dirs()[-1] / f"{name}.json"
@@ -61,7 +65,10 @@ def run_calibration(args: argparse.Namespace, out: TextIO = sys.stdout) -> Path:
             "a recording has no prompts: give --schedule STEP=START-END,… (seconds into it)"
         )
     backend = build.build_backend(args)
-    recorder = CalibrationRecorder(args.name, raw_features)
+    # A schedule marks exactly when each expression is held; live prompts need reaction time.
+    recorder = CalibrationRecorder(
+        args.name, raw_features, settle_s=0.0 if args.schedule else LIVE_SETTLE_S
+    )
     end_s = max(end for _, _, end in schedule)
     current = None
     for seq, (image, t_media_ns) in enumerate(source.frames()):

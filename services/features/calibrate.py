@@ -160,7 +160,8 @@ class CalibrationRecorder:
         neutral_step = self.steps.get("neutral")
         if neutral_step is None or len(neutral_step.frames) < 3:
             raise CalibrationStepError(
-                "the neutral step has fewer than 3 frames with a face: hold still facing the camera"
+                "the neutral step has fewer than 3 usable frames with a face "
+                "(live: hold still facing the camera; video: widen the neutral segment)"
             )
         neutral_frames = neutral_step.frames
         neutral = np.median([_distances(f.ibug) for f in neutral_frames], axis=0)

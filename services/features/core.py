@@ -32,6 +32,7 @@ from facesynth.calibration import Calibration
 from facesynth.landmarks import IBUG68, IRIS10, MESH468, N_IBUG, NOSE_TIP
 from schemas.messages import Features, Points
 from services.features.expressions import (
+    HEAD,
     default_ranges,
     ranges_from,
     raw_features,
@@ -193,7 +194,9 @@ class FeatureProcessor:
         self.frame_neutral = neutral.frame
         self.reference = neutral.reference
         self.use_mesh = neutral.reference is not None
-        named = neutral.named
+        # Head pose is measured from the reference mesh itself, never offset by a neutral value:
+        # a calibration's mesh stays the origin even when the stream starts with a turned head.
+        named = {k: v for k, v in neutral.named.items() if k not in HEAD}
         named.update(self.named_neutral or {})  # a calibration's values win
         self.named_neutral = named
         if self.auto_range:

@@ -274,3 +274,15 @@ def test_default_ranges_are_the_contracts() -> None:
         BY_NAME["jaw_open"].default_min,
         BY_NAME["jaw_open"].default_max,
     )
+
+
+def test_head_pose_stays_relative_to_the_calibration_mesh_when_the_stream_starts_turned() -> None:
+    # Regression: the first second's head pose used to become the neutral's, so a stream that
+    # started turned read 0 degrees while turned and -12 degrees when facing the calibration.
+    processor = FeatureProcessor.from_calibration(_calibration())
+    turned = transform(MESH, IRIS, yaw=12.0)
+    outs = _feed(processor, [turned] * (FPS + 5))
+    assert outs[-1].neutral_ready
+    assert outs[-1].raw["head_yaw"] == pytest.approx(12.0, abs=0.5)
+    [facing] = _feed(processor, [(MESH, IRIS)], FPS + 5)
+    assert abs(facing.raw["head_yaw"]) < 0.5
