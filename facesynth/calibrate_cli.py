@@ -30,7 +30,6 @@ from services.features.calibrate import (
 from services.features.expressions import raw_features
 from services.sensor.frames import encode_frame
 
-
 #: Seconds skipped at the start of each live step: the performer is still changing expression.
 LIVE_SETTLE_S = 0.7
 
