@@ -27,6 +27,8 @@ from schemas.messages import ServiceStats
 from services.control.drivers.record import read_record
 
 STAGES = ("sensor", "points", "features", "translator", "control")
+#: Frames of the first seconds (start-up and F's neutral window) left out of "steady state".
+STEADY_AFTER_S = 2.0
 
 
 @dataclass
@@ -43,6 +45,7 @@ class ChainBench:
     dropped: dict[str, int] = field(default_factory=dict)
     backend: str = ""
     encoding: str = "jpeg"
+    steady_ms: tuple[float, float, float] = (0.0, 0.0, 0.0)
     mode: str = "client"
 
 
@@ -201,6 +204,11 @@ def bench_chain(
     if latencies.size:
         p50, p99, worst = np.percentile(latencies, [50, 99, 100])
         result.capture_to_command_ms = (float(p50), float(p99), float(worst))
+        # Steady state: after the first STEADY_AFTER_S seconds (start-up, the neutral window).
+        steady = latencies[int(STEADY_AFTER_S * fps) :]
+        if steady.size:
+            s50, s99, s_worst = np.percentile(steady, [50, 99, 100])
+            result.steady_ms = (float(s50), float(s99), float(s_worst))
     for name in STAGES:
         stats = stats_task_result.get(name)
         if stats is not None:
@@ -226,10 +234,15 @@ def format_chain_bench(result: ChainBench) -> str:
             f"{result.peak_rss_mb.get(name, float('nan')):>12.1f}"
         )
     p50, p99, worst = result.capture_to_command_ms
-    lines.append(
-        f"capture → command (at C): p50 {p50:.2f} ms, p99 {p99:.2f} ms, max {worst:.2f} ms; "
-        f"{result.commands}/{result.frames_sent} commands, "
-        f"{(result.commands - 1) / max(result.seconds, 1e-9):.1f} commands/s "
-        f"(first to last command: {result.seconds:.1f} s)"
+    lines.extend(
+        (
+            f"capture → command (at C): p50 {p50:.2f} ms, p99 {p99:.2f} ms, max {worst:.2f} ms; "
+            f"{result.commands}/{result.frames_sent} commands, "
+            f"{(result.commands - 1) / max(result.seconds, 1e-9):.1f} commands/s "
+            f"(first to last command: {result.seconds:.1f} s)",
+            f"capture → command, steady state (after the first {STEADY_AFTER_S:g} s): "
+            f"p50 {result.steady_ms[0]:.2f} ms, p99 {result.steady_ms[1]:.2f} ms, "
+            f"max {result.steady_ms[2]:.2f} ms",
+        )
     )
     return "\n".join(lines)

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import gc
 import logging
 import time
 from collections.abc import Awaitable, Callable, Mapping
@@ -43,6 +44,10 @@ async def run_single(
 ) -> Any:
     """Open a bus, run one service until it ends or a signal arrives, close the bus."""
     bus = await asyncio.to_thread(ZenohBus.open, options)
+    # Everything loaded so far lives for the whole run: keep it out of the garbage collector's
+    # passes, which otherwise stall a stage for milliseconds now and then.
+    gc.collect()
+    gc.freeze()
     try:
         ctx = ServiceContext(bus, rig, service, stats_interval=stats_interval)
         if instance:

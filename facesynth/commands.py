@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import gc
 import json
 import logging
 import time
@@ -85,6 +86,8 @@ def cmd_run(args: argparse.Namespace) -> int:
         session, locators = await asyncio.to_thread(open_embedded, listen, options)
         bus = ZenohBus(session)
         log.info("embedded Zenoh router on %s (rig %s)", ", ".join(locators), args.rig)
+        gc.collect()
+        gc.freeze()  # start-up objects live for the whole run: keep them out of GC passes
         try:
             bodies = {
                 "points": lambda ctx: serve_points(ctx, backend, 2),
