@@ -16,9 +16,12 @@ import time
 from pathlib import Path
 from typing import TextIO
 
+import numpy as np
+
 from facesynth import build
 from facesynth.calibration import CALIBRATIONS, save_calibration
 from facesynth.keys import check_name
+from schemas.messages import Frame
 from services.features.calibrate import (
     PROMPTS,
     STEPS,
@@ -29,6 +32,7 @@ from services.features.calibrate import (
 )
 from services.features.expressions import raw_features
 from services.sensor.frames import encode_frame
+from services.sensor.service import TICK_SIZE
 
 #: Seconds skipped at the start of each live step: the performer is still changing expression.
 LIVE_SETTLE_S = 0.7
@@ -39,58 +43,73 @@ def default_path(name: str) -> Path:
     return CALIBRATIONS.search_dirs()[-1] / f"{name}.json"
 
 
-def _guided_schedule(steps: list[str], seconds: float) -> list[tuple[str, float, float]]:
-    return [(step, i * seconds, (i + 1) * seconds) for i, step in enumerate(steps)]
-
-
-def run_calibration(args: argparse.Namespace, out: TextIO = sys.stdout) -> Path:
-    """Record and save a calibration; return its path."""
-    check_name(args.name, "calibration")
-    source = build.build_source(args)
+def _schedule(args: argparse.Namespace, live: bool) -> list[tuple[str, float, float]]:
     if args.schedule:
-        schedule = parse_schedule(args.schedule)
-    elif source.info.live:
-        steps = [s.strip() for s in args.steps.split(",") if s.strip()]
-        unknown = [s for s in steps if s not in STEPS]
-        if unknown or "neutral" not in steps:
-            raise CalibrationStepError(
-                f"--steps needs neutral and known steps ({', '.join(STEPS)})"
-            )
-        if not args.seconds >= 1.5:
-            raise CalibrationStepError("--seconds must be at least 1.5")
-        schedule = _guided_schedule(steps, args.seconds)
-    else:
+        return parse_schedule(args.schedule)
+    if not live:
         raise CalibrationStepError(
             "a recording has no prompts: give --schedule STEP=START-END,… (seconds into it)"
         )
+    steps = [s.strip() for s in args.steps.split(",") if s.strip()]
+    unknown = [s for s in steps if s not in STEPS]
+    if unknown or "neutral" not in steps:
+        raise CalibrationStepError(f"--steps needs neutral and known steps ({', '.join(STEPS)})")
+    if not args.seconds >= 1.5:
+        raise CalibrationStepError("--seconds must be at least 1.5")
+    return [(step, i * args.seconds, (i + 1) * args.seconds) for i, step in enumerate(steps)]
+
+
+def _frame(image: np.ndarray | None, seq: int, t_media_ns: int) -> Frame:
+    if image is None:  # a tick: replayed recordings (OpenFace CSV, track files) need no pixels
+        width, height = TICK_SIZE
+        return Frame(
+            seq=seq,
+            t_capture_ns=time.time_ns(),
+            t_media_ns=t_media_ns,
+            width=width,
+            height=height,
+            encoding="none",
+        )
+    return encode_frame(
+        image, seq=seq, t_capture_ns=time.time_ns(), t_media_ns=t_media_ns, encoding="raw"
+    )
+
+
+def run_calibration(args: argparse.Namespace, out: TextIO | None = None) -> Path:
+    """Record and save a calibration; return its path. Progress goes to ``out`` (stdout)."""
+    out = out if out is not None else sys.stdout
+    check_name(args.name, "calibration")
     backend = build.build_backend(args)
+    replay_frames = None if build.has_source(args) else backend.frame_count()
+    source = build.build_source(args, replay_frames)
+    if backend.needs_pixels() and source.info.name == "ticks":
+        raise CalibrationStepError("the tracker needs images: give --camera or --video")
+    schedule = _schedule(args, source.info.live)
     # A schedule marks exactly when each expression is held; live prompts need reaction time.
     recorder = CalibrationRecorder(
         args.name, raw_features, settle_s=0.0 if args.schedule else LIVE_SETTLE_S
     )
     end_s = max(end for _, _, end in schedule)
     current = None
-    for seq, (image, t_media_ns) in enumerate(source.frames()):
-        t_s = t_media_ns / 1e9
-        if t_s >= end_s:
-            break
-        found = step_at(schedule, t_s)
-        if found is None:
-            continue
-        step, t_in_step = found
-        if step != current and source.info.live:
-            current = step
-            print(f"\n>>> {step.replace('_', ' ').upper()}: {PROMPTS[step]}", file=out, flush=True)
-        if image is None:
-            raise CalibrationStepError("calibration needs images: give --camera or --video")
-        frame = encode_frame(
-            image, seq=seq, t_capture_ns=time.time_ns(), t_media_ns=t_media_ns, encoding="raw"
-        )
-        recorder.add(step, t_in_step, backend.process(frame))
-    source.close()
-    calibration = recorder.build(
-        created=datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds")
-    )
+    try:
+        for seq, (image, t_media_ns) in enumerate(source.frames()):
+            t_s = t_media_ns / 1e9
+            if t_s >= end_s:
+                break
+            found = step_at(schedule, t_s)
+            if found is None:
+                continue
+            step, t_in_step = found
+            if step != current and source.info.live:
+                current = step
+                print(
+                    f"\n>>> {step.replace('_', ' ').upper()}: {PROMPTS[step]}", file=out, flush=True
+                )
+            recorder.add(step, t_in_step, backend.process(_frame(image, seq, t_media_ns)))
+    finally:
+        source.close()
+    created = datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds")
+    calibration = recorder.build(created=created)
     path = Path(args.out) if args.out else default_path(args.name)
     save_calibration(calibration, path)
     for step, (used, seen) in recorder.summary().items():
