@@ -43,7 +43,8 @@ def default_path(name: str) -> Path:
     return CALIBRATIONS.search_dirs()[-1] / f"{name}.json"
 
 
-def _schedule(args: argparse.Namespace, live: bool) -> list[tuple[str, float, float]]:
+def guided_schedule(args: argparse.Namespace, live: bool) -> list[tuple[str, float, float]]:
+    """``--schedule`` if given; else, live, ``--steps`` of ``--seconds`` each, one after another."""
     if args.schedule:
         return parse_schedule(args.schedule)
     if not live:
@@ -84,7 +85,7 @@ def run_calibration(args: argparse.Namespace, out: TextIO | None = None) -> Path
     source = build.build_source(args, replay_frames)
     if backend.needs_pixels() and source.info.name == "ticks":
         raise CalibrationStepError("the tracker needs images: give --camera or --video")
-    schedule = _schedule(args, source.info.live)
+    schedule = guided_schedule(args, source.info.live)
     # A schedule marks exactly when each expression is held; live prompts need reaction time.
     recorder = CalibrationRecorder(
         args.name, raw_features, settle_s=0.0 if args.schedule else LIVE_SETTLE_S

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import argparse
 import json
 from pathlib import Path
 
@@ -9,11 +10,14 @@ import numpy as np
 import pytest
 from synthetic_face import IRIS, MESH, S, move, points_message
 
+from facesynth.calibrate_cli import guided_schedule
 from facesynth.calibration import load_calibration, validate_calibration
 from facesynth.cli import main
 from facesynth.data import sample_openface_csv
 from schemas.messages import Points
 from services.features.calibrate import (
+    PROMPTS,
+    STEPS,
     CalibrationRecorder,
     CalibrationStepError,
     parse_schedule,
@@ -178,3 +182,36 @@ def test_failed_calibration_writes_nothing(
     assert main(argv) == 2
     assert "fewer than 3 usable" in capsys.readouterr().err
     assert not out.exists()
+
+
+def _args(**values: object) -> argparse.Namespace:
+    defaults = {"schedule": None, "steps": ",".join(STEPS), "seconds": 4.0}
+    return argparse.Namespace(**{**defaults, **values})
+
+
+def test_live_guidance_is_ten_steps_in_under_a_minute() -> None:
+    schedule = guided_schedule(_args(), live=True)
+    assert [step for step, _, _ in schedule] == list(STEPS) and len(STEPS) == 10
+    assert schedule[0] == ("neutral", 0.0, 4.0) and schedule[-1] == ("smile", 36.0, 40.0)
+    assert schedule[-1][2] < 60, "a new performer calibrates in under a minute"
+    assert all(step in PROMPTS for step in STEPS)
+
+
+@pytest.mark.parametrize(
+    ("values", "message"),
+    [
+        ({"steps": "smile,frown"}, "needs neutral"),
+        ({"steps": "neutral,juggle"}, "known steps"),
+        ({"seconds": 1.0}, "at least 1.5"),
+    ],
+    ids=["no-neutral", "unknown-step", "too-short"],
+)
+def test_live_guidance_errors(values: dict[str, object], message: str) -> None:
+    with pytest.raises(CalibrationStepError, match=message):
+        guided_schedule(_args(**values), live=True)
+
+
+def test_a_recording_needs_a_schedule_but_takes_one() -> None:
+    with pytest.raises(CalibrationStepError, match="give --schedule"):
+        guided_schedule(_args(), live=False)
+    assert guided_schedule(_args(schedule="neutral=1-2"), live=False) == [("neutral", 1.0, 2.0)]
