@@ -28,29 +28,26 @@ class BackendError(ValueError):
 
 def face_points(frame: Frame, sets: list[PointSet], confidence: float, source: str) -> Points:
     """A "face present" Points message for ``frame``."""
-    return Points(
-        seq=frame.seq,
-        t_capture_ns=frame.t_capture_ns,
-        t_media_ns=frame.t_media_ns,
-        face=True,
-        confidence=confidence,
-        image_width=frame.width,
-        image_height=frame.height,
-        sets=sets,
-        source=source,
-    )
+    return _points(frame, True, sets, confidence, source)
 
 
 def no_face(frame: Frame, source: str, confidence: float = 0.0) -> Points:
     """A "no face" Points message for ``frame`` (never stale points)."""
+    return _points(frame, False, [], confidence, source)
+
+
+def _points(
+    frame: Frame, face: bool, sets: list[PointSet], confidence: float, source: str
+) -> Points:
     return Points(
         seq=frame.seq,
         t_capture_ns=frame.t_capture_ns,
         t_media_ns=frame.t_media_ns,
-        face=False,
+        face=face,
         confidence=confidence,
         image_width=frame.width,
         image_height=frame.height,
+        sets=sets,
         source=source,
     )
 
