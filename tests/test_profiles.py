@@ -280,7 +280,7 @@ def test_unknown_name_lists_available_profiles(
     monkeypatch.setenv("FACESYNTH_PROFILES", str(extra))
     with pytest.raises(ProfileError) as info:
         load_profile("nope")
-    assert str(info.value) == "no profile named 'nope' (available: alyx, paper16, virtual)"
+    assert str(info.value) == "no profile named 'nope' (available: alyx, head16, paper16, virtual)"
 
 
 def test_non_utf8_file(tmp_path: Path) -> None:
