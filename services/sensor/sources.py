@@ -5,6 +5,7 @@ Every source yields ``(image or None, t_media_ns)``; ``None`` images are ticks (
 
 from __future__ import annotations
 
+import abc
 import time
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -29,14 +30,14 @@ class SourceInfo:
     live: bool
 
 
-class FrameSource:
+class FrameSource(abc.ABC):
     """Base of all sources: ``info`` plus an iterator of ``(image | None, t_media_ns)``."""
 
     info: SourceInfo
 
+    @abc.abstractmethod
     def frames(self) -> Iterator[tuple[np.ndarray | None, int]]:
         """Yield frames until the source ends."""
-        raise NotImplementedError
 
     def close(self) -> None:
         """Release the device or file."""
