@@ -39,8 +39,8 @@ class FrameSource(abc.ABC):
     def frames(self) -> Iterator[tuple[np.ndarray | None, int]]:
         """Yield frames until the source ends."""
 
-    def close(self) -> None:
-        """Release the device or file."""
+    def close(self) -> None:  # noqa: B027 - an optional hook: most sources hold nothing
+        """Release the device or file (nothing to release by default)."""
 
 
 def _cv2():  # type: ignore[no-untyped-def]
