@@ -8,7 +8,6 @@ still publishes and subscribes on its own keys, exactly as when they run apart.
 from __future__ import annotations
 
 import asyncio
-import contextlib
 import gc
 import logging
 import time
@@ -44,10 +43,7 @@ async def run_single(
 ) -> Any:
     """Open a bus, run one service until it ends or a signal arrives, close the bus."""
     bus = await asyncio.to_thread(ZenohBus.open, options)
-    # Everything loaded so far lives for the whole run: keep it out of the garbage collector's
-    # passes, which otherwise stall a stage for milliseconds now and then.
-    gc.collect()
-    gc.freeze()
+    freeze_startup_objects()
     try:
         ctx = ServiceContext(bus, rig, service, stats_interval=stats_interval)
         if instance:
@@ -55,6 +51,13 @@ async def run_single(
         return await until_signalled(run_service(ctx, body))
     finally:
         await bus.close()
+
+
+def freeze_startup_objects() -> None:
+    """Keep everything loaded so far (it lives for the whole run) out of the garbage
+    collector's passes, which otherwise stall a stage for milliseconds now and then."""
+    gc.collect()
+    gc.freeze()
 
 
 def open_embedded(listen: list[str], options: ZenohOptions) -> tuple[Any, list[str]]:
@@ -164,5 +167,3 @@ async def _drain(control: ControlService, last_seq: int, timeout: float) -> None
                 control.last_frame,
             )
             return
-    with contextlib.suppress(TimeoutError):
-        await asyncio.sleep(0)

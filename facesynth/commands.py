@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import asyncio
-import gc
 import json
 import logging
 import time
@@ -12,7 +11,13 @@ from typing import Any
 
 from facesynth import build, keys
 from facesynth.bus.zenoh_bus import ZenohBus, endpoints, open_session, router_locators
-from facesynth.chain import ChainResult, open_embedded, run_chain, run_single
+from facesynth.chain import (
+    ChainResult,
+    freeze_startup_objects,
+    open_embedded,
+    run_chain,
+    run_single,
+)
 from facesynth.runtime import run_async, until_signalled
 from services.control.service import ControlService
 from services.features.service import serve_features
@@ -86,8 +91,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         session, locators = await asyncio.to_thread(open_embedded, listen, options)
         bus = ZenohBus(session)
         log.info("embedded Zenoh router on %s (rig %s)", ", ".join(locators), args.rig)
-        gc.collect()
-        gc.freeze()  # start-up objects live for the whole run: keep them out of GC passes
+        freeze_startup_objects()
         try:
             bodies = {
                 "points": lambda ctx: serve_points(ctx, backend, 2),

@@ -21,7 +21,13 @@ from facesynth.calibration import Calibration
 from facesynth.feature_names import BY_NAME
 from facesynth.landmarks import IRIS10, MESH468, N_IBUG
 from schemas.messages import Points
-from services.features.core import FeatureError, ibug_points, normalise, nose_distances
+from services.features.core import (
+    FeatureError,
+    ibug_points,
+    normalise,
+    nose_distances,
+    optional_points,
+)
 from services.features.expressions import relative
 from services.features.pose import MeshReference
 
@@ -111,11 +117,11 @@ def step_at(schedule: list[tuple[str, float, float]], t_s: float) -> tuple[str, 
 
 
 def _point_set(points: Points, scheme: str, count: int, dims: int) -> np.ndarray | None:
-    for point_set in points.sets:
-        if point_set.scheme == scheme and len(point_set.coords) == count * point_set.dims:
-            array = np.asarray(point_set.coords, dtype=np.float64).reshape(count, point_set.dims)
-            return array if point_set.dims == dims else None
-    return None
+    """A set as F reads it; a malformed one counts as absent (the frame still calibrates)."""
+    try:
+        return optional_points(points, scheme, count, dims)
+    except FeatureError:
+        return None
 
 
 class CalibrationRecorder:

@@ -105,12 +105,13 @@ class NeutralEstimator:
     """The neutral face as the median of features over the first ``seconds`` with a face."""
 
     def __init__(self, seconds: float = 1.0) -> None:
-        if not seconds > 0:
-            raise ValueError("the neutral window must be longer than zero seconds")
-        self.window_ns = int(seconds * 1e9)
-        self._start_ns: int | None = None
-        self._samples: list[np.ndarray] = []
+        self._window: NeutralWindow[np.ndarray] = NeutralWindow(seconds)
         self.neutral: np.ndarray | None = None
+
+    @property
+    def _samples(self) -> list[np.ndarray]:
+        """The frames collected so far (emptied once the neutral is known)."""
+        return self._window.samples
 
     @property
     def ready(self) -> bool:
@@ -121,13 +122,10 @@ class NeutralEstimator:
         """Add one face frame's features; return whether the neutral is now known."""
         if self.neutral is not None:
             return True
-        if self._start_ns is None:
-            self._start_ns = t_media_ns
-        if t_media_ns - self._start_ns < self.window_ns or not self._samples:
-            self._samples.append(values.copy())
+        if not self._window.add(t_media_ns, values.copy()):
             return False
-        self.neutral = np.median(np.stack(self._samples), axis=0)
-        self._samples.clear()
+        self.neutral = np.median(np.stack(self._window.samples), axis=0)
+        self._window.samples = []
         return True
 
 
@@ -174,7 +172,7 @@ class FeatureProcessor:
         elif self.named_neutral is not None:
             self.use_mesh = False
         self.frame_neutral: np.ndarray | None = None
-        self.window = NeutralWindow(neutral_seconds)
+        self.window: NeutralWindow[Sample] = NeutralWindow(neutral_seconds)
         self.gaze = GazeHold()
         self.auto_range = auto_range
         self.auto: AutoNeutral | None = None

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Generic, TypeVar
 
 import numpy as np
 
@@ -24,6 +25,8 @@ from services.features.pose import (
     face_axes,
     median_mesh,
 )
+
+T = TypeVar("T")
 
 STABLE = np.asarray(STABLE_VERTICES)
 
@@ -93,15 +96,21 @@ def neutral_face(
     return NeutralFace(frame=frame, named=named, reference=reference)
 
 
-class NeutralWindow:
-    """Face frames of the first ``seconds`` of media time with a face (as NeutralEstimator)."""
+class NeutralWindow(Generic[T]):
+    """Face frames of the first ``seconds`` of media time with a face (at least one frame).
+
+    The one rule for "the first second": F's distance neutral (``NeutralEstimator``) and its
+    named/mesh neutral both collect through it.
+    """
 
     def __init__(self, seconds: float) -> None:
+        if not seconds > 0:
+            raise ValueError("the neutral window must be longer than zero seconds")
         self.window_ns = int(seconds * 1e9)
         self.start_ns: int | None = None
-        self.samples: list[Sample] = []
+        self.samples: list[T] = []
 
-    def add(self, t_media_ns: int, sample: Sample) -> bool:
+    def add(self, t_media_ns: int, sample: T) -> bool:
         """Add a frame; True once the window is complete (this frame not included)."""
         if self.start_ns is None:
             self.start_ns = t_media_ns
