@@ -59,11 +59,18 @@ def zenoh_options(args: argparse.Namespace, *, default_mode: str = "client") -> 
     return options
 
 
+#: The options that name a frame source; at most one may be given.
+SOURCE_OPTIONS = ("video", "camera", "images", "ticks")
+
+
+def named_sources(args: argparse.Namespace) -> list[str]:
+    """The frame source options given on the command line."""
+    return [name for name in SOURCE_OPTIONS if getattr(args, name, None) is not None]
+
+
 def has_source(args: argparse.Namespace) -> bool:
     """Whether a frame source was named."""
-    return any(
-        getattr(args, name, None) is not None for name in ("video", "camera", "images", "ticks")
-    )
+    return bool(named_sources(args))
 
 
 def build_source(args: argparse.Namespace, replay_frames: int | None = None) -> FrameSource:
@@ -71,9 +78,7 @@ def build_source(args: argparse.Namespace, replay_frames: int | None = None) -> 
 
     Without one: ticks for a replayed point stream (``replay_frames``), else the bundled video.
     """
-    chosen = [
-        n for n in ("video", "camera", "images", "ticks") if getattr(args, n, None) is not None
-    ]
+    chosen = named_sources(args)
     if len(chosen) > 1:
         raise OptionError(f"choose one frame source, not {' and '.join('--' + c for c in chosen)}")
     fps = getattr(args, "fps", None)
