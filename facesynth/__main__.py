@@ -1,5 +1,5 @@
 """``python -m facesynth`` runs the ``facesynth`` command."""
 
-from facesynth.cli import main
+from facesynth.app.cli import main
 
 raise SystemExit(main())

@@ -12,7 +12,7 @@ Every message derived from a frame carries that frame's ``seq``, ``t_capture_ns`
 live stream started), so latency can be measured at any stage and replays are deterministic.
 
 Semantic checks that a type system cannot express (finite numbers, coordinate counts, frame
-sizes) live in ``facesynth.codec``; this module holds structs only.
+sizes) live in ``facesynth.runtime.codec``; this module holds structs only.
 """
 
 from __future__ import annotations
@@ -84,7 +84,7 @@ class Features(msgspec.Struct, tag="features", tag_field=TAG_FIELD, kw_only=True
     (36, 45); unit = inter-ocular distance. ``deltas`` are the same relative to the performer's
     neutral face; they are only meaningful when ``neutral_ready`` is true.
 
-    ``named`` are the named features of ``facesynth.feature_names`` (head pose, gaze per eye,
+    ``named`` are the named features of ``feature_names`` (head pose, gaze per eye,
     eye openness, brow, lid, cheek, lip and jaw actions), relative to neutral and scaled to the
     calibrated range (0 neutral, ±1 calibrated extremes); ``raw`` the same unscaled.
     ``displacements`` are each ibug68 point's movement from neutral in the eye-aligned face frame,

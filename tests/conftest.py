@@ -8,7 +8,7 @@ from collections.abc import Iterator
 import pytest
 import zenoh
 
-from facesynth.bus.zenoh_bus import ZenohOptions, open_session, router_locators
+from facesynth.runtime.bus.zenoh_bus import ZenohOptions, open_session, router_locators
 
 
 @pytest.fixture(scope="module")

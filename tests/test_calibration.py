@@ -1,4 +1,4 @@
-"""facesynth.calibration and facesynth.atomic: load, validate and atomically save calibrations."""
+"""runtime.calibration and runtime.atomic: load, validate and atomically save calibrations."""
 
 from __future__ import annotations
 
@@ -11,8 +11,8 @@ from typing import Any
 import msgspec
 import pytest
 
-from facesynth import atomic, calibration
-from facesynth.calibration import (
+from facesynth.runtime import atomic, calibration
+from facesynth.runtime.calibration import (
     Calibration,
     CalibrationError,
     load_calibration,
@@ -53,7 +53,7 @@ def test_round_trip(tmp_path: Path) -> None:
     assert path == tmp_path / "sub" / "ann.json"
     assert load_calibration(str(path)) == original
     on_disk = json.loads(path.read_text())
-    assert on_disk["format"] == "facesynth.calibration"
+    assert on_disk["format"] == "facesynth.runtime.calibration"
     assert on_disk["version"] == 1
     assert on_disk["feature"] == "nose_distance"
 

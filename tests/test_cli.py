@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from facesynth.cli import build_parser, main
+from facesynth.app.cli import build_parser, main
 
 COMMANDS = [
     "run",

@@ -1,4 +1,4 @@
-"""facesynth.codec: every message type round-trips; every malformed payload gets a clear error."""
+"""runtime.codec: every message type round-trips; every malformed payload gets a clear error."""
 
 from __future__ import annotations
 
@@ -8,8 +8,8 @@ from typing import Any
 import msgspec
 import pytest
 
-from facesynth import codec
-from facesynth.codec import MessageError
+from facesynth.runtime import codec
+from facesynth.runtime.codec import MessageError
 from schemas.messages import Features, Frame, Points, PointSet, ServiceStats, ServoCommands
 
 NAN = math.nan

@@ -1,11 +1,11 @@
-"""facesynth.keys: key expressions, name checks, and the stage wiring of the chain."""
+"""facesynth.runtime.keys: key expressions, name checks, and the stage wiring of the chain."""
 
 from __future__ import annotations
 
 import pytest
 
-from facesynth import keys
-from facesynth.keys import KeyNameError
+from facesynth.runtime import keys
+from facesynth.runtime.keys import KeyNameError
 
 
 @pytest.mark.parametrize(

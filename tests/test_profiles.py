@@ -1,4 +1,4 @@
-"""facesynth.profiles: the shipped paper16 profile (Table 1) and every way a profile is wrong."""
+"""runtime.profiles: the shipped paper16 profile (Table 1) and every way a profile is wrong."""
 
 from __future__ import annotations
 
@@ -8,8 +8,8 @@ from typing import Any
 
 import pytest
 
-from facesynth import profiles
-from facesynth.profiles import ProfileError, load_profile, parse_profile
+from facesynth.runtime import profiles
+from facesynth.runtime.profiles import ProfileError, load_profile, parse_profile
 
 # The paper's Table 1 (0-based CLM points), in servo-motor order.
 TABLE_1 = [

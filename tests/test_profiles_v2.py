@@ -1,4 +1,4 @@
-"""facesynth.profiles, the extended format: sources, motion, smoothing, safety, shipped profiles."""
+"""runtime.profiles, the extended format: sources, motion, smoothing, safety, shipped profiles."""
 
 from __future__ import annotations
 
@@ -8,10 +8,10 @@ from typing import Any
 
 import pytest
 
-from facesynth import profiles
-from facesynth.cli import main
-from facesynth.feature_names import NAMES
-from facesynth.profiles import (
+from facesynth.app.cli import main
+from facesynth.runtime import profiles
+from facesynth.runtime.feature_names import NAMES
+from facesynth.runtime.profiles import (
     FORMAT_REFERENCE,
     ProfileError,
     Smoothing,
@@ -242,7 +242,7 @@ def test_valid_safety_rule_and_threshold_one() -> None:
         ),
         (
             _toml([_servo(feature="tail_wag")]),
-            "servo 'jaw': unknown feature 'tail_wag' (see facesynth.feature_names)",
+            "servo 'jaw': unknown feature 'tail_wag' (see facesynth.runtime.feature_names)",
         ),
         (
             _toml([_servo(feature=None, mix={})]),

@@ -10,10 +10,10 @@ from typing import Any
 
 import pytest
 
-from facesynth import codec, keys
-from facesynth.bus.memory import MemoryNetwork
-from facesynth.profiles import load_profile
-from facesynth.runtime import ServiceContext, run_service, serve_transform
+from facesynth.runtime import codec, keys
+from facesynth.runtime.bus.memory import MemoryNetwork
+from facesynth.runtime.profiles import load_profile
+from facesynth.runtime.service import ServiceContext, run_service, serve_transform
 from schemas.messages import Features, Points, ServiceStats, ServoCommands
 from services.control.core import CommandInfo
 from services.control.drivers.base import ServoDriver

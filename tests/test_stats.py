@@ -1,11 +1,11 @@
-"""facesynth.stats: counters, publication rate, capture-to-publish latency, memory."""
+"""facesynth.runtime.stats: counters, publication rate, capture-to-publish latency, memory."""
 
 from __future__ import annotations
 
 import pytest
 
-from facesynth import codec, stats
-from facesynth.stats import RATE_WINDOW_NS, StageStats
+from facesynth.runtime import codec, stats
+from facesynth.runtime.stats import RATE_WINDOW_NS, StageStats
 from schemas.messages import ServiceStats
 
 MS = 1_000_000

@@ -11,9 +11,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from facesynth.profiles import Profile
+from facesynth.runtime.profiles import Profile
 from schemas.messages import ServoCommands
-from services.translator.core import clamp
 
 
 class CommandError(ValueError):
@@ -52,7 +51,7 @@ class ControlCore:
                 raise CommandError(f"position of {name!r} is {value}")
         positions = dict(self.last)
         for name, value in commands.positions.items():
-            positions[name] = clamp(value, self._specs[name])
+            positions[name] = self._specs[name].clamp(value)
         self.last = positions
         return positions
 

@@ -14,10 +14,10 @@ import asyncio
 import contextlib
 import time
 
-from facesynth import codec
-from facesynth.bus.base import SubscriptionClosed
-from facesynth.profiles import Profile
-from facesynth.runtime import ServiceContext
+from facesynth.runtime import codec
+from facesynth.runtime.bus.base import SubscriptionClosed
+from facesynth.runtime.profiles import Profile
+from facesynth.runtime.service import ServiceContext
 from schemas.messages import ServoCommands
 from services.control.core import CommandInfo, ControlCore, Watchdog
 from services.control.drivers.base import ServoDriver

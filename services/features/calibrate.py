@@ -17,9 +17,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from facesynth.calibration import Calibration
-from facesynth.feature_names import BY_NAME
-from facesynth.landmarks import IRIS10, MESH468, N_IBUG
+from facesynth.runtime.calibration import Calibration
+from facesynth.runtime.feature_names import BY_NAME
+from facesynth.runtime.landmarks import IRIS10, MESH468, N_IBUG
 from schemas.messages import Points
 from services.features.core import (
     FeatureError,

@@ -10,7 +10,7 @@ Beyond the paper, once the neutral is known every face frame also carries:
 
 * ``displacements``: each of the 68 points' movement from the neutral in the eye-corner frame
   (IOD units, y up);
-* ``raw`` / ``named``: the named features of ``facesynth.feature_names`` relative to the neutral,
+* ``raw`` / ``named``: the named features of ``feature_names`` relative to the neutral,
   unscaled / scaled to the calibrated (or default) ranges (``services.features.expressions``);
   gaze goes through the blink/wink rule of ``services.features.gaze``.
 
@@ -28,8 +28,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from facesynth.calibration import Calibration
-from facesynth.landmarks import IBUG68, IRIS10, MESH468, N_IBUG, NOSE_TIP
+from facesynth.runtime.calibration import Calibration
+from facesynth.runtime.landmarks import IBUG68, IRIS10, MESH468, N_IBUG, NOSE_TIP
 from schemas.messages import Features, Points
 from services.features.expressions import (
     HEAD,

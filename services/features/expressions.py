@@ -1,4 +1,4 @@
-"""Named expression features (``facesynth.feature_names``) from landmarks (pure numpy).
+"""Named expression features (``facesynth.runtime.feature_names``) from landmarks (pure numpy).
 
 :func:`raw_features` gives the ABSOLUTE raw value of every named feature the inputs support;
 relative to the performer's neutral is absolute minus the neutral's absolute (:func:`relative`),
@@ -48,8 +48,8 @@ from typing import Final
 
 import numpy as np
 
-from facesynth.feature_names import BY_NAME, NAMES, SCALED_LIMIT
-from facesynth.landmarks import LEFT_EYE_OUTER, RIGHT_EYE_OUTER
+from facesynth.runtime.feature_names import BY_NAME, NAMES, SCALED_LIMIT
+from facesynth.runtime.landmarks import LEFT_EYE_OUTER, RIGHT_EYE_OUTER
 from services.features.frame import normalise
 from services.features.gaze import gaze_features, gaze_features_3d
 from services.features.pose import (

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from facesynth.landmarks import LEFT_EYE_OUTER, RIGHT_EYE_OUTER
+from facesynth.runtime.landmarks import LEFT_EYE_OUTER, RIGHT_EYE_OUTER
 
 #: Eye corners closer than this (pixels) cannot define a face frame.
 MIN_IOD_PX = 1e-3

@@ -13,8 +13,8 @@ from typing import Generic, TypeVar
 
 import numpy as np
 
-from facesynth.feature_names import NAMES
-from facesynth.landmarks import N_IBUG
+from facesynth.runtime.feature_names import NAMES
+from facesynth.runtime.landmarks import N_IBUG
 from services.features.autorange import AutoRange, RollingNeutral
 from services.features.expressions import raw_features
 from services.features.frame import FeatureError

@@ -12,7 +12,7 @@ scale) on vertices that expressions hardly move: forehead, nose bridge, eye corn
 The same fit maps the current mesh onto the neutral's face frame, so expression features read
 from the aligned mesh do not change when the head turns.
 
-Angles, in degrees, as ``facesynth.feature_names`` defines them: yaw positive = head turned
+Angles, in degrees, as ``facesynth.runtime.feature_names`` defines them: yaw positive = head turned
 toward the performer's left; pitch positive = chin up; roll positive = head tilted toward the
 performer's left shoulder. They are intrinsic yaw (about y), then pitch (about x), then roll
 (about z).

@@ -16,8 +16,8 @@ from typing import Any
 import msgspec
 import numpy as np
 
-from facesynth.codec import MAX_COORD
-from facesynth.landmarks import IBUG68, IRIS10, MESH468, N_IBUG
+from facesynth.runtime.codec import MAX_COORD
+from facesynth.runtime.landmarks import IBUG68, IRIS10, MESH468, N_IBUG
 from schemas.messages import Frame, Points, PointSet
 from services.points.openface import OpenFaceRow, load_openface_csv
 

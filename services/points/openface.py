@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from facesynth.landmarks import N_IBUG
+from facesynth.runtime.landmarks import N_IBUG
 
 REQUIRED = ("frame", "success", "confidence")
 

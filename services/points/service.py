@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from facesynth.runtime import ServiceContext, serve_transform
+from facesynth.runtime.service import ServiceContext, serve_transform
 from schemas.messages import Frame
 from services.points.backends import PointsBackend
 

@@ -7,10 +7,10 @@ sets: ``ibug68`` (the paper's 68 points, derived from the mesh), ``mesh468`` (x,
 
 from __future__ import annotations
 
-from facesynth.landmarks import IBUG68, IRIS10, MESH468
+from facesynth.runtime.frames import decode_frame
+from facesynth.runtime.landmarks import IBUG68, IRIS10, MESH468
 from schemas.messages import Frame, Points
 from services.points.backends import BackendError, PointsBackend, face_points, no_face, point_set
-from services.sensor.frames import decode_frame
 
 
 class TrackerBackend(PointsBackend):

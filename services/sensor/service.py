@@ -12,8 +12,8 @@ import contextlib
 import time
 from dataclasses import dataclass, field
 
-from facesynth import codec, keys
-from facesynth.runtime import ServiceContext
+from facesynth.runtime import codec, keys
+from facesynth.runtime.service import ServiceContext
 from schemas.messages import Frame, ServoCommands
 from services.sensor.core import FlowWindow, Pacer
 from services.sensor.sources import FrameSource
@@ -107,7 +107,7 @@ class SensorService:
                 await asyncio.wait_for(self._acked.wait(), remaining)
 
     def _frame(self, image: object, seq: int, t_media_ns: int) -> Frame:
-        from services.sensor.frames import encode_frame  # OpenCV only where pixels exist
+        from facesynth.runtime.frames import encode_frame  # OpenCV only where pixels exist
 
         info = self.source.info
         now = time.time_ns()

@@ -41,9 +41,9 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from facesynth.calibration import Calibration
-from facesynth.landmarks import MIRROR, N_IBUG
-from facesynth.profiles import Profile, ServoSpec, Smoothing
+from facesynth.runtime.calibration import Calibration
+from facesynth.runtime.landmarks import MIRROR, N_IBUG
+from facesynth.runtime.profiles import Profile, ServoSpec, Smoothing
 from schemas.messages import Features, ServoCommands
 from services.translator.filters import OneEuroFilter, RateLimiter
 from services.translator.safety import apply_exclusive
@@ -67,7 +67,7 @@ def interpolate(movement: float, face_min: float, face_max: float, spec: ServoSp
     else:
         fraction = min(movement / face_min, 1.0)
         position = spec.neutral_us - fraction * (spec.neutral_us - spec.min_us)
-    return clamp(position, spec)
+    return spec.clamp(position)
 
 
 def scaled_position(value: float, spec: ServoSpec) -> float:
@@ -78,12 +78,7 @@ def scaled_position(value: float, spec: ServoSpec) -> float:
         position = spec.neutral_us + value * (spec.max_us - spec.neutral_us)
     else:
         position = spec.neutral_us + value * (spec.neutral_us - spec.min_us)
-    return clamp(position, spec)
-
-
-def clamp(position: float, spec: ServoSpec) -> float:
-    """``position`` limited to the servo's [min_us, max_us]."""
-    return min(max(position, spec.min_us), spec.max_us)
+    return spec.clamp(position)
 
 
 def deadband(value: float, width: float) -> float:
@@ -334,7 +329,7 @@ class Translator:
             name = servo.spec.name
             if safe[name] != out[name]:
                 servo.limiter.position, servo.limiter.velocity = safe[name], 0.0
-            safe[name] = clamp(safe[name], servo.spec)
+            safe[name] = servo.spec.clamp(safe[name])
         return safe
 
     def translate(self, features: Features) -> ServoCommands:

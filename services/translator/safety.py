@@ -15,7 +15,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Mapping
 
-from facesynth.profiles import ExclusiveRule, ServoSpec
+from facesynth.runtime.profiles import ExclusiveRule, ServoSpec
 
 
 def travel(position: float, spec: ServoSpec) -> float:

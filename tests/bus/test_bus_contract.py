@@ -7,9 +7,9 @@ from collections.abc import AsyncIterator, Callable
 
 import pytest
 
-from facesynth.bus.base import Bus, SubscriptionClosed
-from facesynth.bus.memory import MemoryNetwork
-from facesynth.bus.zenoh_bus import ZenohBus, ZenohOptions
+from facesynth.runtime.bus.base import Bus, SubscriptionClosed
+from facesynth.runtime.bus.memory import MemoryNetwork
+from facesynth.runtime.bus.zenoh_bus import ZenohBus, ZenohOptions
 
 DELIVERY_TIMEOUT = 5.0
 Factory = Callable[[], Bus]

@@ -7,7 +7,7 @@ from typing import Any
 
 import pytest
 
-from facesynth.profiles import Profile, ServoSpec
+from facesynth.runtime.profiles import Profile, ServoSpec
 from schemas.messages import ServoCommands
 from services.control.core import CommandError, CommandInfo, ControlCore, Watchdog
 

@@ -8,7 +8,7 @@ import pytest
 import yaml
 import zenoh
 
-from facesynth.cli import build_parser
+from facesynth.app.cli import build_parser
 
 ROOT = Path(__file__).resolve().parents[2]
 COMPOSE = yaml.safe_load((ROOT / "docker-compose.yml").read_text())

@@ -163,11 +163,11 @@ def make_fixture(path: Path = FIXTURE) -> None:
     result is identical to the file's contents."""
     import cv2
 
-    from facesynth.data import sample_video
+    from facesynth.app.data import sample_video
+    from facesynth.runtime.frames import encode_frame
     from services.features.gaze import IRIS_CENTRE, MESH_EYE_CORNERS, eye_gaze
     from services.features.pose import median_mesh, to_face_frame
     from services.points.tracking import TrackerBackend
-    from services.sensor.frames import encode_frame
 
     capture = cv2.VideoCapture(str(sample_video()))
     backend, meshes, irises = TrackerBackend(), [], []

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from synthetic_face import IRIS, MESH, S, move, points_message
 
-from facesynth.feature_names import BY_NAME
+from facesynth.runtime.feature_names import BY_NAME
 from services.features.autorange import AutoRange, RollingNeutral, nan_median
 from services.features.core import FeatureProcessor
 from services.features.expressions import BROW, LIP_CORNER

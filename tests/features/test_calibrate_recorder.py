@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 from synthetic_face import IRIS, MESH, S, move, points_message
 
-from facesynth.calibrate_cli import guided_schedule
-from facesynth.calibration import load_calibration, validate_calibration
-from facesynth.cli import main
-from facesynth.data import sample_openface_csv
+from facesynth.app.calibrate_cli import guided_schedule
+from facesynth.app.cli import main
+from facesynth.app.data import sample_openface_csv
+from facesynth.runtime.calibration import load_calibration, validate_calibration
 from schemas.messages import Points
 from services.features.calibrate import (
     PROMPTS,

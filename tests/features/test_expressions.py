@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 from synthetic_face import IRIS, MESH, ibug_of, look, look_3d, move, transform
 
-from facesynth.feature_names import BY_NAME, NAMES, SCALED_LIMIT
+from facesynth.runtime.feature_names import BY_NAME, NAMES, SCALED_LIMIT
 from services.features.expressions import (
     BROW,
     BROW_INNER,

@@ -8,8 +8,8 @@ from importlib import resources
 import numpy as np
 import pytest
 
-from facesynth import codec
-from facesynth.landmarks import LEFT_EYE_OUTER, NOSE_TIP, RIGHT_EYE_OUTER
+from facesynth.runtime import codec
+from facesynth.runtime.landmarks import LEFT_EYE_OUTER, NOSE_TIP, RIGHT_EYE_OUTER
 from schemas.messages import Features, Points, PointSet
 from services.features.core import (
     FeatureError,
@@ -27,7 +27,7 @@ RIGHT_BROW = list(range(17, 22))
 
 def _mean_shape() -> np.ndarray:
     """The mean of the 100 real OpenFace frames shipped with facesynth, (68, 2) pixels."""
-    path = resources.files("facesynth.data") / "OpenFace_Test.csv"
+    path = resources.files("facesynth.app.data") / "OpenFace_Test.csv"
     with resources.as_file(path) as file:
         rows = load_openface_csv(file)
     return np.mean([row.points for row in rows], axis=0)

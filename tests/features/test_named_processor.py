@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 from synthetic_face import IRIS, MESH, S, ibug_of, look, move, points_message, transform
 
-from facesynth import codec
-from facesynth.calibration import Calibration
-from facesynth.feature_names import BY_NAME, NAMES
+from facesynth.runtime import codec
+from facesynth.runtime.calibration import Calibration
+from facesynth.runtime.feature_names import BY_NAME, NAMES
 from schemas.messages import Features, PointSet
 from services.features.core import (
     FeatureError,

@@ -16,14 +16,14 @@ import cv2
 import numpy as np
 import pytest
 
-from facesynth import codec
-from facesynth.data import sample_video
-from facesynth.feature_names import NAMES
+from facesynth.app.data import sample_video
+from facesynth.runtime import codec
+from facesynth.runtime.feature_names import NAMES
+from facesynth.runtime.frames import encode_frame
 from schemas.messages import Features, Points
 from services.features.core import FeatureProcessor, ibug_points, optional_points
 from services.features.expressions import raw_features, relative
 from services.points.tracking import TrackerBackend
-from services.sensor.frames import encode_frame
 
 
 @pytest.fixture(scope="module")

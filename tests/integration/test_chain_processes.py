@@ -18,10 +18,10 @@ from typing import Any
 import numpy as np
 import pytest
 
-from facesynth import codec, keys
-from facesynth.bus.zenoh_bus import ZenohBus, ZenohOptions
-from facesynth.data import sample_openface_csv
-from facesynth.profiles import load_profile
+from facesynth.app.data import sample_openface_csv
+from facesynth.runtime import codec, keys
+from facesynth.runtime.bus.zenoh_bus import ZenohBus, ZenohOptions
+from facesynth.runtime.profiles import load_profile
 from schemas.messages import Features, Frame, Points, PointSet, ServiceStats, ServoCommands
 from services.control.drivers.record import RecordLine, read_record
 from services.features.core import FeatureProcessor

@@ -1,6 +1,6 @@
 """The paper's face-section expressions on the bundled video move the servos the right way.
 
-The video (see facesynth/data/PROVENANCE.md) shows, by time: looking down (0-0.9 s), a sad
+The video (see facesynth/app/data/PROVENANCE.md) shows, by time: looking down (0-0.9 s), a sad
 frown (2-3.5 s), looking up (7-8.8 s), a calm face (9.75-10.35 s, the calibration's neutral), a
 smile (10.6-11.9 s) and a laugh with the mouth open (13.5-15.5 s). No moment of it is a clean
 neutral, so the checks compare segments whose difference is plain to see (looking up vs down,
@@ -19,8 +19,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from facesynth.calibration import load_calibration
-from facesynth.data import sample_video
+from facesynth.app.data import sample_video
+from facesynth.runtime.calibration import load_calibration
 from services.control.drivers.record import read_record
 
 VIDEO = str(sample_video())

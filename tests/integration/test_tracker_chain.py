@@ -10,9 +10,9 @@ import time
 from pathlib import Path
 from typing import Any
 
-from facesynth import codec, keys
-from facesynth.bus.zenoh_bus import ZenohBus, ZenohOptions
-from facesynth.data import sample_video
+from facesynth.app.data import sample_video
+from facesynth.runtime import codec, keys
+from facesynth.runtime.bus.zenoh_bus import ZenohBus, ZenohOptions
 from schemas.messages import Points
 from services.control.drivers.record import read_record
 

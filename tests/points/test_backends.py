@@ -11,14 +11,14 @@ from typing import Any
 import numpy as np
 import pytest
 
-from facesynth import codec
+from facesynth.runtime import codec
 from schemas.messages import Frame, Points
 from services.points.backends import BackendError, OpenFaceReplay, TrackReplay
 from services.points.openface import OpenFaceError, load_openface_csv
 
 
 def _real_csv() -> Path:
-    return Path(str(resources.files("facesynth.data") / "OpenFace_Test.csv"))
+    return Path(str(resources.files("facesynth.app.data") / "OpenFace_Test.csv"))
 
 
 def _frame(seq: int) -> Frame:

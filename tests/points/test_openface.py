@@ -14,7 +14,7 @@ from services.points.openface import OpenFaceError, load_openface_csv, parse_ope
 
 
 def _real_text() -> str:
-    path = resources.files("facesynth.data") / "OpenFace_Test.csv"
+    path = resources.files("facesynth.app.data") / "OpenFace_Test.csv"
     return path.read_text(encoding="utf-8")
 
 

@@ -6,12 +6,12 @@ import cv2
 import numpy as np
 import pytest
 
-from facesynth import codec
-from facesynth.data import sample_video
+from facesynth.app.data import sample_video
+from facesynth.runtime import codec
+from facesynth.runtime.frames import encode_frame
 from schemas.messages import Frame
 from services.points.backends import BackendError
 from services.points.tracking import TrackerBackend
-from services.sensor.frames import encode_frame
 
 SHAPES = {"ibug68": (68, 2), "mesh468": (468, 3), "iris10": (10, 2)}
 

@@ -1,4 +1,4 @@
-"""services.sensor.frames (pixels in and out of Frame messages) and services.sensor.sources."""
+"""facesynth.runtime.frames (pixels in and out of Frame messages) and services.sensor.sources."""
 
 from __future__ import annotations
 
@@ -11,12 +11,12 @@ import cv2
 import numpy as np
 import pytest
 
-from facesynth import codec
+from facesynth.runtime import codec
+from facesynth.runtime.frames import FrameError, decode_frame, encode_frame
 from schemas.messages import Frame
-from services.sensor.frames import FrameError, decode_frame, encode_frame
 from services.sensor.sources import FolderSource, SourceError, TickSource, VideoSource
 
-VIDEO = Path(str(resources.files("facesynth.data") / "WolfgangLanger_Pexels.mp4"))
+VIDEO = Path(str(resources.files("facesynth.app.data") / "WolfgangLanger_Pexels.mp4"))
 
 
 def _image(height: int = 48, width: int = 64, seed: int = 0) -> np.ndarray:

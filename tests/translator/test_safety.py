@@ -6,7 +6,7 @@ from typing import Any
 
 import pytest
 
-from facesynth.profiles import ExclusiveRule, Profile, Safety, ServoSpec
+from facesynth.runtime.profiles import ExclusiveRule, Profile, Safety, ServoSpec
 from schemas.messages import Features
 from services.translator.core import Translator
 from services.translator.safety import apply_exclusive, at_travel, travel

@@ -9,13 +9,13 @@ from typing import Any
 import numpy as np
 import pytest
 
-from facesynth import codec
-from facesynth.calibration import Calibration
-from facesynth.profiles import Profile, ServoSpec, load_profile
+from facesynth.runtime import codec
+from facesynth.runtime.calibration import Calibration
+from facesynth.runtime.profiles import Profile, ServoSpec, load_profile
 from schemas.messages import Features, Points, PointSet, ServoCommands
 from services.features.core import FeatureProcessor, normalise, nose_distances
 from services.points.openface import load_openface_csv
-from services.translator.core import TranslationError, Translator, clamp, interpolate
+from services.translator.core import TranslationError, Translator, interpolate
 
 
 def _spec(**kw: Any) -> ServoSpec:
@@ -130,7 +130,7 @@ def test_interpolate_uses_the_range_it_is_given() -> None:
     ids=["below", "at-min", "inside", "at-max", "above", "minus-inf", "inf"],
 )
 def test_clamp(value: float, expected: float) -> None:
-    assert clamp(value, PLAIN) == expected
+    assert PLAIN.clamp(value) == expected
 
 
 # --- Translator -------------------------------------------------------------------------------
@@ -277,7 +277,7 @@ def test_translate_copies_the_header_and_names_the_profile() -> None:
 
 
 def _mean_shape() -> np.ndarray:
-    path = resources.files("facesynth.data") / "OpenFace_Test.csv"
+    path = resources.files("facesynth.app.data") / "OpenFace_Test.csv"
     with resources.as_file(path) as file:
         rows = load_openface_csv(file)
     return np.mean([row.points for row in rows], axis=0)

@@ -8,8 +8,14 @@ import msgspec
 import numpy as np
 import pytest
 
-from facesynth.calibration import Calibration
-from facesynth.profiles import Profile, ServoSpec, Smoothing, SmoothingOverride, load_profile
+from facesynth.runtime.calibration import Calibration
+from facesynth.runtime.profiles import (
+    Profile,
+    ServoSpec,
+    Smoothing,
+    SmoothingOverride,
+    load_profile,
+)
 from schemas.messages import Features
 from services.translator.core import (
     TranslationError,
@@ -622,7 +628,7 @@ def test_virtual_with_limits_swapped_in_still_works() -> None:
 
 
 def test_bench_smoothing_reports_less_jitter_and_some_lag() -> None:
-    from facesynth.bench_smoothing import bench_smoothing, format_smoothing
+    from facesynth.app.bench.smoothing import bench_smoothing, format_smoothing
 
     result = bench_smoothing(seconds=4.0)
     rows = {(r["servo"], r["chain"]): r for r in result["rows"]}

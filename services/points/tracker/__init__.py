@@ -1,7 +1,7 @@
 """facesynth face-tracker engine (pure: no asyncio, no network).
 
 MediaPipe's BlazeFace detector, 468-point face mesh and iris models, run with ai-edge-litert or
-OpenCV DNN, plus the 68-point iBUG view of the mesh, offline video tracking and a benchmark.
+OpenCV DNN, plus the 68-point iBUG view of the mesh, and offline video tracking.
 
 Typical use::
 
@@ -15,7 +15,6 @@ Typical use::
 
 from __future__ import annotations
 
-from .bench import bench_tracker, format_bench
 from .errors import ModelError, VideoError
 from .ibug68 import mesh_to_ibug68
 from .inference import available_backends
@@ -28,8 +27,6 @@ __all__ = [
     "TrackResult",
     "VideoError",
     "available_backends",
-    "bench_tracker",
-    "format_bench",
     "mesh_to_ibug68",
     "track_video",
 ]

@@ -10,13 +10,8 @@ import numpy as np
 import pytest
 from tracker_fixtures import VIDEO, VIDEO_FRAMES, TrackedVideo
 
-from services.points.tracker import (
-    FaceTracker,
-    VideoError,
-    bench_tracker,
-    format_bench,
-    track_video,
-)
+from facesynth.app.bench.tracker import bench_tracker, format_bench
+from services.points.tracker import FaceTracker, VideoError, track_video
 from services.points.tracker.offline import iter_video_frames
 
 

@@ -10,8 +10,8 @@ import numpy as np
 from services.points.tracker import TrackResult
 
 REPO = Path(__file__).resolve().parents[3]
-VIDEO = REPO / "facesynth" / "data" / "WolfgangLanger_Pexels.mp4"
-OPENFACE_CSV = REPO / "facesynth" / "data" / "OpenFace_Test.csv"
+VIDEO = REPO / "facesynth" / "app" / "data" / "WolfgangLanger_Pexels.mp4"
+OPENFACE_CSV = REPO / "facesynth" / "app" / "data" / "OpenFace_Test.csv"
 VIDEO_FRAMES = 472
 SAMPLE_EVERY = 40
 

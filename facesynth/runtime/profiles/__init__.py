@@ -6,7 +6,7 @@ whether the servo is reversed, and what drives it, which is exactly one *source*
 * ``points = [...]``: an ``ibug68`` point group (the paper's Table 1) on ``Features.deltas``,
   with ``face_min`` / ``face_max``, the group's movement (inter-ocular units, relative to the
   neutral face) that reaches min_us / max_us when no calibration says otherwise;
-* ``feature = "jaw_open"``: a named feature of :mod:`facesynth.feature_names` (already scaled by
+* ``feature = "jaw_open"``: a named feature of :mod:`~facesynth.runtime.feature_names` (scaled by
   F: 0 neutral, ±1 the calibrated extremes), mapped ``+1 -> max_us``, ``-1 -> min_us``;
 * ``mix = { lip_corner_pull_right = 1.0, lip_corner_depress_right = -1.0 }``: a weighted sum of
   named features (an antagonist pair on one servo), then mapped as ``feature``.
@@ -39,9 +39,9 @@ from typing import Any
 
 import msgspec
 
-from facesynth.feature_names import NAMES
-from facesynth.landmarks import N_IBUG
-from facesynth.named_files import NamedFiles
+from facesynth.runtime.feature_names import NAMES
+from facesynth.runtime.landmarks import N_IBUG
+from facesynth.runtime.named_files import NamedFiles
 
 PACKAGE_DIR = Path(__file__).parent
 
@@ -167,6 +167,10 @@ class ServoSpec(msgspec.Struct, forbid_unknown_fields=True, kw_only=True):
     max_accel: float = 0.0
     smoothing: SmoothingOverride | None = None
     description: str = ""
+
+    def clamp(self, position: float) -> float:
+        """``position`` limited to this servo's [min_us, max_us]: the last word on safety."""
+        return min(max(position, self.min_us), self.max_us)
 
     def weights(self) -> dict[str, float] | None:
         """The named features driving this servo and their weights (None: a points servo)."""
@@ -317,7 +321,7 @@ def _finite(*values: float | None) -> bool:
 
 def _unknown_feature(name: str) -> str:
     close = difflib.get_close_matches(name, NAMES, n=1)
-    hint = f" (did you mean {close[0]!r}?)" if close else " (see facesynth.feature_names)"
+    hint = f" (did you mean {close[0]!r}?)" if close else " (see facesynth.runtime.feature_names)"
     return f"unknown feature {name!r}{hint}"
 
 

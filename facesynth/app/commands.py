@@ -9,16 +9,17 @@ import logging
 import time
 from typing import Any
 
-from facesynth import build, keys
-from facesynth.bus.zenoh_bus import ZenohBus, endpoints, open_session, router_locators
-from facesynth.chain import (
+from facesynth.app import build
+from facesynth.app.chain import (
     ChainResult,
     freeze_startup_objects,
     open_embedded,
     run_chain,
     run_single,
 )
-from facesynth.runtime import run_async, until_signalled
+from facesynth.runtime import keys
+from facesynth.runtime.bus.zenoh_bus import ZenohBus, endpoints, open_session, router_locators
+from facesynth.runtime.service import run_async, until_signalled
 from services.control.service import ControlService
 from services.features.service import serve_features
 from services.points.service import serve_points
@@ -149,7 +150,7 @@ def cmd_router(args: argparse.Namespace) -> int:
 
 def cmd_status(args: argparse.Namespace) -> int:
     """``facesynth status``: live services and their latest stats."""
-    from facesynth.codec import decode
+    from facesynth.runtime.codec import decode
     from schemas.messages import ServiceStats
 
     options = build.zenoh_options(args)
@@ -211,7 +212,12 @@ def cmd_profile(args: argparse.Namespace) -> int:
     """``facesynth profile list|check|show``."""
     import sys
 
-    from facesynth.profiles import ProfileError, available_profiles, describe_source, load_profile
+    from facesynth.runtime.profiles import (
+        ProfileError,
+        available_profiles,
+        describe_source,
+        load_profile,
+    )
 
     if args.action == "list":
         for name in available_profiles():
@@ -241,12 +247,12 @@ def cmd_profile(args: argparse.Namespace) -> int:
 def cmd_bench(args: argparse.Namespace) -> int:
     """``facesynth bench chain|tracker``."""
     if args.what == "smoothing":
-        from facesynth.bench_smoothing import bench_smoothing, format_smoothing
+        from facesynth.app.bench.smoothing import bench_smoothing, format_smoothing
 
         print(format_smoothing(bench_smoothing(args.profile, track=args.track)))
         return 0
     if args.what == "chain":
-        from facesynth.bench_chain import bench_chain, format_chain_bench
+        from facesynth.app.bench.chain import bench_chain, format_chain_bench
 
         print(
             format_chain_bench(
@@ -262,8 +268,8 @@ def cmd_bench(args: argparse.Namespace) -> int:
             )
         )
         return 0
-    from facesynth.data import sample_video
-    from services.points.tracker.bench import bench_tracker, format_bench
+    from facesynth.app.bench.tracker import bench_tracker, format_bench
+    from facesynth.app.data import sample_video
 
     backends = tuple(b for b in args.backends.split(",") if b)
     print(
@@ -276,7 +282,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
 
 def cmd_calibrate(args: argparse.Namespace) -> int:
     """``facesynth calibrate NAME``."""
-    from facesynth.calibrate_cli import run_calibration
+    from facesynth.app.calibrate_cli import run_calibration
 
     run_calibration(args)
     return 0

@@ -18,12 +18,12 @@ from typing import Literal
 
 import msgspec
 
-from facesynth.atomic import write_atomic
-from facesynth.feature_names import NAMES
-from facesynth.landmarks import N_IBUG
-from facesynth.named_files import NamedFiles
+from facesynth.runtime.atomic import write_atomic
+from facesynth.runtime.feature_names import NAMES
+from facesynth.runtime.landmarks import N_IBUG
+from facesynth.runtime.named_files import NamedFiles
 
-FORMAT = "facesynth.calibration"
+FORMAT = "facesynth.runtime.calibration"
 
 
 class CalibrationError(ValueError):
@@ -33,7 +33,7 @@ class CalibrationError(ValueError):
 class Calibration(msgspec.Struct, forbid_unknown_fields=True, kw_only=True):
     """One performer's neutral face and movement ranges."""
 
-    format: Literal["facesynth.calibration"] = "facesynth.calibration"
+    format: Literal["facesynth.runtime.calibration"] = "facesynth.runtime.calibration"
     version: int = 1
     name: str
     scheme: str = "ibug68"
@@ -42,7 +42,7 @@ class Calibration(msgspec.Struct, forbid_unknown_fields=True, kw_only=True):
     delta_min: list[float]
     delta_max: list[float]
     created: str = ""
-    # Named features (facesynth.feature_names): the neutral's raw values and, relative to it,
+    # Named features (runtime.feature_names): the neutral's raw values and, relative to it,
     # the calibrated extremes; features missing here keep their defaults.
     named_neutral: dict[str, float] = {}
     named_min: dict[str, float] = {}

@@ -1,7 +1,7 @@
 """The bus seam (publish / subscribe-latest / subscribe-queued / liveliness) and its transports."""
 
-from facesynth.bus.base import Bus, Sample, Subscription, SubscriptionClosed, Token
-from facesynth.bus.memory import MemoryBus, MemoryNetwork
+from facesynth.runtime.bus.base import Bus, Sample, Subscription, SubscriptionClosed, Token
+from facesynth.runtime.bus.memory import MemoryBus, MemoryNetwork
 
 __all__ = [
     "Bus",

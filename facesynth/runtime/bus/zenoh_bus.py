@@ -17,7 +17,7 @@ from typing import Any
 
 import zenoh
 
-from facesynth.bus.base import Bus, Subscription, Token
+from facesynth.runtime.bus.base import Bus, Subscription, Token
 
 #: Where services look for a router when given no --connect (``facesynth router``'s default).
 DEFAULT_ROUTER = "tcp/127.0.0.1:7447"

@@ -15,15 +15,15 @@ from collections.abc import Awaitable, Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
-from facesynth.bus.base import Bus
-from facesynth.bus.zenoh_bus import (
+from facesynth.runtime.bus.base import Bus
+from facesynth.runtime.bus.zenoh_bus import (
     ZenohBus,
     ZenohConfigError,
     ZenohOptions,
     open_session,
     router_locators,
 )
-from facesynth.runtime import ServiceContext, run_service, until_signalled
+from facesynth.runtime.service import ServiceContext, run_service, until_signalled
 from services.control.service import ControlService
 from services.sensor.service import SensorService
 

@@ -18,9 +18,10 @@ from typing import TextIO
 
 import numpy as np
 
-from facesynth import build
-from facesynth.calibration import CALIBRATIONS, save_calibration
-from facesynth.keys import check_name
+from facesynth.app import build
+from facesynth.runtime.calibration import CALIBRATIONS, save_calibration
+from facesynth.runtime.frames import encode_frame
+from facesynth.runtime.keys import check_name
 from schemas.messages import Frame
 from services.features.calibrate import (
     PROMPTS,
@@ -31,7 +32,6 @@ from services.features.calibrate import (
     step_at,
 )
 from services.features.expressions import raw_features
-from services.sensor.frames import encode_frame
 from services.sensor.service import TICK_SIZE
 
 #: Seconds skipped at the start of each live step: the performer is still changing expression.

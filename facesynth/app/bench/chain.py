@@ -20,9 +20,9 @@ from pathlib import Path
 
 import numpy as np
 
-from facesynth import codec, keys
-from facesynth.bus.zenoh_bus import ZenohBus, ZenohOptions
-from facesynth.data import sample_video
+from facesynth.app.data import sample_video
+from facesynth.runtime import codec, keys
+from facesynth.runtime.bus.zenoh_bus import ZenohBus, ZenohOptions
 from schemas.messages import ServiceStats
 from services.control.drivers.record import read_record
 

@@ -1,8 +1,8 @@
 """The bus seam: how services publish and subscribe, whatever carries the bytes.
 
 Two implementations share this contract (and one contract test suite):
-:class:`facesynth.bus.zenoh_bus.ZenohBus` for real deployments and
-:class:`facesynth.bus.memory.MemoryBus` for unit tests.
+:class:`facesynth.runtime.bus.zenoh_bus.ZenohBus` for real deployments and
+:class:`facesynth.runtime.bus.memory.MemoryBus` for unit tests.
 
 Subscriptions are mailboxes owned by the asyncio loop: a transport thread hands samples over
 with ``loop.call_soon_threadsafe`` and never blocks. A *latest* subscription keeps only the newest

@@ -201,7 +201,7 @@ def _queue_argument(parser: argparse.ArgumentParser, default: int) -> None:
 
 def build_parser() -> argparse.ArgumentParser:
     """The full argument parser."""
-    from facesynth import commands
+    from facesynth.app import commands
 
     parser = argparse.ArgumentParser(
         prog="facesynth",

@@ -35,9 +35,9 @@ from typing import Any
 import msgspec
 import numpy as np
 
-from facesynth.feature_names import BY_NAME
-from facesynth.landmarks import N_IBUG
-from facesynth.profiles import Profile, ServoSpec, Smoothing, describe_source, load_profile
+from facesynth.runtime.feature_names import BY_NAME
+from facesynth.runtime.landmarks import N_IBUG
+from facesynth.runtime.profiles import Profile, ServoSpec, Smoothing, describe_source, load_profile
 from schemas.messages import Features
 from services.translator.core import Translator
 

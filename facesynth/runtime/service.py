@@ -21,9 +21,9 @@ from typing import Any, TypeVar
 
 import msgspec
 
-from facesynth import codec, keys
-from facesynth.bus.base import Bus, Subscription, Token
-from facesynth.stats import StageStats
+from facesynth.runtime import codec, keys
+from facesynth.runtime.bus.base import Bus, Subscription, Token
+from facesynth.runtime.stats import StageStats
 
 M = TypeVar("M")
 Body = Callable[["ServiceContext"], Awaitable[Any]]

@@ -17,9 +17,9 @@ from typing import Any
 import cv2
 import numpy as np
 
-from .inference import frame_to_rgba
-from .offline import iter_video_frames
-from .tracker import FaceTracker
+from services.points.tracker.inference import frame_to_rgba
+from services.points.tracker.offline import iter_video_frames
+from services.points.tracker.tracker import FaceTracker
 
 __all__ = ["GOAL_MESH_IRIS_MS", "GOAL_PEAK_RSS_MB", "bench_tracker", "format_bench"]
 

@@ -10,7 +10,7 @@ import time
 
 import zenoh
 
-from facesynth.bus.base import Bus, Sample, Subscription, Token
+from facesynth.runtime.bus.base import Bus, Sample, Subscription, Token
 
 
 class MemoryNetwork:

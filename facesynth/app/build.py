@@ -8,10 +8,10 @@ from __future__ import annotations
 
 import argparse
 
-from facesynth.bus.zenoh_bus import DEFAULT_ROUTER, ZenohOptions, endpoints
-from facesynth.calibration import Calibration, load_calibration
-from facesynth.data import sample_video
-from facesynth.profiles import Profile, load_profile
+from facesynth.app.data import sample_video
+from facesynth.runtime.bus.zenoh_bus import DEFAULT_ROUTER, ZenohOptions, endpoints
+from facesynth.runtime.calibration import Calibration, load_calibration
+from facesynth.runtime.profiles import Profile, load_profile
 from services.control.drivers.base import ServoDriver
 from services.control.drivers.config import (
     DriverConfigError,

@@ -1,0 +1,1 @@
+"""Benchmarks printed by ``facesynth bench``: the chain, the tracker, the smoothing."""
