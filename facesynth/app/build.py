@@ -133,6 +133,8 @@ def build_backend(args: argparse.Namespace) -> PointsBackend:
         raise OptionError("--redetect-every must be at least 1")
     return TrackerBackend(
         backend=args.inference,
+        model=args.model,
+        blendshapes=args.blendshapes,
         num_threads=args.threads,
         select=args.select,
         redetect_every=args.redetect_every,

@@ -95,8 +95,33 @@ def _source_arguments(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--max-frames", type=int, metavar="N", help="stop after N frames")
 
 
+def _tracker_models() -> dict[str, str]:
+    """Registered tracker models: name -> one-line summary (cheap: no OpenCV imported)."""
+    from services.points.tracker.landmarkers import tracker_models
+
+    return {name: plugin.summary for name, plugin in tracker_models().items()}
+
+
+def _model_help() -> str:
+    listed = "; ".join(f"{name}: {summary}" for name, summary in _tracker_models().items())
+    return f"tracker model (default fast) - {listed}"
+
+
+def _model_arguments(group: Any) -> None:
+    group.add_argument(
+        "--model", choices=tuple(_tracker_models()), default="fast", help=_model_help()
+    )
+    group.add_argument(
+        "--no-blendshapes",
+        dest="blendshapes",
+        action="store_false",
+        help="with --model full: skip the blendshape model (saves about 0.4 ms a frame)",
+    )
+
+
 def _points_arguments(parser: argparse.ArgumentParser) -> None:
     group = parser.add_argument_group("point streamer")
+    _model_arguments(group)
     group.add_argument(
         "--openface-csv",
         metavar="PATH",
@@ -351,6 +376,29 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--backends", default="litert,opencv", help="tracker: inference backends to compare"
     )
+    p.add_argument(
+        "--models",
+        default="fast,full",
+        help="tracker: tracker models to compare (default fast,full)",
+    )
+    p.add_argument(
+        "--repeat",
+        type=int,
+        default=1,
+        metavar="N",
+        help="tracker: N interleaved runs, medians reported (default 1; shared machines: 5)",
+    )
+    p.add_argument(
+        "--mediapipe-python",
+        metavar="PATH",
+        help="tracker: also time MediaPipe's own trackers with this Python (a venv with "
+        "mediapipe==0.10.21; see tools/mediapipe/bench.py)",
+    )
+    p.add_argument(
+        "--mediapipe-task",
+        metavar="PATH",
+        help="tracker: the face_landmarker.task bundle for --mediapipe-python",
+    )
 
     p = add(
         "track", commands.cmd_track, "track a video offline: one JSON line of landmarks per frame"
@@ -358,6 +406,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("video")
     p.add_argument("--out", required=True, help="output JSON-lines file")
     p.add_argument("--inference", choices=("auto", "litert", "opencv"), default="auto")
+    _model_arguments(p)
     return parser
 
 

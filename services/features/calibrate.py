@@ -19,11 +19,12 @@ import numpy as np
 
 from facesynth.runtime.calibration import Calibration
 from facesynth.runtime.feature_names import BY_NAME
-from facesynth.runtime.landmarks import IRIS10, MESH468, N_IBUG
+from facesynth.runtime.landmarks import IRIS10, N_IBUG
 from schemas.messages import Points
 from services.features.core import (
     FeatureError,
     ibug_points,
+    mesh_points,
     normalise,
     nose_distances,
     optional_points,
@@ -152,7 +153,10 @@ class CalibrationRecorder:
             ibug = ibug_points(points)
         except FeatureError:
             return False
-        mesh = _point_set(points, MESH468, 468, 3)
+        try:
+            mesh = mesh_points(points)
+        except FeatureError:  # a malformed mesh counts as absent (the frame still calibrates)
+            mesh = None
         iris = _point_set(points, IRIS10, 10, 2)
         recording.frames.append(_Frame(t_in_step_s, ibug, mesh, iris))
         return True

@@ -29,7 +29,7 @@ from __future__ import annotations
 import numpy as np
 
 from facesynth.runtime.calibration import Calibration
-from facesynth.runtime.landmarks import IBUG68, IRIS10, MESH468, N_IBUG, NOSE_TIP
+from facesynth.runtime.landmarks import IBUG68, IRIS10, MESH468, MESH478, N_IBUG, NOSE_TIP
 from schemas.messages import Features, Points
 from services.features.expressions import (
     HEAD,
@@ -52,6 +52,7 @@ __all__ = [
     "NeutralFace",
     "Sample",
     "ibug_points",
+    "mesh_points",
     "neutral_face",
     "normalise",
     "nose_distances",
@@ -93,6 +94,19 @@ def optional_points(points: Points, scheme: str, count: int, dims: int) -> np.nd
                 raise FeatureError(f"{scheme} set has a value that is not a finite number")
             return array.reshape(count, point_set.dims)[:, :dims]
     return None
+
+
+def mesh_points(points: Points) -> np.ndarray | None:
+    """The face mesh's 468 vertices (468, 3): the ``mesh468`` set, else the first 468 points of
+    a ``mesh478`` set (Face Landmarker v2: the same vertices, then the irises); None if neither
+    (or only without depth). A set with the wrong number of values raises :class:`FeatureError`.
+    """
+    mesh = optional_points(points, MESH468, N_MESH, 3)
+    if mesh is None:
+        full = optional_points(points, MESH478, N_MESH + N_IRIS, 3)
+        if full is not None:
+            mesh = full[:N_MESH]
+    return mesh
 
 
 def nose_distances(normalised: np.ndarray) -> np.ndarray:
@@ -215,7 +229,7 @@ class FeatureProcessor:
             )
         ibug = ibug_points(points)
         frame = normalise(ibug)
-        mesh = optional_points(points, MESH468, N_MESH, 3)
+        mesh = mesh_points(points)
         iris = optional_points(points, IRIS10, N_IRIS, 2)
         distances = nose_distances(frame)
         t = points.t_media_ns

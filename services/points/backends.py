@@ -16,9 +16,10 @@ from typing import Any
 import msgspec
 import numpy as np
 
+from facesynth.runtime import blendshapes
 from facesynth.runtime.codec import MAX_COORD
 from facesynth.runtime.landmarks import IBUG68, IRIS10, MESH468, N_IBUG
-from schemas.messages import Frame, Points, PointSet
+from schemas.messages import Frame, Points, PointSet, ScoreSet
 from services.points.openface import OpenFaceRow, load_openface_csv
 
 
@@ -118,6 +119,7 @@ class TrackLine(msgspec.Struct, kw_only=True):
     iris: list[list[float]] | None = None
     ibug68: list[list[float]] | None = None
     presence: float = 1.0
+    blendshapes: list[float] | None = None
 
 
 _SHAPES = ((IBUG68, "ibug68", N_IBUG), (MESH468, "mesh", 468), (IRIS10, "iris", 10))
@@ -146,8 +148,23 @@ def _track_sets(line: TrackLine, where: str) -> list[PointSet]:
     return sets
 
 
+def _track_scores(line: TrackLine, where: str) -> list[ScoreSet]:
+    if line.blendshapes is None:
+        return []
+    values = np.asarray(line.blendshapes, dtype=np.float64)
+    if (
+        values.shape != (blendshapes.COUNT,)
+        or not np.all(np.isfinite(values))
+        or values.min() < 0.0
+        or values.max() > 1.0
+    ):
+        raise BackendError(f"{where}: blendshapes must be {blendshapes.COUNT} numbers in 0..1")
+    return [ScoreSet(scheme=blendshapes.BLENDSHAPES52, values=values.tolist())]
+
+
 class TrackReplay(_Replay):
-    """Replay of a ``facesynth track`` JSON-lines file (mesh, iris and 68-point views)."""
+    """Replay of a ``facesynth track`` JSON-lines file (mesh, iris and 68-point views, and the
+    blendshapes when the file has them)."""
 
     name = "track"
 
@@ -155,7 +172,7 @@ class TrackReplay(_Replay):
         super().__init__(loop)
         file = Path(path)
         decoder = msgspec.json.Decoder(TrackLine)
-        self.lines: list[tuple[bool, float, list[PointSet]]] = []
+        self.lines: list[tuple[bool, float, list[PointSet], list[ScoreSet]]] = []
         try:
             raw_lines = file.read_bytes().splitlines()
         except OSError as exc:
@@ -171,7 +188,8 @@ class TrackReplay(_Replay):
             if not (math.isfinite(line.presence) and 0.0 <= line.presence <= 1.0):
                 raise BackendError(f"{where}: presence {line.presence} is not within 0..1")
             sets = _track_sets(line, where) if line.face else []
-            self.lines.append((line.face, line.presence, sets))
+            scores = _track_scores(line, where) if line.face else []
+            self.lines.append((line.face, line.presence, sets, scores))
         if not self.lines:
             raise BackendError(f"{file}: no frames")
 
@@ -182,7 +200,9 @@ class TrackReplay(_Replay):
         index = self._index(frame.seq, len(self.lines))
         if index is None:
             return no_face(frame, self.name)
-        face, presence, sets = self.lines[index]
+        face, presence, sets, scores = self.lines[index]
         if not face:
             return no_face(frame, self.name, presence)
-        return face_points(frame, sets, presence, self.name)
+        points = face_points(frame, sets, presence, self.name)
+        points.scores = list(scores)
+        return points

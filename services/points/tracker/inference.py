@@ -1,4 +1,4 @@
-"""Inference backend seam for the three MediaPipe TFLite models.
+"""Inference backend seam for the MediaPipe TFLite models.
 
 Two interchangeable backends run the same ``.tflite`` files and return the same outputs by
 name:
@@ -31,8 +31,10 @@ from .errors import ModelError
 
 __all__ = [
     "BACKENDS",
+    "BLENDSHAPES",
     "DETECTOR",
     "IRIS",
+    "LANDMARKS_V2",
     "MESH",
     "MODELS_DIR",
     "Model",
@@ -51,12 +53,23 @@ MODELS_DIR: Path = Path(__file__).resolve().parent / "models"
 
 @dataclass(frozen=True, slots=True)
 class ModelSpec:
-    """What the engine expects of one bundled model file."""
+    """What the engine expects of one bundled model file.
+
+    Image models take (batch, S, S, 3) with S = ``input_size``; a model with another input
+    gives its per-item shape in ``input_shape`` (``input_size`` is then its first dimension).
+    """
 
     filename: str
     sha256: str
     input_size: int
     outputs: tuple[str, ...]
+    input_shape: tuple[int, ...] = ()
+
+    @property
+    def item_shape(self) -> tuple[int, ...]:
+        """The input shape of one item (without the batch dimension)."""
+        s = self.input_size
+        return self.input_shape or (s, s, 3)
 
 
 DETECTOR = ModelSpec(
@@ -76,6 +89,22 @@ IRIS = ModelSpec(
     "d1744d2a09c25f501d39eba4faff47e53ecca8852c5ce19bce8eeac39357521f",
     64,
     ("output_iris", "output_eyes_contours_and_brows"),
+)
+#: Face Landmarker v2 (``face_landmarks_detector.tflite`` from ``face_landmarker.task``): 478
+#: points (x, y, z in input pixels), presence logit; ``Identity_2`` is not used.
+LANDMARKS_V2 = ModelSpec(
+    "face_landmarks_detector.tflite",
+    "c7d54204ce0448474c7f3fa9af494787c0965cbdd6f20fc72867e43046bd43d5",
+    256,
+    ("Identity", "Identity_1"),
+)
+#: The 52 ARKit-style blendshape scores from 146 of the 478 points (x, y in frame pixels).
+BLENDSHAPES = ModelSpec(
+    "face_blendshapes.tflite",
+    "4f36dded049db18d76048567439b2a7f58f1daabc00d78bfe8f3ad396a2d2082",
+    146,
+    ("StatefulPartitionedCall:0",),
+    input_shape=(146, 2),
 )
 
 
@@ -172,7 +201,8 @@ def fill_input(
 class Model(ABC):
     """A loaded model with a preallocated NHWC float32 input.
 
-    Fill :meth:`input_view` (shape (batch, S, S, 3), RGB, already scaled) and call :meth:`run`.
+    Fill :meth:`input_view` (shape (batch, S, S, 3), RGB, already scaled; (batch,
+    *spec.input_shape) for a non-image model) and call :meth:`run`.
 
     Attributes:
         backend: ``"litert"`` or ``"opencv"``.
@@ -220,13 +250,13 @@ class LiteRTModel(Model):
         if len(inputs) != 1:
             raise ModelError(f"{spec.filename}: expected one input, found {len(inputs)}")
         self._in_idx = int(inputs[0]["index"])
-        s = spec.input_size
-        if list(inputs[0]["shape"]) != [1, s, s, 3]:
+        item = list(spec.item_shape)
+        if list(inputs[0]["shape"]) != [1, *item]:
             raise ModelError(
-                f"{spec.filename}: input shape {list(inputs[0]['shape'])}, expected [1,{s},{s},3]"
+                f"{spec.filename}: input shape {list(inputs[0]['shape'])}, expected {[1, *item]}"
             )
         if batch != 1:
-            self._interp.resize_tensor_input(self._in_idx, [batch, s, s, 3])
+            self._interp.resize_tensor_input(self._in_idx, [batch, *item])
         self._interp.allocate_tensors()
         by_name = {d["name"]: int(d["index"]) for d in self._interp.get_output_details()}
         missing = [n for n in spec.outputs if n not in by_name]
@@ -262,9 +292,10 @@ class OpenCVModel(Model):
         if missing:
             raise ModelError(f"{spec.filename}: outputs {missing} not found in {sorted(names)}")
         self._names = list(spec.outputs)
+        self._input = np.zeros((batch, *spec.item_shape), np.float32)
+        self._image = len(spec.item_shape) == 3
         s = spec.input_size
-        self._input = np.zeros((batch, s, s, 3), np.float32)
-        self._nchw = np.zeros((batch, 3, s, s), np.float32)
+        self._nchw = np.zeros((batch, 3, s, s), np.float32) if self._image else self._input
         # Fail now, not on the first frame, if the graph does not accept the input shape.
         self.run()
 
@@ -274,7 +305,8 @@ class OpenCVModel(Model):
 
     def run(self) -> dict[str, np.ndarray]:
         """See :meth:`Model.run`."""
-        np.copyto(self._nchw, self._input.transpose(0, 3, 1, 2))
+        if self._image:
+            np.copyto(self._nchw, self._input.transpose(0, 3, 1, 2))
         self._net.setInput(self._nchw)
         outs = self._net.forward(self._names)
         return {
@@ -295,7 +327,8 @@ def load_model(
     """Load one model file with the chosen backend.
 
     Args:
-        spec: which model (:data:`DETECTOR`, :data:`MESH` or :data:`IRIS`).
+        spec: which model (:data:`DETECTOR`, :data:`MESH`, :data:`IRIS`, :data:`LANDMARKS_V2`
+            or :data:`BLENDSHAPES`).
         backend: ``"auto"``, ``"litert"`` or ``"opencv"``.
         model_dir: folder holding ``spec.filename`` (default: the bundled ``models/``).
         num_threads: LiteRT interpreter threads (ignored by OpenCV; see module docstring).

@@ -61,14 +61,18 @@ def _points(a: np.ndarray | None) -> list[list[float]] | None:
 
 
 def result_to_record(frame: int, r: TrackResult) -> dict[str, Any]:
-    """One JSON Lines record: frame index, face flag and 2-D points rounded to 0.01 px."""
-    return {
+    """One JSON Lines record: frame index, face flag and 2-D points rounded to 0.01 px; with
+    blendshapes (``full`` model) also ``"blendshapes"``: the 52 scores rounded to 0.0001."""
+    record: dict[str, Any] = {
         "frame": frame,
         "face": r.face,
         "mesh": _points(r.mesh),
         "iris": _points(r.iris),
         "ibug68": _points(r.ibug68),
     }
+    if r.blendshapes is not None:
+        record["blendshapes"] = np.round(r.blendshapes.astype(np.float64), 4).tolist()
+    return record
 
 
 def track_video(
@@ -77,11 +81,13 @@ def track_video(
     backend: str = "auto",
     *,
     tracker: FaceTracker | None = None,
+    model: str | Any = "fast",
 ) -> dict[str, Any]:
     """Track every frame of a video and write one JSON line per frame, atomically.
 
     Each line is ``{"frame": i, "face": bool, "mesh": [[x, y] x 468] | null,
-    "iris": [[x, y] x 10] | null, "ibug68": [[x, y] x 68] | null}`` in frame pixels. The file is
+    "iris": [[x, y] x 10] | null, "ibug68": [[x, y] x 68] | null}`` in frame pixels (plus
+    ``"blendshapes": [52 scores]`` on face lines of the ``full`` model). The file is
     written to a temporary file in the same folder, fsynced and renamed over ``out_jsonl``, so
     it is either complete or absent (an existing file is left untouched on error).
 
@@ -90,6 +96,7 @@ def track_video(
         out_jsonl: output file.
         backend: inference backend for a new tracker.
         tracker: use this tracker instead (it is reset first).
+        model: tracker model for a new tracker (a name or its config struct).
 
     Returns:
         ``{"video", "output", "backend", "frames", "faces", "lost_frames", "tracker_ms_median",
@@ -100,7 +107,7 @@ def track_video(
         ModelError: a model file is missing or corrupt.
     """
     out = Path(out_jsonl)
-    trk = tracker if tracker is not None else FaceTracker(backend=backend)
+    trk = tracker if tracker is not None else FaceTracker(backend=backend, model=model)
     trk.reset()
     out.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp_name = tempfile.mkstemp(prefix=f".{out.name}.", suffix=".tmp", dir=out.parent)
@@ -139,6 +146,7 @@ def track_video(
         "video": str(path),
         "output": str(out),
         "backend": trk.backend,
+        "model": trk.model.name,
         "frames": frames,
         "faces": faces,
         "lost_frames": lost,
