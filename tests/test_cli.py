@@ -42,6 +42,9 @@ def _files(tmp: Path) -> dict[str, Path]:
         "garbage.mp4": "this is not a video",
         "bad.json5": "{ mode: ",
         "track.jsonl": '{"frame": 0, "face": true, "ibug68": [[1, 2]]}\n',
+        "blend.jsonl": '{"frame": 0, "face": true, "ibug68": '
+        + str([[1.0, 2.0]] * 68)
+        + ', "blendshapes": [0.5, 2.0]}\n',
     }
     for name, text in files.items():
         (tmp / name).write_text(text)
@@ -59,6 +62,19 @@ CASES = [
     ("record without out", ["control"], "needs --out"),
     ("not OpenFace", ["points", "--openface-csv", "{garbage.csv}"], "missing columns"),
     ("bad track file", ["points", "--points-jsonl", "{track.jsonl}"], "68 finite"),
+    ("bad track blendshapes", ["points", "--points-jsonl", "{blend.jsonl}"], "52 numbers in 0..1"),
+    ("unknown bench model", ["bench", "tracker", "--models", "fast,huge"], "unknown ['huge']"),
+    (
+        "mediapipe without task",
+        ["bench", "tracker", "--mediapipe-python", "python3", "--frames", "2"],
+        "needs --mediapipe-task",
+    ),
+    (
+        "mediapipe task missing",
+        ["bench", "tracker", "--mediapipe-python", "python3", "--mediapipe-task", "/no.task"],
+        "task file not found",
+    ),
+    ("bench repeat", ["bench", "tracker", "--repeat", "0", "--frames", "2"], "--repeat"),
     ("not a video", ["sensor", "--video", "{garbage.mp4}"], "cannot open"),
     ("missing video", ["sensor", "--video", "/nonexistent.mp4"], "does not exist"),
     ("two sources", ["sensor", "--video", "{garbage.mp4}", "--ticks", "3"], "choose one"),
@@ -111,6 +127,21 @@ def test_bad_rig_is_named(tmp_path: Path, capsys: pytest.CaptureFixture[str]) ->
         == 2
     )
     assert "invalid rig name 'a/b'" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("command", ["points", "run", "track", "calibrate"])
+def test_model_choices_come_from_the_registry(
+    command: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    with pytest.raises(SystemExit) as exit_info:
+        main([command, "--help"])
+    assert exit_info.value.code == 0
+    out = capsys.readouterr().out
+    assert "--model {fast,full}" in out and "Face Landmarker v2" in out
+    with pytest.raises(SystemExit) as exit_info:
+        build_parser().parse_args([command, "--model", "huge"])
+    assert exit_info.value.code == 2
+    assert "invalid choice: 'huge'" in capsys.readouterr().err
 
 
 def test_profile_check_and_list(capsys: pytest.CaptureFixture[str]) -> None:

@@ -213,6 +213,8 @@ def bench_tracker(
         raise ValueError("--repeat must be at least 1")
     if mediapipe_python and not mediapipe_task:
         raise MediaPipeError("--mediapipe-python needs --mediapipe-task (face_landmarker.task)")
+    if mediapipe_python and mediapipe_task and not Path(mediapipe_task).is_file():
+        raise MediaPipeError(f"MediaPipe task file not found: {mediapipe_task}")
     cv2.setNumThreads(1)
     video = Path(video_path)
     cap = cv2.VideoCapture(str(video))
