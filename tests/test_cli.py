@@ -20,6 +20,8 @@ COMMANDS = [
     "profile",
     "bench",
     "track",
+    "compose",
+    "calibrate",
 ]
 
 
@@ -45,6 +47,10 @@ def _files(tmp: Path) -> dict[str, Path]:
         "blend.jsonl": '{"frame": 0, "face": true, "ibug68": '
         + str([[1.0, 2.0]] * 68)
         + ', "blendshapes": [0.5, 2.0]}\n',
+        "graph.toml": '[nodes.control]\nstage = "control"\n[nodes.f]\nstage = "features"\n',
+        "nodriver.toml": '[nodes.c]\nstage = "control"\ndriver = { driver = "record" }\n',
+        "badgraph.toml": "[nodes.x\n",
+        "features.toml": '[nodes.f]\nstage = "features"\n',
     }
     for name, text in files.items():
         (tmp / name).write_text(text)
@@ -63,6 +69,7 @@ CASES = [
     ("not OpenFace", ["points", "--openface-csv", "{garbage.csv}"], "missing columns"),
     ("bad track file", ["points", "--points-jsonl", "{track.jsonl}"], "68 finite"),
     ("bad track blendshapes", ["points", "--points-jsonl", "{blend.jsonl}"], "52 numbers in 0..1"),
+    ("unknown tracker model", ["points", "--model", "huge"], "unknown tracker model 'huge'"),
     ("unknown bench model", ["bench", "tracker", "--models", "fast,huge"], "unknown ['huge']"),
     (
         "mediapipe without task",
@@ -92,6 +99,36 @@ CASES = [
         "cannot open a Zenoh client session",
     ),
     ("profile check broken", ["profile", "check", "{bad.toml}"], "not valid TOML"),
+    ("missing graph", ["run", "/nonexistent/g.toml"], "graph /nonexistent/g.toml does not exist"),
+    ("broken graph", ["features", "--graph", "{badgraph.toml}"], "not valid TOML"),
+    ("node without graph", ["features", "--node", "f"], "--node needs --graph"),
+    (
+        "node of another stage",
+        ["features", "--graph", "{graph.toml}", "--node", "control"],
+        "node 'control' runs control, not features",
+    ),
+    (
+        "option of another backend",
+        ["points", "--threads", "2", "--openface-csv", "{garbage.csv}"],
+        "--threads does not apply to backend openface",
+    ),
+    (
+        "two backends",
+        ["points", "--openface-csv", "a", "--points-jsonl", "b"],
+        "choose one backend",
+    ),
+    (
+        "compose outside deploy",
+        ["compose", "{features.toml}", "--graph-path", "/tmp/g.toml"],
+        "--graph-path must lie in /etc/facesynth",
+    ),
+    ("graph without out", ["control", "--graph", "{nodriver.toml}"], "driver record needs --out"),
+    (
+        "compose checks drivers",
+        ["compose", "{nodriver.toml}"],
+        "Object missing required field `out`",
+    ),
+    ("bad watchdog", ["control", "--out", "x", "--watchdog", "0"], "--watchdog: Expected"),
     ("profile without name", ["profile", "check"], "needs a profile"),
 ]
 
@@ -129,17 +166,20 @@ def test_bad_rig_is_named(tmp_path: Path, capsys: pytest.CaptureFixture[str]) ->
     assert "invalid rig name 'a/b'" in capsys.readouterr().err
 
 
-@pytest.mark.parametrize("command", ["points", "run", "track", "calibrate"])
+@pytest.mark.parametrize("command", ["points", "run", "track"])
 def test_model_choices_come_from_the_registry(
     command: str, capsys: pytest.CaptureFixture[str]
 ) -> None:
     with pytest.raises(SystemExit) as exit_info:
         main([command, "--help"])
     assert exit_info.value.code == 0
-    out = capsys.readouterr().out
-    assert "--model {fast,full}" in out and "Face Landmarker v2" in out
+    out = " ".join(capsys.readouterr().out.split())
+    assert "--model" in out and "Face Landmarker v2" in out and "fast" in out
+
+
+def test_track_refuses_an_unknown_model(capsys: pytest.CaptureFixture[str]) -> None:
     with pytest.raises(SystemExit) as exit_info:
-        build_parser().parse_args([command, "--model", "huge"])
+        build_parser().parse_args(["track", "v.mp4", "--out", "x", "--model", "huge"])
     assert exit_info.value.code == 2
     assert "invalid choice: 'huge'" in capsys.readouterr().err
 

@@ -26,7 +26,7 @@ from .crops import CropRect
 from .detector import Detection, FaceDetector, box_iou
 from .ibug68 import mesh_to_ibug68
 from .inference import DETECTOR, Model, ModelSpec, frame_to_rgba, load_model, resolve_backend
-from .landmarkers import Landmarks, TrackerModel, model_config, tracker_models
+from .landmarkers import TRACKER_MODELS, Landmarks, TrackerModel, model_config
 from .mesh import NUM_VERTICES, mesh_box, rect_from_detection, rect_from_mesh_box
 
 __all__ = ["SELECT_MODES", "FaceTracker", "TrackResult"]
@@ -123,7 +123,7 @@ class FaceTracker:
 
         Raises:
             ModelError: a model file is missing, unreadable or corrupt.
-            ValueError: a bad argument.
+            ValueError: a bad argument (an unknown model: a PluginError).
         """
         if select not in SELECT_MODES:
             raise ValueError(f"select must be one of {SELECT_MODES}, got {select!r}")
@@ -150,8 +150,7 @@ class FaceTracker:
             )
 
         self.detector = FaceDetector(_load(DETECTOR), min_score=min_detection_score)
-        plugin = tracker_models()[str(type(config).__struct_config__.tag)]
-        self.model: TrackerModel = plugin.build(config, _load)
+        self.model: TrackerModel = TRACKER_MODELS.build(config, _load)
         self._rgba: np.ndarray | None = None
         self.reset()
 

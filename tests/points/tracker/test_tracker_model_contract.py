@@ -19,29 +19,23 @@ from tracker_fixtures import VIDEO, VIDEO_FRAMES, TrackedByModel
 
 from facesynth.runtime import codec
 from facesynth.runtime.frames import encode_frame
+from facesynth.runtime.plugins import PluginError
 from schemas.messages import Points
+from services.points.backends.tracker import TrackerBackend, TrackerConfig
 from services.points.tracker import FaceTracker, ModelError, mesh_to_ibug68
 from services.points.tracker.inference import DETECTOR, MODELS_DIR, ModelSpec, load_model
-from services.points.tracker.landmarkers import (
-    TrackerModelPlugin,
-    model_config,
-    model_names,
-    register,
-    tracker_models,
-)
+from services.points.tracker.landmarkers import TRACKER_MODELS, model_config, model_names
 from services.points.tracker.offline import iter_video_frames
-from services.points.tracking import TrackerBackend
 
 MODELS = model_names()
 
 
 def test_the_shipped_models_are_registered() -> None:
-    assert MODELS[:2] == ("fast", "full")
-    for name, plugin in tracker_models().items():
-        assert plugin.name == name and plugin.summary
-        assert plugin.config.__struct_config__.tag == name
+    assert {"fast", "full"} <= set(MODELS)
+    for plugin in TRACKER_MODELS:
+        assert plugin.summary and plugin.config.__struct_config__.tag == plugin.name
         # every option has a default: the bare name is a complete configuration
-        assert type(model_config(name)) is plugin.config
+        assert type(model_config(plugin.name)) is plugin.config
 
 
 def _files(model: str) -> list[ModelSpec]:
@@ -52,7 +46,7 @@ def _files(model: str) -> list[ModelSpec]:
         specs.append(spec)
         return load_model(spec, "litert", batch=batch)
 
-    tracker_models()[model].build(model_config(model), load)
+    TRACKER_MODELS.build(model_config(model), load)
     return specs
 
 
@@ -202,7 +196,7 @@ def test_a_damaged_model_file_is_a_clear_model_error(
 @pytest.mark.parametrize("model", MODELS)
 def test_the_backend_publishes_valid_points(tracked_by_model: TrackedByModel, model: str) -> None:
     frame_bgr = tracked_by_model[model].samples[80]
-    backend = TrackerBackend("litert", model=model)
+    backend = TrackerBackend(TrackerConfig(inference="litert", model=model))
     frame = encode_frame(frame_bgr, seq=4, t_capture_ns=1, t_media_ns=2, encoding="raw")
     points = codec.decode(codec.encode(backend.process(frame)), Points)
     assert points.face and points.seq == 4
@@ -215,22 +209,15 @@ def test_the_backend_publishes_valid_points(tracked_by_model: TrackedByModel, mo
 
 
 def test_model_options_are_checked() -> None:
-    with pytest.raises(ValueError, match="unknown tracker model 'huge'; expected one of fast"):
+    with pytest.raises(PluginError, match="unknown tracker model 'huge' \\(known: fast, full"):
         model_config("huge")
-    with pytest.raises(ValueError, match="tracker model 'full'"):
+    with pytest.raises(PluginError, match=r"tracker model full: .*unknown field `iris`"):
         model_config("full", iris=False)
-    with pytest.raises(ValueError, match="unknown tracker model"):
+    with pytest.raises(PluginError, match="unknown tracker model"):
         FaceTracker(model="huge")
+    with pytest.raises(msgspec.ValidationError, match="unknown tracker model 'huge'"):
+        msgspec.convert({"model": "huge"}, TrackerConfig)
     full = model_config("full", blendshapes=False)
     assert model_config(full) is full
-
-
-def test_a_model_name_is_registered_once() -> None:
-    plugin = tracker_models()["fast"]
-    assert register(plugin) is plugin  # re-registering the same plugin is harmless
-    clash = TrackerModelPlugin("fast", plugin.config, plugin.build, "another fast")
-    with pytest.raises(ValueError, match="registered twice"):
-        register(clash)
-    wrong_tag = TrackerModelPlugin("quick", plugin.config, plugin.build, "tag differs")
-    with pytest.raises(ValueError, match="its config's tag is 'fast'"):
-        register(wrong_tag)
+    assert TrackerConfig(model="full", blendshapes=False).model_config() == full
+    assert TrackerConfig(model="fast", blendshapes=False).model_config() == model_config("fast")

@@ -8,12 +8,12 @@ blendshapes. With ``iris = false`` only the mesh runs.
 from __future__ import annotations
 
 import time
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Annotated
 
 import msgspec
 import numpy as np
 
-from . import Landmarks, ModelLoader, TrackerModel, TrackerModelPlugin, register
+from . import TRACKER_MODELS, Landmarks, ModelLoader, TrackerModel
 
 if TYPE_CHECKING:
     from ..crops import CropRect
@@ -21,14 +21,19 @@ if TYPE_CHECKING:
 __all__ = ["FastModel", "FastTrackerModel"]
 
 
-class FastModel(msgspec.Struct, tag="fast", forbid_unknown_fields=True, kw_only=True):
+class FastModel(
+    msgspec.Struct, tag="fast", tag_field="model", forbid_unknown_fields=True, kw_only=True
+):
     """Options of the ``fast`` model."""
 
-    iris: bool = True  # run the iris model (about half the per-frame cost)
+    iris: Annotated[
+        bool, msgspec.Meta(description="run the iris model (about half the per-frame cost)")
+    ] = True
 
 
+@TRACKER_MODELS.register(FastModel)
 class FastTrackerModel(TrackerModel):
-    """v1 mesh + batched iris calls."""
+    """468-point mesh + iris model on both eyes: two model calls, no blendshapes."""
 
     name = "fast"
 
@@ -56,13 +61,3 @@ class FastTrackerModel(TrackerModel):
         iris = self.iris.run(frame_rgba, points)
         timings["iris"] = timings.get("iris", 0.0) + (time.perf_counter() - t) * 1e3
         return Landmarks(iris=iris)
-
-
-PLUGIN = register(
-    TrackerModelPlugin(
-        name="fast",
-        config=FastModel,
-        build=FastTrackerModel,
-        summary="468-point mesh + iris model on both eyes (two calls, no blendshapes)",
-    )
-)

@@ -14,12 +14,12 @@ blendshapes (:mod:`..blendshapes`), unless ``blendshapes = false``.
 from __future__ import annotations
 
 import time
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Annotated
 
 import msgspec
 import numpy as np
 
-from . import Landmarks, ModelLoader, TrackerModel, TrackerModelPlugin, register
+from . import TRACKER_MODELS, Landmarks, ModelLoader, TrackerModel
 
 if TYPE_CHECKING:
     from ..crops import CropRect
@@ -32,14 +32,19 @@ NUM_POINTS = 478
 IRIS_ROWS = np.array([468, 469, 470, 471, 472, 473, 476, 475, 474, 477])
 
 
-class FullModel(msgspec.Struct, tag="full", forbid_unknown_fields=True, kw_only=True):
+class FullModel(
+    msgspec.Struct, tag="full", tag_field="model", forbid_unknown_fields=True, kw_only=True
+):
     """Options of the ``full`` model."""
 
-    blendshapes: bool = True  # run the blendshape model (about 0.4 ms a frame)
+    blendshapes: Annotated[
+        bool, msgspec.Meta(description="run the blendshape model (about 0.4 ms a frame)")
+    ] = True
 
 
+@TRACKER_MODELS.register(FullModel)
 class FullTrackerModel(TrackerModel):
-    """Face Landmarker v2 + blendshapes."""
+    """Face Landmarker v2: 478 points with the irises in one call, + 52 blendshapes."""
 
     name = "full"
 
@@ -68,13 +73,3 @@ class FullTrackerModel(TrackerModel):
             elapsed = (time.perf_counter() - t) * 1e3
             timings["blendshapes"] = timings.get("blendshapes", 0.0) + elapsed
         return Landmarks(iris=points[IRIS_ROWS, :2], mesh478=points, blendshapes=scores)
-
-
-PLUGIN = register(
-    TrackerModelPlugin(
-        name="full",
-        config=FullModel,
-        build=FullTrackerModel,
-        summary="Face Landmarker v2: 478 points with irises in one call, + 52 blendshapes",
-    )
-)

@@ -1,17 +1,11 @@
-"""Point streamer backends: each turns one Frame into one Points message.
-
-Replays (OpenFace CSV, facesynth's own track files) pick the recorded landmarks of the frame
-with the same sequence number and ignore the pixels, so a replay runs through the same chain,
-with the same timing and latency measurements, as live tracking. Past the end of a recording
-(without ``loop``) every frame is "no face".
-"""
+"""Replay of a ``facesynth track`` JSON-lines file (mesh, iris and 68-point views, and the
+blendshapes when the file has them)."""
 
 from __future__ import annotations
 
-import abc
 import math
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any
 
 import msgspec
 import numpy as np
@@ -20,94 +14,35 @@ from facesynth.runtime import blendshapes
 from facesynth.runtime.codec import MAX_COORD
 from facesynth.runtime.landmarks import IBUG68, IRIS10, MESH468, N_IBUG
 from schemas.messages import Frame, Points, PointSet, ScoreSet
-from services.points.openface import OpenFaceRow, load_openface_csv
+from services.points.backends.base import (
+    BackendError,
+    Replay,
+    face_points,
+    no_face,
+    point_set,
+)
+from services.points.backends.registry import BACKENDS
 
 
-class BackendError(ValueError):
-    """A backend that cannot be set up (unreadable recording, missing model)."""
+class TrackFileConfig(
+    msgspec.Struct, tag="track", tag_field="backend", kw_only=True, forbid_unknown_fields=True
+):
+    """Replay a facesynth track file."""
 
-
-def face_points(frame: Frame, sets: list[PointSet], confidence: float, source: str) -> Points:
-    """A "face present" Points message for ``frame``."""
-    return _points(frame, True, sets, confidence, source)
-
-
-def no_face(frame: Frame, source: str, confidence: float = 0.0) -> Points:
-    """A "no face" Points message for ``frame`` (never stale points)."""
-    return _points(frame, False, [], confidence, source)
-
-
-def _points(
-    frame: Frame, face: bool, sets: list[PointSet], confidence: float, source: str
-) -> Points:
-    return Points(
-        seq=frame.seq,
-        t_capture_ns=frame.t_capture_ns,
-        t_media_ns=frame.t_media_ns,
-        face=face,
-        confidence=confidence,
-        image_width=frame.width,
-        image_height=frame.height,
-        sets=sets,
-        source=source,
-    )
-
-
-def point_set(scheme: str, array: np.ndarray) -> PointSet:
-    """A PointSet from an (N, 2) or (N, 3) array."""
-    return PointSet(
-        scheme=scheme, dims=int(array.shape[1]), coords=array.astype(float).ravel().tolist()
-    )
-
-
-class PointsBackend(abc.ABC):
-    """Frames in, Points out."""
-
-    name: str = "backend"
-
-    @abc.abstractmethod
-    def process(self, frame: Frame) -> Points:
-        """Landmarks of one frame (or "no face")."""
-
-    def frame_count(self) -> int | None:
-        """How many frames a recording holds (``None`` for live trackers)."""
-        return None
-
-    def needs_pixels(self) -> bool:
-        """Whether frames must carry an image."""
-        return False
-
-
-class _Replay(PointsBackend):
-    def __init__(self, loop: bool) -> None:
-        self.loop = loop
-
-    def _index(self, seq: int, length: int) -> int | None:
-        if self.loop:
-            return seq % length
-        return seq if seq < length else None
-
-
-class OpenFaceReplay(_Replay):
-    """Replay of OpenFace 2 CSV output: row ``n`` (in frame order) answers frame ``n``."""
-
-    name = "openface"
-
-    def __init__(self, path: str | Path, *, loop: bool = False) -> None:
-        super().__init__(loop)
-        self.rows: list[OpenFaceRow] = load_openface_csv(path)
-
-    def frame_count(self) -> int:
-        return len(self.rows)
-
-    def process(self, frame: Frame) -> Points:
-        index = self._index(frame.seq, len(self.rows))
-        if index is None:
-            return no_face(frame, self.name)
-        row = self.rows[index]
-        if not row.success:
-            return no_face(frame, self.name, row.confidence)
-        return face_points(frame, [point_set(IBUG68, row.points)], row.confidence, self.name)
+    path: Annotated[
+        str,
+        msgspec.Meta(
+            description="replay a facesynth track file",
+            extra={"flag": "--points-jsonl", "selects": True},
+        ),
+    ]
+    loop: Annotated[
+        bool,
+        msgspec.Meta(
+            description="loop the replayed points instead of reporting no face past their end",
+            extra={"flag": "--loop-replay"},
+        ),
+    ] = False
 
 
 class TrackLine(msgspec.Struct, kw_only=True):
@@ -162,15 +97,16 @@ def _track_scores(line: TrackLine, where: str) -> list[ScoreSet]:
     return [ScoreSet(scheme=blendshapes.BLENDSHAPES52, values=values.tolist())]
 
 
-class TrackReplay(_Replay):
+@BACKENDS.register(TrackFileConfig)
+class TrackReplay(Replay):
     """Replay of a ``facesynth track`` JSON-lines file (mesh, iris and 68-point views, and the
     blendshapes when the file has them)."""
 
     name = "track"
 
-    def __init__(self, path: str | Path, *, loop: bool = False) -> None:
-        super().__init__(loop)
-        file = Path(path)
+    def __init__(self, config: TrackFileConfig) -> None:
+        super().__init__(config.loop)
+        file = Path(config.path)
         decoder = msgspec.json.Decoder(TrackLine)
         self.lines: list[tuple[bool, float, list[PointSet], list[ScoreSet]]] = []
         try:
