@@ -18,7 +18,7 @@ import pytest
 
 from facesynth.app.data import sample_video
 from facesynth.runtime import codec
-from facesynth.runtime.feature_names import NAMES
+from facesynth.runtime.feature_names import LANDMARK_NAMES
 from facesynth.runtime.frames import encode_frame
 from schemas.messages import Features, Points
 from services.features.core import FeatureProcessor, ibug_points, optional_points
@@ -71,7 +71,7 @@ def test_every_feature_once_the_neutral_is_known(run) -> None:
     assert ready[0] == 24 and len(ready) == 472 - 24  # 23.98 fps: the first second is 24 frames
     for out in outs[24:]:
         codec.validate_features(out)
-        assert set(out.named) == set(NAMES) and len(out.displacements) == 136
+        assert set(out.named) == set(LANDMARK_NAMES) and len(out.displacements) == 136
 
 
 def test_the_neutral_second_reads_about_zero(run, tracked) -> None:
