@@ -308,5 +308,5 @@ def test_search_order(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     (env_dir / "paper16.toml").write_text(_toml(name="paper16", description="env"))
     monkeypatch.setenv("FACESYNTH_PROFILES", str(env_dir))
     assert load_profile("paper16").description == "env"  # $FACESYNTH_PROFILES beats home
-    assert profiles.search_dirs()[:2] == [env_dir, home_dir]
-    assert profiles.search_dirs()[-1] == profiles.PACKAGE_DIR
+    assert profiles.PROFILES.search_dirs()[:2] == [env_dir, home_dir]
+    assert profiles.PROFILES.search_dirs()[-1] == profiles.PACKAGE_DIR
