@@ -15,6 +15,7 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 from facesynth import __version__
+from services.points.tracker.runtimes import backend_choices
 
 Handler = Callable[[argparse.Namespace], int]
 
@@ -110,7 +111,7 @@ def _points_arguments(parser: argparse.ArgumentParser) -> None:
     )
     group.add_argument(
         "--inference",
-        choices=("auto", "litert", "opencv"),
+        choices=backend_choices(),
         default="auto",
         help="tracker inference backend (default auto: LiteRT when installed)",
     )
@@ -357,7 +358,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("video")
     p.add_argument("--out", required=True, help="output JSON-lines file")
-    p.add_argument("--inference", choices=("auto", "litert", "opencv"), default="auto")
+    p.add_argument("--inference", choices=backend_choices(), default="auto")
     return parser
 
 

@@ -17,7 +17,7 @@ from typing import Any
 import cv2
 import numpy as np
 
-from services.points.tracker.inference import frame_to_rgba
+from services.points.tracker.model_input import frame_to_rgba
 from services.points.tracker.offline import iter_video_frames
 from services.points.tracker.tracker import FaceTracker
 
