@@ -20,6 +20,7 @@ from facesynth.runtime.codec import MAX_COORD
 from facesynth.runtime.landmarks import IBUG68, IRIS10, MESH468, N_IBUG
 from schemas.messages import Frame, Points, PointSet
 from services.points.openface import OpenFaceRow, load_openface_csv
+from services.points.track_file import TrackLine
 
 
 class BackendError(ValueError):
@@ -107,17 +108,6 @@ class OpenFaceReplay(_Replay):
         if not row.success:
             return no_face(frame, self.name, row.confidence)
         return face_points(frame, [point_set(IBUG68, row.points)], row.confidence, self.name)
-
-
-class TrackLine(msgspec.Struct, kw_only=True):
-    """One line of a ``facesynth track`` file."""
-
-    frame: int
-    face: bool
-    mesh: list[list[float]] | None = None
-    iris: list[list[float]] | None = None
-    ibug68: list[list[float]] | None = None
-    presence: float = 1.0
 
 
 _SHAPES = ((IBUG68, "ibug68", N_IBUG), (MESH468, "mesh", 468), (IRIS10, "iris", 10))
