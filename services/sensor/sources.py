@@ -13,6 +13,8 @@ from pathlib import Path
 
 import numpy as np
 
+from facesynth.runtime.opencv import import_cv2
+
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".webp")
 
 
@@ -43,19 +45,11 @@ class FrameSource(abc.ABC):
         """Release the device or file (nothing to release by default)."""
 
 
-def _cv2():  # type: ignore[no-untyped-def]
-    try:
-        import cv2
-    except ImportError:  # pragma: no cover - depends on the install
-        raise SourceError("OpenCV is not installed: install facesynth[tracker]") from None
-    return cv2
-
-
 class VideoSource(FrameSource):
     """Frames of a video file, timed by their index and the file's frame rate."""
 
     def __init__(self, path: str | Path, *, loop: bool = False, fps: float | None = None) -> None:
-        cv2 = _cv2()
+        cv2 = import_cv2(SourceError)
         self.path = Path(path)
         if not self.path.is_file():
             raise SourceError(f"video {self.path} does not exist")
@@ -70,7 +64,7 @@ class VideoSource(FrameSource):
         self.info = SourceInfo(str(self.path), rate, count or None, live=False)
 
     def frames(self) -> Iterator[tuple[np.ndarray | None, int]]:
-        cv2 = _cv2()
+        cv2 = import_cv2(SourceError)
         period_ns = 1e9 / self.info.fps
         index = 0
         while True:
@@ -95,7 +89,7 @@ class CameraSource(FrameSource):
     """A live camera with a one-frame buffer, timed by the wall clock."""
 
     def __init__(self, index: int, *, width: int = 0, height: int = 0, fps: float = 0.0) -> None:
-        cv2 = _cv2()
+        cv2 = import_cv2(SourceError)
         self._capture = cv2.VideoCapture(index)
         if not self._capture.isOpened():
             raise SourceError(f"cannot open camera {index}")
@@ -136,7 +130,7 @@ class FolderSource(FrameSource):
         self.info = SourceInfo(str(self.folder), fps, len(self.files), live=False)
 
     def frames(self) -> Iterator[tuple[np.ndarray | None, int]]:
-        cv2 = _cv2()
+        cv2 = import_cv2(SourceError)
         period_ns = 1e9 / self.info.fps
         index = 0
         while True:
