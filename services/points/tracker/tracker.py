@@ -123,7 +123,6 @@ class FaceTracker:
         self.redetect_every = redetect_every
         self.min_presence = min_presence
         self.select = select
-        self.use_iris = iris
         self.hold_crop = hold_crop
 
         def _load(spec: ModelSpec, batch: int = 1) -> Model:
