@@ -104,4 +104,3 @@ def load_profile(name_or_path: str) -> Profile:
     except (OSError, UnicodeDecodeError) as exc:
         raise ProfileError(f"cannot read profile {path}: {exc}") from None
     return parse_profile(text, str(path))
-

@@ -131,4 +131,3 @@ def describe_source(spec: ServoSpec) -> str:
         if value != default:
             parts.append(f"{field} {value:g}")
     return "; ".join(parts) or "no source"
-
