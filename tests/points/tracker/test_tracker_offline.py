@@ -1,16 +1,14 @@
-"""Offline video tracking to JSON Lines, corrupt videos, and the benchmark."""
+"""Offline video tracking to a track file, and corrupt videos."""
 
 from __future__ import annotations
 
 import json
-import math
 from pathlib import Path
 
 import numpy as np
 import pytest
 from tracker_fixtures import VIDEO, VIDEO_FRAMES, TrackedVideo
 
-from facesynth.app.bench.tracker import bench_tracker, format_bench
 from schemas.messages import Frame
 from services.points.backends import TrackReplay
 from services.points.track_file import TrackLine, encode_line
@@ -126,21 +124,3 @@ def test_corrupt_video_is_a_clear_error(
 def test_iter_video_frames_limit() -> None:
     frames = list(iter_video_frames(VIDEO, max_frames=3))
     assert len(frames) == 3 and frames[0].shape == (360, 640, 3)
-
-
-def test_bench_tracker() -> None:
-    result = bench_tracker(VIDEO, backends=("litert", "opencv"), frames=40)
-    assert result["size"] == (640, 360) and result["cv2_threads"] == 1
-    assert 0 < result["peak_rss_mb"] < 1000
-    for name in ("litert", "opencv"):
-        r = result["backends"][name]
-        assert r["frames"] == r["faces"] == 40 and r["detector_runs"] == 2
-        for stage in ("detect", "mesh", "iris", "mesh_iris", "tracker"):
-            s = r[stage]
-            assert s["n"] > 0 and 0 < s["median"] <= s["p99"] < 1000, (name, stage)
-        assert r["mesh_iris"]["n"] == r["mesh"]["n"] == r["iris"]["n"]
-        assert r["mesh_iris"]["mean"] == pytest.approx(r["mesh"]["mean"] + r["iris"]["mean"])
-        assert math.isclose(r["fps"], 1000 / r["tracker"]["median"])
-    text = format_bench(result)
-    assert "litert" in text and "opencv" in text and "mesh_iris" in text
-    assert "goal mesh+iris median <= 2.0 ms" in text
