@@ -8,14 +8,7 @@ import pytest
 
 from facesynth.app.cli import main
 
-
-@pytest.fixture(autouse=True)
-def _isolated(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
-    """No user profiles: HOME is empty and $FACESYNTH_PROFILES is unset."""
-    home = tmp_path / "home"
-    home.mkdir()
-    monkeypatch.setenv("HOME", str(home))
-    monkeypatch.delenv("FACESYNTH_PROFILES", raising=False)
+pytestmark = pytest.mark.usefixtures("isolated_home")  # the shipped profiles only
 
 
 BAD_PROFILE = """\

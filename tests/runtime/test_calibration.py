@@ -20,13 +20,7 @@ from facesynth.runtime.calibration import (
     save_calibration,
 )
 
-
-@pytest.fixture(autouse=True)
-def _isolated(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
-    home = tmp_path / "home"
-    home.mkdir()
-    monkeypatch.setenv("HOME", str(home))
-    monkeypatch.delenv("FACESYNTH_CALIBRATIONS", raising=False)
+pytestmark = pytest.mark.usefixtures("isolated_home")  # no user calibrations
 
 
 def _calibration(**kw: Any) -> Calibration:

@@ -8,9 +8,5 @@ import pytest
 
 
 @pytest.fixture(autouse=True)
-def _isolated(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
-    """No user profiles: HOME is empty and $FACESYNTH_PROFILES is unset."""
-    home = tmp_path / "home"
-    home.mkdir()
-    monkeypatch.setenv("HOME", str(home))
-    monkeypatch.delenv("FACESYNTH_PROFILES", raising=False)
+def _shipped_profiles_only(isolated_home: Path) -> None:
+    """No user profiles: see ``isolated_home`` in tests/conftest.py."""
