@@ -9,7 +9,8 @@ import pytest
 
 from facesynth.runtime.frames import FrameError, encode_frame
 from facesynth.runtime.opencv import import_cv2
-from services.sensor.sources import SourceError, VideoSource
+from services.sensor.sources import SourceError
+from services.sensor.sources.video import VideoConfig, VideoSource
 
 MISSING = r"^OpenCV is not installed: install facesynth\[tracker\] on hosts that handle images$"
 
@@ -37,4 +38,4 @@ def test_frames_and_sources_say_opencv_is_missing() -> None:
     with pytest.raises(FrameError, match=MISSING):
         encode_frame(np.zeros((4, 4, 3), np.uint8), seq=0, t_capture_ns=1, t_media_ns=0)
     with pytest.raises(SourceError, match=MISSING):
-        VideoSource(__file__)
+        VideoSource(VideoConfig(path=__file__))

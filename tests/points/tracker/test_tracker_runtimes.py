@@ -11,22 +11,25 @@ from pathlib import Path
 import pytest
 from tracker_fixtures import REPO, VIDEO
 
-from facesynth.app.cli import build_parser
-from facesynth.runtime.plugins import UnknownPluginError
+from facesynth.app.cli import build_parser, main
+from facesynth.runtime.plugins import PluginError
+from services.points.backends.tracker import TrackerConfig
 from services.points.tracker.model_files import MESH
 from services.points.tracker.runtimes import (
     RUNTIMES,
     backend_choices,
     load_model,
     resolve_backend,
+    runtime_class,
 )
 from services.points.tracker.runtimes.litert import LiteRTModel
 from services.points.tracker.runtimes.opencv import OpenCVModel
 
 
 def test_the_runtimes_are_found_in_their_package() -> None:
-    assert RUNTIMES.names() == ("litert", "opencv")
-    assert RUNTIMES.get("litert") is LiteRTModel and RUNTIMES.get("opencv") is OpenCVModel
+    assert RUNTIMES.names() == ["litert", "opencv"]
+    assert runtime_class("litert") is LiteRTModel and runtime_class("opencv") is OpenCVModel
+    assert RUNTIMES.get("opencv").summary == "OpenCV DNN classic engine (NCHW input)."
     assert backend_choices() == ("auto", "litert", "opencv")
 
 
@@ -36,21 +39,35 @@ def test_auto_prefers_litert() -> None:
 
 
 def test_an_unknown_runtime_is_a_one_line_error_listing_the_choices() -> None:
-    with pytest.raises(UnknownPluginError) as info:
+    with pytest.raises(PluginError) as info:
         load_model(MESH, "tflite")
     assert str(info.value) == "unknown backend 'tflite'; expected one of auto, litert, opencv"
 
 
-@pytest.mark.parametrize("command", [["track", "v.mp4", "--out", "o"], ["points"]])
-def test_cli_choices_come_from_the_registry(
-    command: list[str], capsys: pytest.CaptureFixture[str]
-) -> None:
+def test_track_choices_come_from_the_registry(capsys: pytest.CaptureFixture[str]) -> None:
     parser = build_parser()
+    command = ["track", "v.mp4", "--out", "o"]
     assert parser.parse_args([*command, "--inference", "opencv"]).inference == "opencv"
     with pytest.raises(SystemExit):
         parser.parse_args([*command, "--inference", "tflite"])
     err = capsys.readouterr().err.replace("'", "")  # Python 3.12 quotes the choices
     assert "invalid choice: tflite (choose from auto, litert, opencv)" in err
+
+
+def test_the_tracker_backend_takes_the_registered_runtimes(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    assert TrackerConfig(inference="opencv").inference == "opencv"
+    assert main(["points", "--inference", "tflite"]) == 2
+    assert capsys.readouterr().err == (
+        "facesynth points: error: backend tracker: unknown backend 'tflite'; "
+        "expected one of auto, litert, opencv\n"
+    )
+    with pytest.raises(SystemExit):
+        main(["points", "--help"])
+    assert "tracker inference runtime: auto, litert, opencv" in " ".join(
+        capsys.readouterr().out.split()
+    )
 
 
 def _run(script: str, pythonpath: list[Path]) -> str:
@@ -98,11 +115,17 @@ def test_a_runtime_from_another_distribution_is_usable_from_the_cli(tmp_path: Pa
     (tmp_path / "copy_runtime.py").write_text(
         textwrap.dedent(
             """
+            import msgspec
+
             from services.points.tracker.runtimes.base import RUNTIMES
             from services.points.tracker.runtimes.opencv import OpenCVModel
 
 
-            @RUNTIMES.register("opencv-copy")
+            class CopyRuntime(msgspec.Struct, tag="opencv-copy", tag_field="runtime"):
+                '''OpenCV under another name, shipped outside facesynth.'''
+
+
+            @RUNTIMES.register(CopyRuntime)
             class OpenCVCopy(OpenCVModel):
                 '''OpenCV under another name, shipped outside facesynth.'''
             """

@@ -1,9 +1,9 @@
 """Inference runtimes for the three MediaPipe TFLite models, as registered plugins.
 
 Every runtime runs the same ``.tflite`` files and returns the same outputs by name. Each is one
-module of this package that registers its :class:`Model` subclass in :data:`RUNTIMES` under its
-name (other distributions may add runtimes through the ``facesynth.inference_runtimes``
-entry-point group), so adding a runtime is one new module:
+module of this package that registers its :class:`Model` subclass in :data:`RUNTIMES` with a
+config struct tagged with its name (other distributions may add runtimes through the
+``facesynth.inference_runtimes`` entry-point group), so adding a runtime is one new module:
 
 * ``"litert"`` (:mod:`.litert`): ``ai_edge_litert`` with XNNPACK; ``num_threads`` per model.
 * ``"opencv"`` (:mod:`.opencv`): OpenCV DNN's classic engine; threads are process-wide.
@@ -18,19 +18,21 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from facesynth.runtime.plugins import UnknownPluginError
+from facesynth.runtime.plugins import PluginError
 
 from ..errors import ModelError
 from ..model_files import MODELS_DIR, ModelSpec, read_model_bytes
-from .base import RUNTIMES, Model
+from .base import RUNTIMES, Model, runtime_class
 
 __all__ = [
     "RUNTIMES",
     "Model",
     "available_backends",
     "backend_choices",
+    "check_backend_name",
     "load_model",
     "resolve_backend",
+    "runtime_class",
 ]
 
 
@@ -39,27 +41,36 @@ def backend_choices() -> tuple[str, ...]:
     return ("auto", *RUNTIMES.names())
 
 
+def check_backend_name(backend: str) -> str:
+    """``backend`` if it is one of :func:`backend_choices` (installed or not).
+
+    Raises:
+        PluginError: an unknown name; the one-line message lists the choices.
+    """
+    if backend not in backend_choices():
+        choices = ", ".join(backend_choices())
+        raise PluginError(f"unknown backend {backend!r}; expected one of {choices}")
+    return backend
+
+
 def available_backends() -> tuple[str, ...]:
     """Runtimes usable in this environment (OpenCV is a hard dependency of the tracker)."""
-    return tuple(name for name in RUNTIMES.names() if RUNTIMES.get(name).available())
+    return tuple(name for name in RUNTIMES.names() if runtime_class(name).available())
 
 
 def resolve_backend(backend: str) -> str:
     """Map ``"auto"`` to a concrete runtime and validate the name.
 
     Raises:
-        ValueError: an unknown runtime (:class:`~facesynth.runtime.plugins.UnknownPluginError`)
-            or one whose library is not installed.
+        ValueError: an unknown runtime (:class:`~facesynth.runtime.plugins.PluginError`) or
+            one whose library is not installed.
     """
     if backend == "auto":
         usable = available_backends()
         if not usable:
             raise ValueError("no inference runtime is installed (install facesynth[tracker])")
-        return max(usable, key=lambda name: RUNTIMES.get(name).priority)
-    if backend not in RUNTIMES:
-        choices = ", ".join(backend_choices())
-        raise UnknownPluginError(f"unknown backend {backend!r}; expected one of {choices}")
-    runtime = RUNTIMES.get(backend)
+        return max(usable, key=lambda name: runtime_class(name).priority)
+    runtime = runtime_class(check_backend_name(backend))
     if not runtime.available():
         raise ValueError(f"backend {backend!r} requested but {runtime.requires} is not installed")
     return backend
@@ -95,7 +106,7 @@ def load_model(
     path = Path(model_dir if model_dir is not None else MODELS_DIR) / spec.filename
     content = read_model_bytes(path, spec.sha256 if verify else None)
     try:
-        return RUNTIMES.get(name)(spec, path, content, batch, num_threads)
+        return runtime_class(name)(spec, path, content, batch, num_threads)
     except ModelError:
         raise
     except Exception as exc:  # runtime-specific parse errors (ValueError, RuntimeError, cv2.error)

@@ -13,7 +13,7 @@ from facesynth.runtime.plugins import Registry
 
 from ..model_files import ModelSpec
 
-__all__ = ["RUNTIMES", "Model"]
+__all__ = ["RUNTIMES", "Model", "runtime_class"]
 
 
 class Model(ABC):
@@ -21,9 +21,10 @@ class Model(ABC):
 
     Fill :meth:`input_view` (shape (batch, S, S, 3), RGB, already scaled) and call :meth:`run`.
 
-    A runtime is a subclass registered in :data:`RUNTIMES` under the runtime's name, in a module
-    of its own in this package; it imports its library only when it loads a model, so that the
-    runtimes can be listed where the library is absent.
+    A runtime is a subclass registered in :data:`RUNTIMES` with an empty config struct tagged
+    with the runtime's name (``tag_field="runtime"``), in a module of its own in this package; it
+    imports its library only when it loads a model, so that the runtimes can be listed where the
+    library is absent.
 
     Attributes:
         spec: the :class:`~services.points.tracker.model_files.ModelSpec` it was loaded for.
@@ -78,8 +79,17 @@ class Model(ABC):
 
 #: The inference runtimes by name: the modules of this package, and the entry points of the
 #: ``facesynth.inference_runtimes`` group (other distributions' runtimes).
-RUNTIMES: Registry[type[Model]] = Registry(
+RUNTIMES: Registry[Model] = Registry(
     "inference runtime",
+    tag_field="runtime",
     package=__name__.rpartition(".")[0],
-    group="facesynth.inference_runtimes",
+    entry_points="facesynth.inference_runtimes",
 )
+
+
+def runtime_class(name: str) -> type[Model]:
+    """The :class:`Model` subclass of the runtime called ``name`` (PluginError if none)."""
+    factory = RUNTIMES.get(name).factory
+    if not (isinstance(factory, type) and issubclass(factory, Model)):
+        raise TypeError(f"inference runtime {name!r} is not a Model subclass")
+    return factory

@@ -10,6 +10,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+import msgspec
 import numpy as np
 
 from ..errors import ModelError
@@ -17,7 +18,13 @@ from ..model_files import ModelSpec
 from .base import RUNTIMES, Model
 
 
-@RUNTIMES.register("opencv")
+class OpenCVRuntime(
+    msgspec.Struct, tag="opencv", tag_field="runtime", kw_only=True, forbid_unknown_fields=True
+):
+    """OpenCV DNN's classic engine: always there with the tracker."""
+
+
+@RUNTIMES.register(OpenCVRuntime)
 class OpenCVModel(Model):
     """OpenCV DNN classic engine (NCHW input)."""
 
