@@ -10,7 +10,7 @@ import pytest
 from tracker_fixtures import VIDEO, VIDEO_FRAMES, TrackedVideo
 
 from schemas.messages import Frame
-from services.points.backends import TrackReplay
+from services.points.backends.track import TrackFileConfig, TrackReplay
 from services.points.track_file import TrackLine, encode_line
 from services.points.tracker import FaceTracker, VideoError, track_video
 from services.points.tracker.offline import iter_video_frames, result_to_line
@@ -54,7 +54,7 @@ def test_the_replay_reads_what_the_tracker_wrote(tmp_path: Path, tracker: FaceTr
     """Writer and reader share TrackLine: a replay gives the tracked points and presence."""
     out = tmp_path / "points.jsonl"
     track_video(VIDEO, out, tracker=tracker)
-    replay = TrackReplay(out)
+    replay = TrackReplay(TrackFileConfig(path=str(out)))
     assert replay.frame_count() == VIDEO_FRAMES
     lines = out.read_bytes().splitlines()
     for seq in (0, 1, VIDEO_FRAMES - 1):
