@@ -16,7 +16,7 @@ from typing import BinaryIO
 
 
 @contextlib.contextmanager
-def atomic_writer(path: str | os.PathLike[str]) -> Iterator[BinaryIO]:
+def open_atomic(path: str | os.PathLike[str]) -> Iterator[BinaryIO]:
     """A binary file that replaces ``path`` when the ``with`` block ends without an exception.
 
     For contents written piece by piece (a track file, frame after frame); an exception in the
@@ -45,6 +45,6 @@ def atomic_writer(path: str | os.PathLike[str]) -> Iterator[BinaryIO]:
 def write_atomic(path: str | os.PathLike[str], data: bytes | str) -> Path:
     """Write ``data`` (text as UTF-8) to ``path`` atomically; returns the path written."""
     raw = data.encode() if isinstance(data, str) else data
-    with atomic_writer(path) as handle:
+    with open_atomic(path) as handle:
         handle.write(raw)
     return Path(path)

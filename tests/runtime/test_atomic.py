@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 
 from facesynth.runtime import atomic
-from facesynth.runtime.atomic import atomic_writer
+from facesynth.runtime.atomic import open_atomic
 
 
 def _leftovers(folder: Path) -> list[str]:
@@ -36,9 +36,9 @@ def test_write_atomic_text_and_bytes(tmp_path: Path) -> None:
     assert _leftovers(tmp_path) == []
 
 
-def test_atomic_writer_replaces_the_file_when_the_block_ends(tmp_path: Path) -> None:
+def test_open_atomic_replaces_the_file_when_the_block_ends(tmp_path: Path) -> None:
     target = tmp_path / "sub" / "lines.jsonl"
-    with atomic_writer(target) as handle:
+    with open_atomic(target) as handle:
         handle.write(b"one\n")
         assert not target.exists()  # nothing visible before the block ends
         handle.write(b"two\n")
@@ -49,7 +49,7 @@ def test_atomic_writer_replaces_the_file_when_the_block_ends(tmp_path: Path) -> 
 def test_an_error_in_the_block_keeps_the_old_file(tmp_path: Path) -> None:
     target = tmp_path / "lines.jsonl"
     target.write_bytes(b"previous\n")
-    with pytest.raises(RuntimeError, match="decoder died"), atomic_writer(target) as handle:
+    with pytest.raises(RuntimeError, match="decoder died"), open_atomic(target) as handle:
         handle.write(b"half of the new ")
         raise RuntimeError("decoder died")
     assert target.read_bytes() == b"previous\n"
@@ -59,7 +59,7 @@ def test_an_error_in_the_block_keeps_the_old_file(tmp_path: Path) -> None:
 def test_an_interrupt_in_the_block_keeps_the_old_file(tmp_path: Path) -> None:
     target = tmp_path / "lines.jsonl"
     target.write_bytes(b"previous\n")
-    with pytest.raises(KeyboardInterrupt), atomic_writer(target) as handle:
+    with pytest.raises(KeyboardInterrupt), open_atomic(target) as handle:
         handle.write(b"half")
         raise KeyboardInterrupt
     assert target.read_bytes() == b"previous\n"

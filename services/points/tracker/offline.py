@@ -10,7 +10,7 @@ from typing import Any
 import cv2
 import numpy as np
 
-from facesynth.runtime.atomic import atomic_writer
+from facesynth.runtime.atomic import open_atomic
 from services.points.track_file import TrackLine, encode_line
 
 from .errors import VideoError
@@ -81,7 +81,7 @@ def track_video(
     """Track every frame of a video and write one JSON line per frame, atomically.
 
     Each line is a :class:`~services.points.track_file.TrackLine` (frame pixels). The file is
-    written with :func:`~facesynth.runtime.atomic.atomic_writer`, so it is either complete or
+    written with :func:`~facesynth.runtime.atomic.open_atomic`, so it is either complete or
     absent (an existing file is left untouched on error).
 
     Args:
@@ -104,7 +104,7 @@ def track_video(
     times: list[float] = []
     lost: list[int] = []
     faces = detections = frames = 0
-    with atomic_writer(out) as fh:
+    with open_atomic(out) as fh:
         for i, frame in enumerate(iter_video_frames(path)):
             t = time.perf_counter()
             r = trk.process(frame)
