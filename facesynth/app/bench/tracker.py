@@ -16,7 +16,6 @@ from __future__ import annotations
 import json
 import os
 import subprocess
-import sys
 import time
 from collections.abc import Iterator, Sequence
 from pathlib import Path
@@ -25,7 +24,8 @@ from typing import Any
 import cv2
 import numpy as np
 
-from services.points.tracker.inference import frame_to_rgba
+from facesynth.runtime.stats import memory_mb
+from services.points.tracker.model_input import frame_to_rgba
 from services.points.tracker.offline import iter_video_frames
 from services.points.tracker.tracker import FaceTracker
 
@@ -68,16 +68,6 @@ def _stats(values: Sequence[float]) -> dict[str, float]:
         "p99": float(np.percentile(a, 99)),
         "mean": float(a.mean()),
     }
-
-
-def peak_rss_mb() -> float:
-    """Peak resident set size of this process in MiB (0.0 where unsupported)."""
-    try:
-        import resource
-    except ImportError:  # Windows
-        return 0.0
-    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-    return peak / (1024.0 * 1024.0) if sys.platform == "darwin" else peak / 1024.0
 
 
 def _chunks(video: Path, frames: int | None) -> Iterator[list[np.ndarray]]:
@@ -271,7 +261,7 @@ def bench_tracker(
         "repeat": repeat,
         "results": results,
         "mediapipe": mediapipe,
-        "peak_rss_mb": peak_rss_mb(),
+        "peak_rss_mb": memory_mb()[1],
         "goals": {name: list(goal) for name, goal in GOALS.items()},
     }
 

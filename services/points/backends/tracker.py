@@ -31,6 +31,7 @@ from services.points.backends.base import (
 )
 from services.points.backends.registry import BACKENDS
 from services.points.tracker.landmarkers import TRACKER_MODELS, model_config
+from services.points.tracker.runtimes import backend_choices, check_backend_name
 
 
 def _model_help() -> str:
@@ -45,8 +46,11 @@ class TrackerConfig(
     """Track the face in the frames' pixels (MediaPipe models)."""
 
     inference: Annotated[
-        Literal["auto", "litert", "opencv"],
-        msgspec.Meta(description="tracker inference runtime (default auto: LiteRT when installed)"),
+        str,
+        msgspec.Meta(
+            description=f"tracker inference runtime: {', '.join(backend_choices())} "
+            "(default auto: LiteRT when installed)"
+        ),
     ] = "auto"
     threads: Annotated[
         int, msgspec.Meta(ge=1, le=64, description="tracker inference threads (default 1)")
@@ -75,6 +79,7 @@ class TrackerConfig(
     ] = True
 
     def __post_init__(self) -> None:
+        check_backend_name(self.inference)  # the runtimes registered, installed here or not
         if self.model not in TRACKER_MODELS:
             known = ", ".join(TRACKER_MODELS.names())
             raise ValueError(f"unknown tracker model {self.model!r} (known: {known})")

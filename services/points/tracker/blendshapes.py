@@ -25,7 +25,7 @@ import numpy as np
 
 from facesynth.runtime.blendshapes import COUNT
 
-from .inference import Model
+from .runtimes import Model
 
 __all__ = ["LANDMARK_SUBSET", "OUTPUT", "Blendshapes"]
 
@@ -51,7 +51,7 @@ class Blendshapes:
 
     def __init__(self, model: Model) -> None:
         """Args:
-        model: :data:`~services.points.tracker.inference.BLENDSHAPES`, batch 1.
+        model: :data:`~services.points.tracker.model_files.BLENDSHAPES`, batch 1.
         """
         if model.spec.item_shape != (len(LANDMARK_SUBSET), 2) or model.batch != 1:
             raise ValueError("the blendshape model takes one 146x2 point set")

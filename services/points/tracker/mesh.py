@@ -17,7 +17,8 @@ import numpy as np
 
 from .crops import CropRect, crop_affine, invert_affine, rect_from_box, rect_from_points
 from .detector import Detection
-from .inference import Model, fill_input
+from .model_input import fill_input
+from .runtimes import Model
 
 __all__ = [
     "LEFT_EYE_OUTER",
@@ -86,8 +87,8 @@ class FaceMesh:
         presence_output: str = "conv2d_31",
     ) -> None:
         """Args:
-        model: the loaded mesh model (:data:`~services.points.tracker.inference.MESH`, or
-            :data:`~services.points.tracker.inference.LANDMARKS_V2` with 478 points and the
+        model: the loaded mesh model (:data:`~services.points.tracker.model_files.MESH`, or
+            :data:`~services.points.tracker.model_files.LANDMARKS_V2` with 478 points and the
             outputs ``Identity`` / ``Identity_1``).
         num_points: points the model gives (x, y, z each, in crop pixels).
         points_output, presence_output: its output names.
@@ -108,7 +109,7 @@ class FaceMesh:
         """Mesh for the face inside ``rect``.
 
         Args:
-            frame_rgba: uint8 RGBA frame (:func:`~.inference.frame_to_rgba`).
+            frame_rgba: uint8 RGBA frame (:func:`~.model_input.frame_to_rgba`).
             rect: the crop.
 
         Returns:

@@ -25,9 +25,11 @@ import numpy as np
 from .crops import CropRect
 from .detector import Detection, FaceDetector, box_iou
 from .ibug68 import mesh_to_ibug68
-from .inference import DETECTOR, Model, ModelSpec, frame_to_rgba, load_model, resolve_backend
 from .landmarkers import TRACKER_MODELS, Landmarks, TrackerModel, model_config
 from .mesh import NUM_VERTICES, mesh_box, rect_from_detection, rect_from_mesh_box
+from .model_files import DETECTOR, ModelSpec
+from .model_input import frame_to_rgba
+from .runtimes import Model, load_model, resolve_backend
 
 __all__ = ["SELECT_MODES", "FaceTracker", "TrackResult"]
 
@@ -106,7 +108,7 @@ class FaceTracker:
         """Load the models.
 
         Args:
-            backend: ``"auto"``, ``"litert"`` or ``"opencv"`` (see :mod:`.inference`).
+            backend: ``"auto"``, ``"litert"`` or ``"opencv"`` (see :mod:`.runtimes`).
             redetect_every: also run the detector every N tracked frames; None = only when the
                 track is lost.
             min_presence: mesh presence score below which the face counts as lost.

@@ -9,7 +9,8 @@ from tracker_fixtures import TrackedByModel
 from facesynth.runtime import blendshapes as names
 from services.points.tracker import FaceTracker
 from services.points.tracker.blendshapes import LANDMARK_SUBSET, Blendshapes
-from services.points.tracker.inference import BLENDSHAPES, load_model
+from services.points.tracker.model_files import BLENDSHAPES
+from services.points.tracker.runtimes import load_model
 
 FPS = 23.976
 #: The sample video's face sections (seconds), as in tests/integration/test_face_sections.py.
@@ -122,3 +123,28 @@ def test_blendshapes_follow_the_performers_face_sections(
     for shape in shapes:
         up, down = means[higher][names.INDEX[shape]], means[lower][names.INDEX[shape]]
         assert up - down >= margin, f"{shape}: {higher} {up:.2f} vs {lower} {down:.2f}"
+
+
+def test_a_track_file_keeps_the_blendshapes(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    """``facesynth track --model full`` writes them; the replay puts them back on the bus."""
+    from tracker_fixtures import VIDEO
+
+    from facesynth.runtime.frames import encode_frame
+    from services.points.backends.track import TrackFileConfig, TrackReplay
+    from services.points.tracker.offline import iter_video_frames, track_video
+
+    out = tmp_path / "full.jsonl"
+    video = tmp_path / "short.mp4"
+    import cv2
+
+    writer = cv2.VideoWriter(str(video), cv2.VideoWriter_fourcc(*"mp4v"), 24, (640, 360))
+    for frame in iter_video_frames(VIDEO, 6):
+        writer.write(frame)
+    writer.release()
+    summary = track_video(video, out, model="full")
+    assert summary["model"] == "full" and summary["faces"] == 6
+    replay = TrackReplay(TrackFileConfig(path=str(out)))
+    frame = encode_frame(np.zeros((2, 2, 3), np.uint8), seq=3, t_capture_ns=0, t_media_ns=0)
+    points = replay.process(frame)
+    assert points.face and points.scores[0].scheme == "blendshapes52"
+    assert len(points.scores[0].values) == 52

@@ -23,9 +23,10 @@ from facesynth.runtime.plugins import PluginError
 from schemas.messages import Points
 from services.points.backends.tracker import TrackerBackend, TrackerConfig
 from services.points.tracker import FaceTracker, ModelError, mesh_to_ibug68
-from services.points.tracker.inference import DETECTOR, MODELS_DIR, ModelSpec, load_model
 from services.points.tracker.landmarkers import TRACKER_MODELS, model_config, model_names
+from services.points.tracker.model_files import DETECTOR, MODELS_DIR, ModelSpec
 from services.points.tracker.offline import iter_video_frames
+from services.points.tracker.runtimes import load_model
 
 MODELS = model_names()
 

@@ -32,7 +32,8 @@ from facesynth.runtime.plugins import PluginError, Registry
 
 if TYPE_CHECKING:
     from ..crops import CropRect
-    from ..inference import Model, ModelSpec
+    from ..model_files import ModelSpec
+    from ..runtimes import Model
 
 __all__ = [
     "TRACKER_MODELS",

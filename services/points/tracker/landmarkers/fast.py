@@ -38,9 +38,9 @@ class FastTrackerModel(TrackerModel):
     name = "fast"
 
     def __init__(self, config: FastModel, load: ModelLoader) -> None:
-        from ..inference import IRIS, MESH
         from ..iris import IrisLandmarks
         from ..mesh import FaceMesh
+        from ..model_files import IRIS, MESH
 
         self.config = config
         self.mesh_model = FaceMesh(load(MESH, 1))

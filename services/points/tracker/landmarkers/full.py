@@ -50,8 +50,8 @@ class FullTrackerModel(TrackerModel):
 
     def __init__(self, config: FullModel, load: ModelLoader) -> None:
         from ..blendshapes import Blendshapes
-        from ..inference import BLENDSHAPES, LANDMARKS_V2
         from ..mesh import FaceMesh
+        from ..model_files import BLENDSHAPES, LANDMARKS_V2
 
         self.config = config
         self.landmarks = FaceMesh(load(LANDMARKS_V2, 1), NUM_POINTS, "Identity", "Identity_1")
