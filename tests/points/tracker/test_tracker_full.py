@@ -2,14 +2,20 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
+import cv2
 import numpy as np
 import pytest
-from tracker_fixtures import TrackedByModel
+from tracker_fixtures import VIDEO, TrackedByModel
 
 from facesynth.runtime import blendshapes as names
+from facesynth.runtime.frames import encode_frame
+from services.points.backends.track import TrackFileConfig, TrackReplay
 from services.points.tracker import FaceTracker
 from services.points.tracker.blendshapes import LANDMARK_SUBSET, Blendshapes
 from services.points.tracker.model_files import BLENDSHAPES
+from services.points.tracker.offline import iter_video_frames, track_video
 from services.points.tracker.runtimes import load_model
 
 FPS = 23.976
@@ -125,18 +131,10 @@ def test_blendshapes_follow_the_performers_face_sections(
         assert up - down >= margin, f"{shape}: {higher} {up:.2f} vs {lower} {down:.2f}"
 
 
-def test_a_track_file_keeps_the_blendshapes(tmp_path) -> None:  # type: ignore[no-untyped-def]
+def test_a_track_file_keeps_the_blendshapes(tmp_path: Path) -> None:
     """``facesynth track --model full`` writes them; the replay puts them back on the bus."""
-    from tracker_fixtures import VIDEO
-
-    from facesynth.runtime.frames import encode_frame
-    from services.points.backends.track import TrackFileConfig, TrackReplay
-    from services.points.tracker.offline import iter_video_frames, track_video
-
     out = tmp_path / "full.jsonl"
     video = tmp_path / "short.mp4"
-    import cv2
-
     writer = cv2.VideoWriter(str(video), cv2.VideoWriter_fourcc(*"mp4v"), 24, (640, 360))
     for frame in iter_video_frames(VIDEO, 6):
         writer.write(frame)
