@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
-from facesynth.runtime import profiles
+import pytest
+
+from facesynth.runtime import blendshapes, profiles
 from facesynth.runtime.feature_names import NAMES
 from facesynth.runtime.profiles import (
     FORMAT_REFERENCE,
@@ -139,5 +141,31 @@ def test_virtual_profile() -> None:
 
 def test_format_reference_is_a_valid_profile() -> None:
     profile = parse_profile(FORMAT_REFERENCE)
-    assert [s.name for s in profile.servos] == ["jaw", "brow_raise", "brow_lower"]
+    assert [s.name for s in profile.servos] == ["jaw", "brow_raise", "brow_lower", "smile"]
+    smile = profile.servo("smile")
+    assert smile.blendshape == "mouthSmileRight" and smile.one_sided
     assert profile.safety.exclusive[0].servos == ["brow_raise", "brow_lower"]
+
+
+def test_arkit52_is_one_control_per_blendshape() -> None:
+    profile = profiles.load_profile("arkit52")
+    assert [s.name for s in profile.servos] == list(blendshapes.SHAPES)
+    assert [s.channel for s in profile.servos] == list(range(51))
+    for spec in profile.servos:
+        assert spec.blendshape == spec.name and spec.one_sided
+        assert (spec.min_us, spec.neutral_us, spec.max_us) == (0, 0, 1000)
+        assert not spec.points and spec.max_speed == 0
+
+
+@pytest.mark.parametrize(
+    ("name", "servos"),
+    [
+        ("head16", {"jaw", "right_lower_lip", "left_lower_lip"}),
+        ("paper16", {"jaw", "right_lower_lip", "left_lower_lip"}),
+        ("virtual", {"jaw", "lower_lip"}),
+        ("arkit52", set(blendshapes.SHAPES)),
+    ],
+)
+def test_the_mouths_opening_is_one_sided(name: str, servos: set[str]) -> None:
+    profile = profiles.load_profile(name)
+    assert {s.name for s in profile.servos if s.one_sided} == servos
