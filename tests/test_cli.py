@@ -82,6 +82,8 @@ CASES = [
         "task file not found",
     ),
     ("bench repeat", ["bench", "tracker", "--repeat", "0", "--frames", "2"], "--repeat"),
+    ("fidelity model", ["bench", "fidelity", "--models", "slow"], "unknown ['slow']"),
+    ("fidelity profile", ["bench", "fidelity", "--profiles", "head16,robo9"], "'robo9'"),
     ("not a video", ["sensor", "--video", "{garbage.mp4}"], "cannot open"),
     ("missing video", ["sensor", "--video", "/nonexistent.mp4"], "does not exist"),
     ("two sources", ["sensor", "--video", "{garbage.mp4}", "--ticks", "3"], "choose one"),

@@ -186,8 +186,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("action", choices=("list", "check", "show"))
     p.add_argument("name", nargs="?", help="profile name or TOML path (check, show)")
 
-    p = add("bench", commands.cmd_bench, "benchmarks: the five-process chain, or the tracker")
-    p.add_argument("what", choices=("chain", "tracker", "smoothing"))
+    p = add(
+        "bench",
+        commands.cmd_bench,
+        "benchmarks: the five-process chain, the tracker, smoothing, expression fidelity",
+    )
+    p.add_argument("what", choices=("chain", "tracker", "smoothing", "fidelity"))
     p.add_argument("video", nargs="?", help="video (default: the bundled performer video)")
     p.add_argument(
         "--seconds", type=float, default=15.0, help="chain: seconds of real-time input (default 15)"
@@ -218,7 +222,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--models",
         default="fast,full",
-        help="tracker: tracker models to compare (default fast,full)",
+        help="tracker, fidelity: tracker models to compare (default fast,full)",
+    )
+    p.add_argument(
+        "--profiles",
+        metavar="A,B",
+        help="fidelity: profiles to measure (default: every shipped one)",
     )
     p.add_argument(
         "--repeat",
@@ -258,12 +267,12 @@ def _model_arguments(parser: argparse.ArgumentParser) -> None:
     """``--model`` (choices and help from the tracker-model registry) and ``--no-blendshapes``."""
     from services.points.tracker.landmarkers import TRACKER_MODELS
 
-    summaries = "; ".join(f"{plugin.name}: {plugin.summary}" for plugin in TRACKER_MODELS)
+    summaries = "; ".join(f"{p.name}: {p.summary.rstrip('.')}" for p in TRACKER_MODELS)
     parser.add_argument(
         "--model",
         choices=TRACKER_MODELS.names(),
-        default="fast",
-        help=f"tracker model (default fast). {summaries}",
+        default="full",
+        help=f"tracker model (default full). {summaries}",
     )
     parser.add_argument(
         "--no-blendshapes",

@@ -246,7 +246,9 @@ def cmd_profile(args: argparse.Namespace) -> int:
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
-    """``facesynth bench chain|tracker``."""
+    """``facesynth bench chain|tracker|smoothing|fidelity``."""
+    if args.what == "fidelity":
+        return _bench_fidelity(args)
     if args.what == "smoothing":
         from facesynth.app.bench.smoothing import bench_smoothing, format_smoothing
 
@@ -289,6 +291,26 @@ def cmd_bench(args: argparse.Namespace) -> int:
         mediapipe_task=args.mediapipe_task,
     )
     print(format_bench(result))
+    return 0
+
+
+def _bench_fidelity(args: argparse.Namespace) -> int:
+    """``facesynth bench fidelity``: synthetic expressions through every profile and model."""
+    from facesynth.app.bench.fidelity import PROFILES, bench_fidelity, format_fidelity
+    from facesynth.app.data import sample_video
+    from facesynth.runtime.profiles import resolve_profile
+    from services.points.tracker.landmarkers import model_names
+
+    models = tuple(m for m in args.models.split(",") if m)
+    unknown = [m for m in models if m not in model_names()]
+    if unknown or not models:
+        choices = ", ".join(model_names())
+        raise OptionError(f"--models: unknown {unknown}; choose from {choices}")
+    profiles = tuple(p for p in (args.profiles or ",".join(PROFILES)).split(",") if p)
+    for profile in profiles:
+        resolve_profile(profile)  # a clear error for an unknown name before any tracking
+    rows = bench_fidelity(args.video or str(sample_video()), models, profiles)
+    print(format_fidelity(rows))
     return 0
 
 

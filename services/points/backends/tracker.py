@@ -36,8 +36,8 @@ from services.points.tracker.runtimes import backend_choices, check_backend_name
 
 def _model_help() -> str:
     """``--model`` help, from the tracker-model registry (no OpenCV imported)."""
-    models = "; ".join(f"{plugin.name} = {plugin.summary}" for plugin in TRACKER_MODELS)
-    return f"tracker model (default fast): {models}"
+    models = "; ".join(f"{p.name} = {p.summary.rstrip('.')}" for p in TRACKER_MODELS)
+    return f"tracker model (default full): {models}"
 
 
 class TrackerConfig(
@@ -70,7 +70,7 @@ class TrackerConfig(
             "(default 30)",
         ),
     ] = 30
-    model: Annotated[str, msgspec.Meta(description=_model_help())] = "fast"
+    model: Annotated[str, msgspec.Meta(description=_model_help())] = "full"
     blendshapes: Annotated[
         bool,
         msgspec.Meta(

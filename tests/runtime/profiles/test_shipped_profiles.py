@@ -147,6 +147,31 @@ def test_format_reference_is_a_valid_profile() -> None:
     assert profile.safety.exclusive[0].servos == ["brow_raise", "brow_lower"]
 
 
+HEAD16_CHEEKS = ("right_inner_cheek", "left_inner_cheek", "right_outer_cheek", "left_outer_cheek")
+
+
+@pytest.mark.parametrize(("variant", "base"), [("head16_bs", "head16"), ("virtual_bs", "virtual")])
+def test_blendshape_variants_differ_from_their_base_in_the_brows_only(
+    variant: str, base: str
+) -> None:
+    ours, theirs = profiles.load_profile(variant), profiles.load_profile(base)
+    assert [s.name for s in ours.servos] == [s.name for s in theirs.servos]
+    for mine, other in zip(ours.servos, theirs.servos, strict=True):
+        limits = (mine.channel, mine.min_us, mine.neutral_us, mine.max_us, mine.max_speed)
+        assert limits == (
+            other.channel,
+            other.min_us,
+            other.neutral_us,
+            other.max_us,
+            other.max_speed,
+        )
+        if "brow" in mine.name:
+            assert set(mine.weights() or {}) <= set(blendshapes.SHAPES)
+            assert "browInnerUp" in (mine.weights() or {})
+        else:
+            assert mine.weights() == other.weights() and mine.one_sided == other.one_sided
+
+
 def test_arkit52_is_one_control_per_blendshape() -> None:
     profile = profiles.load_profile("arkit52")
     assert [s.name for s in profile.servos] == list(blendshapes.SHAPES)
@@ -160,12 +185,15 @@ def test_arkit52_is_one_control_per_blendshape() -> None:
 @pytest.mark.parametrize(
     ("name", "servos"),
     [
-        ("head16", {"jaw", "right_lower_lip", "left_lower_lip"}),
+        ("head16", {"jaw", "right_lower_lip", "left_lower_lip", *HEAD16_CHEEKS}),
+        ("head16_bs", {"jaw", "right_lower_lip", "left_lower_lip", *HEAD16_CHEEKS}),
         ("paper16", {"jaw", "right_lower_lip", "left_lower_lip"}),
         ("virtual", {"jaw", "lower_lip"}),
+        ("virtual_bs", {"jaw", "lower_lip"}),
         ("arkit52", set(blendshapes.SHAPES)),
     ],
 )
-def test_the_mouths_opening_is_one_sided(name: str, servos: set[str]) -> None:
+def test_one_sided_actions_map_one_sided(name: str, servos: set[str]) -> None:
+    """The mouth's opening and (head16) the cheeks' raise have no opposite side."""
     profile = profiles.load_profile(name)
     assert {s.name for s in profile.servos if s.one_sided} == servos
