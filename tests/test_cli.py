@@ -7,6 +7,7 @@ from pathlib import Path
 import pytest
 
 from facesynth.app.cli import build_parser, main
+from facesynth.app.data import sample_openface_csv
 
 COMMANDS = [
     "run",
@@ -83,6 +84,21 @@ CASES = [
     ),
     ("bench repeat", ["bench", "tracker", "--repeat", "0", "--frames", "2"], "--repeat"),
     ("fidelity model", ["bench", "fidelity", "--models", "slow"], "unknown ['slow']"),
+    (
+        "blendshape profile, fast model",
+        ["run", "--model", "fast", "--profile", "head16_bs", "--listen", "tcp/127.0.0.1:0"],
+        "profile head16_bs is driven by blendshapes (browDownLeft",
+    ),
+    (
+        "blendshape profile, no blendshapes",
+        ["run", "--no-blendshapes", "--profile", "arkit52", "--listen", "tcp/127.0.0.1:0"],
+        "use the tracker with --model full (and blendshapes)",
+    ),
+    (
+        "blendshape profile, openface replay",
+        ["run", "--openface-csv", str(sample_openface_csv()), "--profile", "arkit52"],
+        "profile arkit52 is driven by blendshapes",
+    ),
     ("fidelity profile", ["bench", "fidelity", "--profiles", "head16,robo9"], "'robo9'"),
     ("not a video", ["sensor", "--video", "{garbage.mp4}"], "cannot open"),
     ("missing video", ["sensor", "--video", "/nonexistent.mp4"], "does not exist"),

@@ -121,6 +121,9 @@ class TrackReplay(Replay):
     def frame_count(self) -> int:
         return len(self.lines)
 
+    def gives_blendshapes(self) -> bool:
+        return any(scores for _, _, _, scores in self.lines)
+
     def process(self, frame: Frame) -> Points:
         index = self._index(frame.seq, len(self.lines))
         if index is None:

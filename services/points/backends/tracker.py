@@ -112,6 +112,9 @@ class TrackerBackend(PointsBackend):
     def needs_pixels(self) -> bool:
         return True
 
+    def gives_blendshapes(self) -> bool:
+        return bool(getattr(self.tracker.model_config, "blendshapes", False))
+
     def process(self, frame: Frame) -> Points:
         if frame.encoding == "none":
             raise BackendError(f"frame {frame.seq} has no pixels: the tracker needs images")

@@ -142,6 +142,7 @@ def test_a_track_file_keeps_the_blendshapes(tmp_path: Path) -> None:
     summary = track_video(video, out, model="full")
     assert summary["model"] == "full" and summary["faces"] == 6
     replay = TrackReplay(TrackFileConfig(path=str(out)))
+    assert replay.gives_blendshapes()
     frame = encode_frame(np.zeros((2, 2, 3), np.uint8), seq=3, t_capture_ns=0, t_media_ns=0)
     points = replay.process(frame)
     assert points.face and points.scores[0].scheme == "blendshapes52"

@@ -204,6 +204,7 @@ def test_the_backend_publishes_valid_points(tracked_by_model: TrackedByModel, mo
     schemes = [s.scheme for s in points.sets]
     assert schemes[0] == "ibug68" and "iris10" in schemes
     assert ("mesh478" in schemes) != ("mesh468" in schemes)
+    assert backend.gives_blendshapes() == bool(points.scores)
     blank = msgspec.structs.replace(frame, data=bytes(640 * 360 * 3))
     gone = backend.process(blank)
     assert not gone.face and not gone.sets and not gone.scores
