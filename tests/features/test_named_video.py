@@ -5,7 +5,10 @@ then crying with eyes shut and a hand at the face (about frames 40-130); looking
 mouth a little open, hand at the mouth (160-210); then smiling and laughing with the head turned
 to her left and chin up (about 230-440), the head tilted to her right shoulder (400-435); a
 closed-mouth smile looking down to finish (440-472). The bounds below are what this recording
-shows (see the numbers in each test), with margin.
+shows (see the numbers in each test), with margin, tracked with the ``fast`` model (468-point
+mesh + iris model), whose features they were measured on. The ``full`` model's features on this
+video are checked through the profiles (tests/integration/test_face_sections.py) and on
+synthetic faces (tests/integration/test_face_sections_synthetic.py).
 """
 
 from __future__ import annotations
@@ -23,14 +26,14 @@ from facesynth.runtime.frames import encode_frame
 from schemas.messages import Features, Points
 from services.features.core import FeatureProcessor, ibug_points, optional_points
 from services.features.expressions import raw_features, relative
-from services.points.backends.tracker import TrackerBackend
+from services.points.backends.tracker import TrackerBackend, TrackerConfig
 
 
 @pytest.fixture(scope="module")
 def tracked() -> list[Points]:
     capture = cv2.VideoCapture(str(sample_video()))
     fps = capture.get(cv2.CAP_PROP_FPS)
-    backend = TrackerBackend()
+    backend = TrackerBackend(TrackerConfig(model="fast"))
     points = []
     while True:
         ok, image = capture.read()
