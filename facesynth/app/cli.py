@@ -358,6 +358,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("video")
     p.add_argument("--out", required=True, help="output JSON-lines file")
     p.add_argument("--inference", choices=("auto", "litert", "opencv"), default="auto")
+
+    from facesynth.app.recording.cli import add_recording_parsers
+
+    add_recording_parsers(sub, _zenoh_arguments)
     return parser
 
 
