@@ -7,8 +7,8 @@ topic               what                                        schema (encoding
 ==================  ==========================================  ===============================
 ``/K``              the message as JSON; a frame without its    the message's JSON Schema from
                     pixels                                      ``schemas/`` (``json``)
-``/K/image``        a frame's pixels                            ``foxglove.CompressedImage`` or
-                                                                ``foxglove.RawImage`` (protobuf)
+``/K/image``        a JPEG frame's pixels                       ``foxglove.CompressedImage``
+``/K/image_raw``    a raw (BGR) frame's pixels                  ``foxglove.RawImage`` (protobuf)
 ``/K/annotations``  the landmarks of a points message           ``foxglove.ImageAnnotations``
 ``/K/raw``          a payload kept verbatim (see below)         none (``msgpack``)
 ==================  ==========================================  ===============================
@@ -159,7 +159,10 @@ class Layout:
                 encoding = (
                     "json" if schema is not None and schema.encoding == "jsonschema" else "protobuf"
                 )
-            spec = ChannelSpec(topic_of(key, role), key, role, encoding, schema)
+            topic = topic_of(key, role)
+            if role == IMAGE and schema is not None and schema.name == "foxglove.RawImage":
+                topic += "_raw"  # one schema per topic: raw frames have their own
+            spec = ChannelSpec(topic, key, role, encoding, schema)
             self._channels[(key, role, schema)] = spec
         return spec
 
