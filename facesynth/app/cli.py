@@ -323,13 +323,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("name", nargs="?", help="profile name or TOML path (check, show)")
 
     p = add("bench", commands.cmd_bench, "benchmarks: the five-process chain, or the tracker")
-    p.add_argument("what", choices=("chain", "tracker", "smoothing"))
+    p.add_argument("what", choices=("chain", "tracker", "smoothing", "recording"))
     p.add_argument("video", nargs="?", help="video (default: the bundled performer video)")
     p.add_argument(
         "--seconds", type=float, default=15.0, help="chain: seconds of real-time input (default 15)"
     )
     p.add_argument(
-        "--fps", type=float, default=30.0, help="chain: frame rate of the input (default 30)"
+        "--fps", type=float, default=30.0, help="chain, recording: frame rate (default 30)"
     )
     p.add_argument(
         "--openface-csv", metavar="PATH", help="chain: replay these landmarks instead of tracking"
@@ -350,6 +350,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--backends", default="litert,opencv", help="tracker: inference backends to compare"
+    )
+    p.add_argument(
+        "--minutes", type=float, default=10.0, help="recording: session length (default 10)"
     )
 
     p = add(

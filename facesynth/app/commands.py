@@ -251,6 +251,11 @@ def cmd_bench(args: argparse.Namespace) -> int:
 
         print(format_smoothing(bench_smoothing(args.profile, track=args.track)))
         return 0
+    if args.what == "recording":
+        from facesynth.app.bench.recording import bench_recording, format_recording_bench
+
+        print(format_recording_bench(bench_recording(minutes=args.minutes, fps=args.fps)))
+        return 0
     if args.what == "chain":
         from facesynth.app.bench.chain import bench_chain, format_chain_bench
 

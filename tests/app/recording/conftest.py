@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import signal
+import socket
 import subprocess
 import sys
 import time
@@ -14,7 +15,7 @@ import pytest
 
 
 class Processes:
-    """Starts ``python -m facesynth ARGS``, each logging to ``<name>.log``; all stopped at the end."""
+    """Starts ``python -m facesynth ARGS``, each logging to ``<name>.log``."""
 
     def __init__(self, folder: Path) -> None:
         self.folder = folder
@@ -44,6 +45,13 @@ class Processes:
                     return line
             time.sleep(0.05)
         raise AssertionError(f"{name} never printed {text!r}; it printed:\n{self.log(name)}")
+
+
+def free_port() -> int:
+    """A TCP port free on loopback right now (for a router that must listen on a known port)."""
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return int(probe.getsockname()[1])
 
 
 def run_facesynth(*args: str, timeout: float = 120) -> subprocess.CompletedProcess[str]:

@@ -119,7 +119,7 @@ def test_chunks_are_cut_by_size_and_by_time(tmp_path: Path) -> None:
 def test_writer_options_and_existing_files_are_clear_errors(tmp_path: Path) -> None:
     path = tmp_path / "s.mcap"
     path.write_bytes(b"precious")
-    with pytest.raises(RecordingFileError, match="exists .*--overwrite"):
+    with pytest.raises(RecordingFileError, match=r"exists .*--overwrite"):
         SessionWriter(path, metadata={})
     assert path.read_bytes() == b"precious"
     with pytest.raises(RecordingFileError, match="unknown compression"):
