@@ -36,25 +36,32 @@ SERVICES = ("sensor", "points", "features", "translator", "control")
 SERVOS = tuple(f"servo_{i}" for i in range(16))
 
 
-def sample_jpeg(size: tuple[int, int]) -> bytes:
-    """A JPEG of the bundled video's first frame at ``size`` (a gradient without OpenCV video)."""
+def sample_jpegs(size: tuple[int, int], count: int = 60) -> list[bytes]:
+    """JPEGs of the bundled video's first ``count`` frames at ``size``, cycled by the session
+    (so a chunk holds different pictures, as in a real recording, not one repeated)."""
     import cv2
 
     from facesynth.app.data import sample_video
 
     capture = cv2.VideoCapture(str(sample_video()))
-    ok, image = capture.read()
-    capture.release()
-    if not ok:
-        image = np.tile(np.arange(256, dtype=np.uint8), (size[1], size[0] // 256 + 1, 3))
-    image = cv2.resize(image, size)
-    ok, data = cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, 90])
-    assert ok
-    return data.tobytes()
+    out = []
+    try:
+        while len(out) < count:
+            ok, image = capture.read()
+            if not ok:
+                break
+            ok, data = cv2.imencode(".jpg", cv2.resize(image, size), [cv2.IMWRITE_JPEG_QUALITY, 90])
+            assert ok
+            out.append(data.tobytes())
+    finally:
+        capture.release()
+    if not out:
+        raise RuntimeError("cannot read the bundled sample video")
+    return out
 
 
 def synthetic_session(
-    minutes: float, fps: float, jpeg: bytes, size: tuple[int, int], *, mesh: bool = True
+    minutes: float, fps: float, jpegs: list[bytes], size: tuple[int, int], *, mesh: bool = True
 ) -> Iterator[tuple[str, bytes, int]]:
     """``(key, payload, t_ns)`` of a session, in time order (``mesh``: points carry the mesh)."""
     rng = np.random.default_rng(7)
@@ -88,7 +95,7 @@ def synthetic_session(
                     width=size[0],
                     height=size[1],
                     encoding="jpeg",
-                    data=jpeg,
+                    data=jpegs[seq % len(jpegs)],
                     fps=fps,
                 ),
             ),
@@ -187,7 +194,7 @@ def record_session(
     path: Path,
     minutes: float,
     fps: float,
-    jpeg: bytes,
+    jpegs: list[bytes],
     size: tuple[int, int],
     *,
     trace: bool = False,
@@ -205,7 +212,7 @@ def record_session(
     per_minute: list[dict[str, float]] = []
     messages = 0
     next_minute = 60.0
-    for key, payload, t in synthetic_session(minutes, fps, jpeg, size, mesh=mesh):
+    for key, payload, t in synthetic_session(minutes, fps, jpegs, size, mesh=mesh):
         clock.now = (t - T0) / 1e9
         for entry in layout.entries(key, payload, t, messages):
             writer.write(entry)
@@ -238,14 +245,14 @@ def record_session(
 
 
 def dump_session(
-    path: Path, minutes: float, fps: float, jpeg: bytes, size: tuple[int, int]
+    path: Path, minutes: float, fps: float, jpegs: list[bytes], size: tuple[int, int]
 ) -> dict[str, Any]:
     """The hand-made alternative: length-prefixed msgpack payloads, flushed every second."""
     started = time.perf_counter()
     messages = 0
     last_flush = 0
     with open(path, "wb") as handle:
-        for key, payload, t in synthetic_session(minutes, fps, jpeg, size):
+        for key, payload, t in synthetic_session(minutes, fps, jpegs, size):
             name = key.encode()
             handle.write(struct.pack("<HQI", len(name), t, len(payload)) + name + payload)
             messages += 1
@@ -264,19 +271,19 @@ def bench_recording(
     minutes: float = 10.0, fps: float = 30.0, size: tuple[int, int] = (640, 360)
 ) -> dict[str, Any]:
     """Time both writers, then trace the recording writer's memory over the whole session."""
-    jpeg = sample_jpeg(size)
+    jpegs = sample_jpegs(size)
     with tempfile.TemporaryDirectory(prefix="facesynth-bench-") as folder:
         base = Path(folder)
-        mcap = record_session(base / "session.mcap", minutes, fps, jpeg, size)
+        mcap = record_session(base / "session.mcap", minutes, fps, jpegs, size)
         (base / "session.mcap").unlink()
-        dump = dump_session(base / "session.msgpack", minutes, fps, jpeg, size)
+        dump = dump_session(base / "session.msgpack", minutes, fps, jpegs, size)
         (base / "session.msgpack").unlink()
-        traced = record_session(base / "traced.mcap", minutes, fps, jpeg, size, trace=True)
+        traced = record_session(base / "traced.mcap", minutes, fps, jpegs, size, trace=True)
     return {
         "minutes": minutes,
         "fps": fps,
         "size": size,
-        "jpeg_kb": len(jpeg) / 1024,
+        "jpeg_kb": sum(map(len, jpegs)) / len(jpegs) / 1024,
         "mcap": mcap,
         "dump": dump,
         "traced": traced,
@@ -289,7 +296,8 @@ def format_recording_bench(result: dict[str, Any]) -> str:
     w, h = result["size"]
     lines = [
         f"session: {result['minutes']:g} min at {result['fps']:g} fps, JPEG {w}x{h} "
-        f"({result['jpeg_kb']:.0f} KB), points with mesh, features, commands, state, stats",
+        f"(mean {result['jpeg_kb']:.0f} KB, the video's first 60 frames cycled), points with mesh, "
+        "features, commands, state, stats",
         f"{'writer':<44} {'messages':>9} {'MB':>8} {'s':>7} {'msg/s':>8} {'x real time':>12}",
     ]
     for name, figures in (

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from facesynth.app.bench.recording import record_session, sample_jpeg
+from facesynth.app.bench.recording import record_session, sample_jpegs
 from facesynth.app.recording.check import scan
 
 #: The bound this test holds the writer to: RSS may grow by at most this much from minute 1
@@ -17,7 +17,7 @@ RSS_GROWTH_BOUND_MB = 4.0
 @pytest.mark.slow
 def test_ten_minutes_at_30_fps_stay_within_the_memory_bound(tmp_path: Path) -> None:
     path = tmp_path / "long.mcap"
-    result = record_session(path, 10.0, 30.0, sample_jpeg((64, 48)), (64, 48), mesh=False)
+    result = record_session(path, 10.0, 30.0, sample_jpegs((64, 48)), (64, 48), mesh=False)
     assert (
         result["messages"] == 10 * 60 * 30 * 5 + 10 * 60 * 5
     )  # five stages a frame, stats every s
