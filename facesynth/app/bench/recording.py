@@ -44,7 +44,7 @@ def sample_jpegs(size: tuple[int, int], count: int = 60) -> list[bytes]:
     from facesynth.app.data import sample_video
 
     capture = cv2.VideoCapture(str(sample_video()))
-    out = []
+    out: list[bytes] = []
     try:
         while len(out) < count:
             ok, image = capture.read()
