@@ -167,7 +167,7 @@ def make_fixture(path: Path = FIXTURE) -> None:
     from facesynth.runtime.frames import encode_frame
     from services.features.gaze import IRIS_CENTRE, MESH_EYE_CORNERS, eye_gaze
     from services.features.pose import median_mesh, to_face_frame
-    from services.points.tracking import TrackerBackend
+    from services.points.backends.tracker import TrackerBackend
 
     capture = cv2.VideoCapture(str(sample_video()))
     backend, meshes, irises = TrackerBackend(), [], []

@@ -19,7 +19,7 @@ from services.features.core import (
     normalise,
     nose_distances,
 )
-from services.points.openface import load_openface_csv
+from services.points.openface_csv import load_openface_csv
 
 S = 1_000_000_000
 RIGHT_BROW = list(range(17, 22))

@@ -20,6 +20,9 @@ from facesynth.runtime.bus.zenoh_bus import endpoints
 
 ArgumentsAdder = Callable[[argparse.ArgumentParser], None]
 
+#: The stages a replay can feed, in chain order.
+DOWNSTREAM = ("points", "features", "translator", "control")
+
 
 class ExtraMissingError(ValueError):
     """The ``[record]`` extra is not installed."""
@@ -155,6 +158,26 @@ def add_replay_parser(sub: Any, zenoh_arguments: ArgumentsAdder) -> None:
         default=30.0,
         help="seconds to wait for --wait-for (default 30)",
     )
+    graph = p.add_argument_group("through a graph, in this process")
+    graph.add_argument(
+        "--graph",
+        nargs="?",
+        const="",
+        metavar="FILE",
+        help="run the graph's nodes after the replayed stage here, on an embedded router "
+        "(no FILE: the demo graph); their flags below override the file",
+    )
+    graph.add_argument(
+        "--drain-timeout",
+        type=float,
+        default=3.0,
+        help="--graph: seconds to wait for the last command after the replay ends",
+    )
+    from facesynth.app.recording.attach import add_attach_arguments
+    from facesynth.app.stage_args import add_stage_arguments
+
+    add_stage_arguments(p, DOWNSTREAM)
+    add_attach_arguments(p)
     zenoh_arguments(p)
 
 
@@ -207,9 +230,9 @@ def add_convert_parser(sub: Any) -> None:
 
 
 def _zenoh(args: argparse.Namespace) -> Any:
-    from facesynth.app import build
+    from facesynth.app import wiring
 
-    return build.zenoh_options(args)
+    return wiring.zenoh_options(args)
 
 
 def cmd_record(args: argparse.Namespace) -> int:
@@ -231,13 +254,14 @@ def cmd_record(args: argparse.Namespace) -> int:
 
     if not args.out:
         raise RecordOptionError("give --out SESSION.mcap (or --check FILE)")
-    keys.check_name(args.rig)
+    rig = args.rig or "default"
+    keys.check_name(rig)
     options = RecordOptions(
         keys=parse_keys(args.keys), frame_every=args.frame_every, duration=args.duration
     )
     zenoh = _zenoh(args)
     metadata = {
-        "rig": args.rig,
+        "rig": rig,
         "keys": ",".join(options.keys),
         "frame_every": str(options.frame_every),
         "started_ns": str(time.time_ns()),
@@ -257,9 +281,7 @@ def cmd_record(args: argparse.Namespace) -> int:
     recorder = Recorder(writer, options)
     try:
         run_async(
-            run_single(
-                zenoh, args.rig, "record", recorder.serve, stats_interval=args.stats_interval
-            )
+            run_single(zenoh, rig, "record", recorder.serve, stats_interval=args.stats_interval)
         )
     finally:
         writer.close()
@@ -318,23 +340,29 @@ def cmd_replay(args: argparse.Namespace) -> int:
         wait_for=endpoints(args.wait_for),
         wait_timeout=args.wait_timeout,
     )
+    rig = args.rig or "default"
+    chain: dict[str, Any] = {}
     with Recording(args.session) as recording:
         replayer = Replayer(recording, options)
-        zenoh = _zenoh(args)
         started = time.monotonic()
-        outcome = run_async(
-            run_single(
-                zenoh, args.rig, "replay", replayer.serve, stats_interval=args.stats_interval
+        if args.graph is not None:
+            from facesynth.app.recording.through_graph import replay_through_graph
+
+            outcome, rig, chain = replay_through_graph(replayer, args)
+        else:
+            zenoh = _zenoh(args)
+            outcome = run_async(
+                run_single(zenoh, rig, "replay", replayer.serve, stats_interval=args.stats_interval)
             )
-        )
     summary = {
         "session": args.session,
         "stage": replayer.stage,
-        "rig": args.rig,
+        "rig": rig,
         "published": replayer.published,
         "last_seq": replayer.last_seq,
         "seconds": round(time.monotonic() - started, 2),
         "stalls": replayer.stalls,
+        **chain,
     }
     print(json.dumps(summary))
     return 130 if outcome is None else 0
@@ -348,18 +376,19 @@ def cmd_inspect(args: argparse.Namespace) -> int:
     from facesynth.runtime import keys
     from facesynth.runtime.service import run_async
 
-    keys.check_name(args.rig)
+    rig = args.rig or "default"
+    keys.check_name(rig)
     bridge = FoxgloveBridge(Address.parse(args.foxglove), frame_every=args.frame_every)
     zenoh = _zenoh(args)
     bridge.start()
     try:
         print(
-            f"facesynth inspect: rig {args.rig} on {bridge.url} "
+            f"facesynth inspect: rig {rig} on {bridge.url} "
             "(Foxglove: Open connection, Foxglove WebSocket, this URL)",
             flush=True,
         )
         run_async(
-            run_single(zenoh, args.rig, "inspect", bridge.serve, stats_interval=args.stats_interval)
+            run_single(zenoh, rig, "inspect", bridge.serve, stats_interval=args.stats_interval)
         )
     finally:
         bridge.stop()
@@ -392,7 +421,7 @@ def cmd_convert(args: argparse.Namespace) -> int:
         count = landmarks_to_mcap(
             source,
             target,
-            rig=args.rig,
+            rig=args.rig or "default",
             fps=args.fps,
             size=parse_size(args.size),
             overwrite=args.overwrite,

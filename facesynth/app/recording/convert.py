@@ -26,7 +26,9 @@ from facesynth.runtime.atomic import open_atomic
 from facesynth.runtime.feature_names import NAMES
 from schemas.messages import Frame, ServoCommands
 from services.control.drivers.record import RecordLine
-from services.points.backends import OpenFaceReplay, PointsBackend, TrackReplay
+from services.points.backends import PointsBackend
+from services.points.backends.openface import OpenFaceConfig, OpenFaceReplay
+from services.points.backends.track import TrackFileConfig, TrackReplay
 from services.sensor.service import TICK_SIZE
 
 #: What ``convert`` can export, and from which stages.
@@ -51,9 +53,9 @@ def parse_size(text: str) -> tuple[int, int]:
 def landmarks_backend(path: Path) -> PointsBackend:
     """The replay backend for an OpenFace CSV (``.csv``) or a track file (``.jsonl``)."""
     if path.suffix.lower() == ".csv":
-        return OpenFaceReplay(path)
+        return OpenFaceReplay(OpenFaceConfig(csv=str(path)))
     if path.suffix.lower() in (".jsonl", ".json"):
-        return TrackReplay(path)
+        return TrackReplay(TrackFileConfig(path=str(path)))
     raise ConvertError(f"{path}: convert reads OpenFace .csv or facesynth track .jsonl files")
 
 

@@ -69,6 +69,8 @@ class Recorder:
         self.recorded: collections.Counter[str] = collections.Counter()
         self.thinned = 0
         self._seen: collections.Counter[str] = collections.Counter()
+        #: Set once the subscriptions exist (what is published from then on is recorded).
+        self.listening = asyncio.Event()
 
     def take(self, key: str, payload: bytes, t_received_ns: int) -> None:
         """Record one sample (frames are thinned to every ``frame_every``th)."""
@@ -122,6 +124,7 @@ class Recorder:
         tasks = [asyncio.create_task(self._drain(ctx, s)) for s in self._subscriptions(ctx)]
         tasks.append(asyncio.create_task(self._cut_chunks()))
         ctx.ready()
+        self.listening.set()
         ctx.log.info(
             "recording %s of rig %s into %s",
             ", ".join(self.options.keys),

@@ -15,10 +15,11 @@ from facesynth.app.recording.reader import Recording
 from facesynth.app.recording.recorder import Recorder, RecordOptions
 from facesynth.app.recording.replay import Replayer, ReplayOptions
 from facesynth.app.recording.writer import SessionWriter
+from facesynth.app.wiring import StageParts
 from facesynth.runtime.bus.zenoh_bus import ZenohBus, ZenohOptions
 from facesynth.runtime.profiles import load_profile
 from facesynth.runtime.service import ServiceContext, run_service
-from services.control.drivers.record import RecordDriver, read_record
+from services.control.drivers.record import RecordConfig, RecordDriver, read_record
 from services.control.service import ControlService
 from services.features.core import FeatureProcessor
 from services.features.service import serve_features
@@ -93,13 +94,19 @@ async def live_run(
     bus = await open_bus()
     try:
         recording = await _start_recorder(bus, rig, session) if session else None
-        control = ControlService(load_profile(profile), RecordDriver(out))
+        control = ControlService(load_profile(profile), RecordDriver(RecordConfig(out=str(out))))
         sensor = SensorService(
             source, SensorOptions(fast=True, wait_timeout=10.0, max_frames=max_frames)
         )
-        result = await run_chain(
-            bus, rig, sensor, stage_bodies("input", profile, backend), control, stats_interval=0.5
-        )
+        parts = [
+            StageParts("sensor", "sensor", sensor.serve, sensor),
+            *(
+                StageParts(name, name, body)
+                for name, body in stage_bodies("input", profile, backend).items()
+            ),
+            StageParts("control", "control", control.serve, control),
+        ]
+        result = await run_chain(bus, rig, parts, stats_interval=0.5)
         assert result.frames == result.commands, result
         if recording is not None:
             await asyncio.sleep(0.5)  # the last messages reach the recorder
@@ -125,7 +132,7 @@ async def replay_run(
     bus = await open_bus()
     tasks: list[asyncio.Task[Any]] = []
     try:
-        control = ControlService(load_profile(profile), RecordDriver(out))
+        control = ControlService(load_profile(profile), RecordDriver(RecordConfig(out=str(out))))
         bodies = {"control": control.serve, **stage_bodies(stage, profile, backend)}
         for name, body in bodies.items():
             ctx = ServiceContext(bus, rig, name, stats_interval=0.5)

@@ -13,17 +13,22 @@ from facesynth.app.recording.reader import Recording
 from facesynth.runtime import codec, keys
 from schemas.messages import Frame
 from services.control.drivers.record import read_record
-from services.points.backends import OpenFaceReplay
-from services.sensor.sources import TickSource, VideoSource
+from services.points.backends.openface import OpenFaceConfig, OpenFaceReplay
+from services.sensor.sources.ticks import TicksConfig, TickSource
+from services.sensor.sources.video import VideoConfig, VideoSource
 
 OPENFACE = Path(__file__).parents[3] / "facesynth" / "app" / "data" / "OpenFace_Test.csv"
 
 
 async def test_replaying_each_stage_gives_the_live_commands(tmp_path: Path, rig: str) -> None:
     session = tmp_path / "session.mcap"
-    backend = OpenFaceReplay(OPENFACE)
+    backend = OpenFaceReplay(OpenFaceConfig(csv=str(OPENFACE)))
     live = await live_run(
-        tmp_path, rig, TickSource(backend.frame_count()), backend, session=session
+        tmp_path,
+        rig,
+        TickSource(TicksConfig(count=backend.frame_count())),
+        backend,
+        session=session,
     )
     assert len(live) == 100 and sum(1 for _, servos in live if servos) == 100
     with Recording(session) as recording:
@@ -31,7 +36,7 @@ async def test_replaying_each_stage_gives_the_live_commands(tmp_path: Path, rig:
             assert recording.count(keys.stage_key(rig, stage)) == 100, stage
         assert any("/stats/" in key for key in recording.bus_keys())
     for stage in ("input", "points", "features", "servo_commands"):
-        fresh = OpenFaceReplay(OPENFACE) if stage == "input" else None
+        fresh = OpenFaceReplay(OpenFaceConfig(csv=str(OPENFACE))) if stage == "input" else None
         replayed, replayer = await replay_run(tmp_path, rig + "b", session, stage, backend=fresh)
         assert replayer.published == 100 and replayer.stalls == 0, stage
         assert replayed == live, f"replay from {stage} differs from the live run"
@@ -39,9 +44,13 @@ async def test_replaying_each_stage_gives_the_live_commands(tmp_path: Path, rig:
 
 async def test_the_recorded_state_exports_as_the_drivers_lines(tmp_path: Path, rig: str) -> None:
     session = tmp_path / "session.mcap"
-    backend = OpenFaceReplay(OPENFACE)
+    backend = OpenFaceReplay(OpenFaceConfig(csv=str(OPENFACE)))
     live = await live_run(
-        tmp_path, rig, TickSource(backend.frame_count()), backend, session=session
+        tmp_path,
+        rig,
+        TickSource(TicksConfig(count=backend.frame_count())),
+        backend,
+        session=session,
     )
     with Recording(session) as recording:
         assert export_jsonl(recording, tmp_path / "state.jsonl") == 100
@@ -51,11 +60,16 @@ async def test_the_recorded_state_exports_as_the_drivers_lines(tmp_path: Path, r
 
 
 async def test_replaying_tracked_frames_gives_the_live_commands(tmp_path: Path, rig: str) -> None:
-    from services.points.tracking import TrackerBackend
+    from services.points.backends.tracker import TrackerBackend
 
     session = tmp_path / "video.mcap"
     live = await live_run(
-        tmp_path, rig, VideoSource(sample_video()), TrackerBackend(), session=session, max_frames=30
+        tmp_path,
+        rig,
+        VideoSource(VideoConfig(path=str(sample_video()))),
+        TrackerBackend(),
+        session=session,
+        max_frames=30,
     )
     assert len(live) == 30
     with Recording(session) as recording:
@@ -70,7 +84,12 @@ async def test_replaying_tracked_frames_gives_the_live_commands(tmp_path: Path, 
 
 
 async def test_a_converted_openface_file_replays_like_the_csv(tmp_path: Path, rig: str) -> None:
-    live = await live_run(tmp_path, rig, TickSource(100), OpenFaceReplay(OPENFACE))
+    live = await live_run(
+        tmp_path,
+        rig,
+        TickSource(TicksConfig(count=100)),
+        OpenFaceReplay(OpenFaceConfig(csv=str(OPENFACE))),
+    )
     session = tmp_path / "openface.mcap"
     assert landmarks_to_mcap(OPENFACE, session, rig=rig, fps=30.0) == 100
     started = time.monotonic()

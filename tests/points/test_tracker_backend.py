@@ -11,7 +11,7 @@ from facesynth.runtime import codec
 from facesynth.runtime.frames import encode_frame
 from schemas.messages import Frame
 from services.points.backends import BackendError
-from services.points.tracking import TrackerBackend
+from services.points.backends.tracker import TrackerBackend
 
 SHAPES = {"ibug68": (68, 2), "mesh468": (468, 3), "iris10": (10, 2)}
 
