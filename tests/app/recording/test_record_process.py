@@ -7,6 +7,7 @@ import asyncio
 import json
 import os
 import signal
+import sys
 import time
 from pathlib import Path
 
@@ -156,3 +157,108 @@ def test_record_replay_and_convert_on_the_command_line(
     rows = (tmp_path / "state.csv").read_text().splitlines()
     assert rows[0].startswith("frame,t_media_s,t_capture_ns,t_log_ns,face,right_eyebrow,")
     assert len(rows) == 101
+
+
+def test_run_records_and_replay_drives_another_profile_through_a_graph(tmp_path: Path) -> None:
+    csv = Path(__file__).parents[3] / "facesynth" / "app" / "data" / "OpenFace_Test.csv"
+    here = ["--listen", "tcp/127.0.0.1:0", "--fast"]
+    session = tmp_path / "s.mcap"
+    live = run_facesynth(
+        "run",
+        "--openface-csv",
+        str(csv),
+        *here,
+        "--out",
+        str(tmp_path / "live.jsonl"),
+        "--record",
+        str(session),
+    )
+    assert live.returncode == 0, live.stderr
+    with Recording(session) as recording:
+        assert recording.count("facesynth/default/servo_state") == 100
+        assert recording.count("facesynth/default/features") == 100
+    # The same performance onto another robot: live with head16, and replayed with head16.
+    other = run_facesynth(
+        "run",
+        "--openface-csv",
+        str(csv),
+        *here,
+        "--profile",
+        "head16",
+        "--out",
+        str(tmp_path / "head16-live.jsonl"),
+    )
+    assert other.returncode == 0, other.stderr
+    replay = run_facesynth(
+        "replay",
+        str(session),
+        "--from",
+        "features",
+        "--fast",
+        "--graph",
+        "--profile",
+        "head16",
+        "--out",
+        str(tmp_path / "head16-replay.jsonl"),
+        "--listen",
+        "tcp/127.0.0.1:0",
+    )
+    assert replay.returncode == 0, replay.stderr
+    summary = json.loads(replay.stdout.strip().splitlines()[-1])
+    assert (summary["stage"], summary["published"], summary["commands"]) == ("features", 100, 100)
+
+    def frames(name: str) -> list[tuple[int, dict[str, float]]]:
+        lines = [json.loads(line) for line in (tmp_path / name).read_text().splitlines()]
+        return [(line["frame"], line["servos"]) for line in lines if line["frame"] is not None]
+
+    assert len(frames("head16-live.jsonl")) == 100
+    assert frames("head16-replay.jsonl") == frames("head16-live.jsonl")
+    assert frames("head16-live.jsonl") != frames("live.jsonl"), "another profile, other commands"
+
+
+async def test_run_serves_foxglove_while_it_runs(tmp_path: Path) -> None:
+    import aiohttp
+    from foxglove_client import connect
+
+    csv = Path(__file__).parents[3] / "facesynth" / "app" / "data" / "OpenFace_Test.csv"
+    port = free_port()
+    proc = await asyncio.create_subprocess_exec(
+        sys.executable,
+        "-m",
+        "facesynth",
+        "run",
+        "--openface-csv",
+        str(csv),
+        "--loop-replay",
+        "--ticks",
+        "100000",
+        "--listen",
+        "tcp/127.0.0.1:0",
+        "--out",
+        str(tmp_path / "c.jsonl"),
+        "--foxglove",
+        f"127.0.0.1:{port}",
+        stdout=asyncio.subprocess.PIPE,
+        stderr=asyncio.subprocess.DEVNULL,
+    )
+    try:
+        assert proc.stdout is not None
+        line = (await asyncio.wait_for(proc.stdout.readline(), 60)).decode()
+        assert f"ws://127.0.0.1:{port}" in line
+        async with aiohttp.ClientSession() as http:
+            client = await connect(http, f"ws://127.0.0.1:{port}")
+            state = await client.wait_for_channel("/facesynth/default/servo_state", timeout=30)
+            subscription = await client.subscribe(state)
+            sub, _, payload = await client.message(timeout=30)
+            assert sub == subscription
+            assert json.loads(payload)["profile"] == "paper16"
+            for _ in range(100):  # each stage's stats (rate, latency) arrive every second
+                stats = [t for t in client.channels if "/stats/features/" in t]
+                if stats:
+                    break
+                await asyncio.sleep(0.05)
+            assert stats, sorted(client.channels)
+            await client.close()
+    finally:
+        proc.send_signal(signal.SIGINT)
+        await asyncio.wait_for(proc.wait(), 30)
