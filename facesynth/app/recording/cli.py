@@ -291,6 +291,7 @@ def cmd_record(args: argparse.Namespace) -> int:
         "by_key": dict(sorted(recorder.recorded.items())),
         "frames_thinned": recorder.thinned,
         "kept_verbatim": sum(recorder.layout.raw.values()),
+        "refused_disk_too_slow": recorder.refused,
         "chunks": writer.chunks,
     }
     print(json.dumps(summary))

@@ -10,12 +10,11 @@ from __future__ import annotations
 
 import asyncio
 import collections
-import contextlib
 from dataclasses import dataclass
 
 from facesynth.app.recording import RECORDABLE
 from facesynth.app.recording.layout import Layout
-from facesynth.app.recording.writer import SessionWriter
+from facesynth.app.recording.writer import SessionWriter, WriterThread
 from facesynth.runtime import keys
 from facesynth.runtime.bus.base import Subscription
 from facesynth.runtime.service import ServiceContext
@@ -71,6 +70,7 @@ class Recorder:
         self._seen: collections.Counter[str] = collections.Counter()
         #: Set once the subscriptions exist (what is published from then on is recorded).
         self.listening = asyncio.Event()
+        self._sink: WriterThread | None = None
 
     def take(self, key: str, payload: bytes, t_received_ns: int) -> None:
         """Record one sample (frames are thinned to every ``frame_every``th)."""
@@ -83,9 +83,15 @@ class Recorder:
         ):
             self.thinned += 1
             return
+        sink = self._sink or self.writer
         for entry in self.layout.entries(key, payload, t_received_ns, index):
-            self.writer.write(entry)
+            sink.write(entry)
         self.recorded[key] += 1
+
+    @property
+    def refused(self) -> int:
+        """Entries the writer thread refused because the disk could not keep up."""
+        return self._sink.refused if self._sink is not None else 0
 
     def _subscriptions(self, ctx: ServiceContext) -> list[Subscription]:
         subscriptions = []
@@ -113,16 +119,18 @@ class Recorder:
             self.take(sample.key, sample.payload, sample.t_received_ns)
             ctx.stats.record_published(0)
 
-    async def _cut_chunks(self) -> None:
+    async def _cut_chunks(self, sink: WriterThread) -> None:
         period = min(0.1, self.writer.chunk_seconds / 4)
         while True:
             await asyncio.sleep(period)
-            self.writer.tick()
+            sink.tick()  # raises the writer's error (disk full): the recording stops
 
     async def serve(self, ctx: ServiceContext) -> None:
         """Record until cancelled (or for ``duration`` seconds); the file is then complete."""
+        sink = self._sink = WriterThread(self.writer)
         tasks = [asyncio.create_task(self._drain(ctx, s)) for s in self._subscriptions(ctx)]
-        tasks.append(asyncio.create_task(self._cut_chunks()))
+        cutter = asyncio.create_task(self._cut_chunks(sink))
+        tasks.append(cutter)
         ctx.ready()
         self.listening.set()
         ctx.log.info(
@@ -133,17 +141,18 @@ class Recorder:
         )
         try:
             if self.options.duration is not None:
-                await asyncio.sleep(self.options.duration)
+                await asyncio.wait([cutter], timeout=self.options.duration)
             else:
-                await asyncio.Event().wait()
+                await cutter  # runs until cancelled, or raises the writer's error
         finally:
             for task in tasks:
                 task.cancel()
-            for task in tasks:
-                with contextlib.suppress(asyncio.CancelledError):
-                    await task
-            self._take_pending(ctx)
-            self.writer.close()
+            await asyncio.gather(*tasks, return_exceptions=True)
+            try:
+                self._take_pending(ctx)
+            finally:
+                self._sink = None
+                sink.close()  # writes what is queued, completes the file, raises a write error
 
     def _take_pending(self, ctx: ServiceContext) -> None:
         """Record what already arrived but was not taken yet when recording stopped."""

@@ -12,7 +12,10 @@ message index) and one small index record per chunk written (the summary needs t
 from __future__ import annotations
 
 import collections
+import contextlib
 import os
+import queue
+import threading
 import time
 from collections.abc import Callable, Mapping
 from pathlib import Path
@@ -165,3 +168,66 @@ class SessionWriter:
             os.fsync(self._file.fileno())
         finally:
             self._file.close()
+
+
+class WriterThread:
+    """Runs a :class:`SessionWriter` on a thread of its own.
+
+    Cutting a chunk (compressing and fsyncing about 1 MB) takes several milliseconds, up to
+    tens; on its own thread it never stalls the event loop the chain's stages may share
+    (``run --record``). At most ``maxsize`` entries wait; beyond that an entry is refused and
+    counted in ``refused`` (a disk that cannot keep up), never buffered without bound. An error
+    of the writer (disk full) is raised on the caller's side by :meth:`check` and :meth:`close`.
+    """
+
+    _TICK = object()
+    _STOP = object()
+
+    def __init__(self, writer: SessionWriter, maxsize: int = 8192) -> None:
+        self.writer = writer
+        self.refused = 0
+        self.error: BaseException | None = None
+        self._queue: queue.Queue[object] = queue.Queue(maxsize)
+        self._thread = threading.Thread(target=self._run, name="session-writer", daemon=True)
+        self._thread.start()
+
+    def _run(self) -> None:
+        while True:
+            item = self._queue.get()
+            if item is self._STOP:
+                return
+            if self.error is not None:
+                continue
+            try:
+                if item is self._TICK:
+                    self.writer.tick()
+                else:
+                    self.writer.write(item)  # type: ignore[arg-type]
+            except BaseException as exc:  # kept for the caller: the thread must not die silently
+                self.error = exc
+
+    def write(self, entry: Entry) -> None:
+        """Queue one entry (refused, and counted, when the queue is full)."""
+        self.check()
+        try:
+            self._queue.put_nowait(entry)
+        except queue.Full:
+            self.refused += 1
+
+    def tick(self) -> None:
+        """Ask the writer to cut a chunk that has been open long enough."""
+        self.check()
+        with contextlib.suppress(queue.Full):
+            self._queue.put_nowait(self._TICK)
+
+    def check(self) -> None:
+        """Raise the writer's error, if it had one."""
+        if self.error is not None:
+            raise RecordingFileError(f"cannot write {self.writer.path}: {self.error}")
+
+    def close(self) -> None:
+        """Write what is queued, then complete the file."""
+        self._queue.put(self._STOP)
+        self._thread.join()
+        self.writer.close()
+        self.check()

@@ -4,6 +4,7 @@ and foreign files give one clear error or are recovered."""
 from __future__ import annotations
 
 import json
+import time
 from pathlib import Path
 
 import jsonschema
@@ -16,7 +17,7 @@ from messages_sample import messages
 from facesynth.app.recording.check import describe, recover, scan
 from facesynth.app.recording.layout import PROFILE, Layout
 from facesynth.app.recording.reader import Recording, RecordingError
-from facesynth.app.recording.writer import RecordingFileError, SessionWriter
+from facesynth.app.recording.writer import RecordingFileError, SessionWriter, WriterThread
 
 
 class FakeClock:
@@ -114,6 +115,31 @@ def test_chunks_are_cut_by_size_and_by_time(tmp_path: Path) -> None:
         small.write(entry)
     assert small.chunks == 1
     small.close()
+
+
+def test_the_writer_thread_writes_everything_and_reports_a_failing_disk(tmp_path: Path) -> None:
+    path = tmp_path / "threaded.mcap"
+    writer = SessionWriter(path, metadata={}, chunk_bytes=4096, fsync=False)
+    sink = WriterThread(writer)
+    layout = Layout()
+    written = []
+    for seq in range(20):
+        for key, payload in messages(seq):
+            for entry in layout.entries(key, payload, 1_000 + seq, seq):
+                sink.write(entry)
+            written.append((key, payload))
+    sink.close()
+    assert sink.refused == 0
+    with Recording(path) as recording:
+        assert [(p.key, p.payload) for p in recording.payloads(recording.bus_keys())] == written
+    broken = SessionWriter(tmp_path / "broken.mcap", metadata={}, chunk_bytes=2048, fsync=False)
+    broken._file.close()  # the disk goes away under the writer
+    failing = WriterThread(broken)
+    with pytest.raises(RecordingFileError, match="cannot write"):
+        for entry in layout.entries(*messages(0)[0], 1, 0) * 50:
+            failing.write(entry)
+            time.sleep(0.001)
+        failing.close()
 
 
 def test_writer_options_and_existing_files_are_clear_errors(tmp_path: Path) -> None:

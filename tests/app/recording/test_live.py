@@ -125,7 +125,7 @@ async def test_inspect_serves_a_running_rig(
             client = await connect(http, url)
             topic = f"/facesynth/{rig}/servo_state"
             state = None
-            for seq in range(200):  # until inspect has subscribed and advertised the channel
+            for seq in range(600):  # until inspect has subscribed and advertised the channel
                 for key, payload in messages(seq, rig):
                     bus.publish(key, payload)
                 try:
@@ -136,7 +136,7 @@ async def test_inspect_serves_a_running_rig(
             assert state is not None, processes.log("inspect")
             subscription = await client.subscribe(state)
             received = None
-            for seq in range(200, 400):
+            for seq in range(600, 1200):
                 for key, payload in messages(seq, rig):
                     bus.publish(key, payload)
                 try:
@@ -146,7 +146,7 @@ async def test_inspect_serves_a_running_rig(
                 except TimeoutError:
                     continue
             assert received is not None
-            assert json.loads(received)["seq"] >= 200
+            assert json.loads(received)["seq"] >= 600
             await client.close()
     finally:
         await bus.close()
