@@ -64,7 +64,7 @@ async def attached(bus: Any, rig: str, args: argparse.Namespace) -> AsyncIterato
     recorder = None
     try:
         if foxglove:
-            bridge = FoxgloveBridge(Address.parse(foxglove))
+            bridge = FoxgloveBridge(Address.parse(foxglove), rig=rig)
             bridge.start()
             print(f"Foxglove live view of rig {rig} on {bridge.url}", flush=True)
             ctx = ServiceContext(bus, rig, "inspect", stats_interval=stats_interval)

@@ -379,7 +379,7 @@ def cmd_inspect(args: argparse.Namespace) -> int:
 
     rig = args.rig or "default"
     keys.check_name(rig)
-    bridge = FoxgloveBridge(Address.parse(args.foxglove), frame_every=args.frame_every)
+    bridge = FoxgloveBridge(Address.parse(args.foxglove), rig=rig, frame_every=args.frame_every)
     zenoh = _zenoh(args)
     bridge.start()
     try:

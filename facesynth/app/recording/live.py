@@ -16,7 +16,17 @@ from dataclasses import dataclass
 
 import foxglove
 
-from facesynth.app.recording.layout import RAW, ChannelSpec, Layout
+from facesynth.app.recording.layout import (
+    ANNOTATIONS,
+    IMAGE,
+    MESSAGE,
+    RAW,
+    ChannelSpec,
+    Layout,
+    json_schema,
+    message_type,
+)
+from facesynth.app.recording.views import annotations_schema, compressed_image_schema
 from facesynth.runtime import keys
 from facesynth.runtime.bus.base import Subscription
 from facesynth.runtime.service import ServiceContext
@@ -57,10 +67,18 @@ class Address:
 class FoxgloveBridge:
     """Serves bus samples to Foxglove clients; ``start`` opens the server, ``stop`` closes it."""
 
-    def __init__(self, address: Address, *, name: str = "facesynth", frame_every: int = 1) -> None:
+    def __init__(
+        self,
+        address: Address,
+        *,
+        rig: str | None = None,
+        name: str = "facesynth",
+        frame_every: int = 1,
+    ) -> None:
         if frame_every < 1:
             raise LiveViewError("--frame-every must be at least 1 for the live view")
         self.address = address
+        self.rig = rig
         self.name = name
         self.frame_every = frame_every
         self.layout = Layout()
@@ -70,8 +88,28 @@ class FoxgloveBridge:
         self._frames = 0
         self.shown = 0
 
+    def advertise(self, rig: str) -> None:
+        """Create the rig's stage channels now, before any message (stats channels, named by
+        instance, appear with their first message).
+
+        A client sees them as soon as it connects, and never subscribes to a channel in the
+        instant it is being created (which the SDK's server can refuse as unknown).
+        """
+        for stage in keys.STAGES:
+            key = keys.stage_key(rig, stage)
+            cls = message_type(key)
+            self._channel(self.layout.channel(key, MESSAGE, json_schema(cls)))  # type: ignore[arg-type]
+        self._channel(
+            self.layout.channel(keys.stage_key(rig, "input"), IMAGE, compressed_image_schema())
+        )
+        self._channel(
+            self.layout.channel(keys.stage_key(rig, "points"), ANNOTATIONS, annotations_schema())
+        )
+
     def start(self) -> int:
-        """Start the WebSocket server; return its port."""
+        """Create the rig's channels (when ``rig`` was given), start the server; return its port."""
+        if self.rig is not None:
+            self.advertise(self.rig)
         try:
             self.server = foxglove.start_server(
                 name=self.name, host=self.address.host, port=self.address.port, context=self.context

@@ -123,20 +123,11 @@ async def test_inspect_serves_a_running_rig(
     try:
         async with aiohttp.ClientSession() as http:
             client = await connect(http, url)
-            topic = f"/facesynth/{rig}/servo_state"
-            state = None
-            for seq in range(600):  # until inspect has subscribed and advertised the channel
-                for key, payload in messages(seq, rig):
-                    bus.publish(key, payload)
-                try:
-                    state = await client.wait_for_channel(topic, timeout=0.1)
-                    break
-                except TimeoutError:
-                    continue
-            assert state is not None, processes.log("inspect")
+            # The rig's channels are there from the start, before any message.
+            state = await client.wait_for_channel(f"/facesynth/{rig}/servo_state", timeout=30)
             subscription = await client.subscribe(state)
             received = None
-            for seq in range(600, 1200):
+            for seq in range(600, 1200):  # until inspect listens on the bus (bounded: ~60 s)
                 for key, payload in messages(seq, rig):
                     bus.publish(key, payload)
                 try:
@@ -150,3 +141,30 @@ async def test_inspect_serves_a_running_rig(
             await client.close()
     finally:
         await bus.close()
+
+
+async def test_a_rigs_channels_are_there_before_any_message(rig: str) -> None:
+    bridge = FoxgloveBridge(Address("127.0.0.1", 0), rig=rig)
+    bridge.start()
+    try:
+        async with aiohttp.ClientSession() as http:
+            client = await connect(http, bridge.url)
+            for topic in (
+                "input",
+                "input/image",
+                "points",
+                "points/annotations",
+                "features",
+                "servo_commands",
+                "servo_state",
+            ):
+                await client.wait_for_channel(f"/facesynth/{rig}/{topic}", timeout=5)
+            subscription = await client.subscribe(client.channels[f"/facesynth/{rig}/servo_state"])
+            await asyncio.sleep(0.3)
+            key, payload = messages(5, rig)[7]
+            bridge.show(key, payload, time.time_ns())
+            sub, _, data = await client.message()
+            assert sub == subscription and json.loads(data)["seq"] == 5
+            await client.close()
+    finally:
+        bridge.stop()
