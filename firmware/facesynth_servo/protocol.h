@@ -136,6 +136,7 @@ typedef struct {
 typedef struct {
     uint8_t cand[FS_MAX_FRAME]; /* the candidate frame, from START on */
     uint8_t cand_len;
+    uint16_t crc; /* CRC of the candidate's bytes after START so far */
     uint8_t queue[FS_PARSER_QUEUE]; /* bytes to (re)scan, ring buffer */
     uint8_t q_head;
     uint8_t q_len;

@@ -46,10 +46,28 @@ static uint32_t lcg(uint32_t *state)
     return *state >> 8;
 }
 
+/* The textbook bit-at-a-time CRC-16/CCITT update, as the reference. */
+static uint16_t crc_bitwise(uint16_t crc, uint8_t byte)
+{
+    crc ^= (uint16_t)(byte << 8);
+    for (int i = 0; i < 8; i++) {
+        crc = (crc & 0x8000) ? (uint16_t)((crc << 1) ^ 0x1021) : (uint16_t)(crc << 1);
+    }
+    return crc;
+}
+
 static void test_crc(void)
 {
     CHECK_EQ(fs_crc16((const uint8_t *)"123456789", 9), 0x29B1); /* CRC-16/CCITT-FALSE check */
     CHECK_EQ(fs_crc16(NULL, 0), 0xFFFF);
+    int same = 1;
+    for (uint32_t crc = 0; crc <= 0xFFFF; crc++) {
+        for (uint32_t byte = 0; byte <= 0xFF; byte++) {
+            same = same && fs_crc16_update((uint16_t)crc, (uint8_t)byte) ==
+                               crc_bitwise((uint16_t)crc, (uint8_t)byte);
+        }
+    }
+    CHECK(same); /* the fast update equals the bit loop for every state and byte */
 }
 
 static void test_encode_layout(void)

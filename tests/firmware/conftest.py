@@ -1,0 +1,37 @@
+"""Fixtures for the firmware tests: the toolchain check, the build (once), an emulated Uno."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+from uno_emulator import EmulatedUno, build_firmware, missing_packages
+
+
+@pytest.fixture(scope="session")
+def firmware_build() -> str:
+    """Builds both firmware variants and the simavr harness once per session.
+
+    Fails (never skips) without the toolchain: CI installs it (.ci/run), so a missing package
+    is a broken environment, named in the message.
+    """
+    missing = missing_packages()
+    if missing:
+        pytest.fail(
+            "the firmware tests need the Debian package(s) "
+            f"{' '.join(missing)}: apt-get install {' '.join(missing)} (.ci/run does this)",
+            pytrace=False,
+        )
+    return build_firmware()
+
+
+@pytest.fixture
+def uno(firmware_build: str, tmp_path: Path) -> Iterator[EmulatedUno]:
+    """A freshly booted emulated Uno with the PCA9685 firmware, answering PING."""
+    board = EmulatedUno(tmp_path)
+    try:
+        board.wait_ready()
+        yield board
+    finally:
+        assert board.close() == 0, board.stderr_path.read_text()
