@@ -8,7 +8,8 @@
  *   reg <t_us> <name> <hex value>     PCA9685 MODE1 / MODE2 / PRE_SCALE written
  *   i2c <t_us> <event>                with --trace-i2c: start / write / read / stop
  *   warn <t_us> <text>                something a real part would not accept
- *   end <t_us>                        the harness stopped
+ *   stack <t_us> <used> <untouched>   with --stack-from: deepest stack use, bytes (at the end)
+ *   end <t_us> stopped|crashed        the harness stopped
  *
  * Part of the simavr harness (GPL-3, see README.md): a test tool, not shipped.
  */

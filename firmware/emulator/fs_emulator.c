@@ -5,7 +5,11 @@
  *
  *   fs_emulator --elf build/pca9685/facesynth_servo.elf [--log FILE] [--pty-link PATH]
  *               [--output pca9685|pins] [--no-board] [--max-ms N] [--trace-i2c]
- *               [--pin-tolerance-us X]
+ *               [--pin-tolerance-us X] [--stack-from ADDR]
+ *
+ * --stack-from takes the firmware's end of static RAM (the `_end` symbol, `avr-nm`): the RAM from
+ * there up is painted before the run and the deepest stack use is logged at the end
+ * ("stack <t_us> <bytes used> <bytes never touched>").
  *
  * Prints "pty <slave path>" on stdout once the UART is reachable. Stops on SIGINT / SIGTERM,
  * after --max-ms of emulated time, or when the AVR stops; exit status 0, or 2 if it crashed.
@@ -62,13 +66,17 @@ typedef struct {
     int trace_i2c;
     double max_ms;
     double pin_tolerance_us;
+    unsigned long stack_from;
 } options_t;
+
+#define STACK_PAINT 0xC3
 
 static void usage(void)
 {
     fprintf(stderr,
             "usage: fs_emulator --elf FILE [--log FILE] [--pty-link PATH] [--output pca9685|pins]\n"
-            "                   [--no-board] [--max-ms N] [--trace-i2c] [--pin-tolerance-us X]\n");
+            "                   [--no-board] [--max-ms N] [--trace-i2c] [--pin-tolerance-us X]\n"
+            "                   [--stack-from ADDR]\n");
 }
 
 static int parse(int argc, char **argv, options_t *o)
@@ -96,6 +104,8 @@ static int parse(int argc, char **argv, options_t *o)
             o->output = argv[++i];
         } else if (strcmp(a, "--max-ms") == 0) {
             o->max_ms = atof(argv[++i]);
+        } else if (strcmp(a, "--stack-from") == 0) {
+            o->stack_from = strtoul(argv[++i], NULL, 0) & 0xFFFF; /* avr-nm shows 0x800000 + addr */
         } else if (strcmp(a, "--pin-tolerance-us") == 0) {
             o->pin_tolerance_us = atof(argv[++i]);
         } else {
@@ -131,6 +141,13 @@ int main(int argc, char **argv)
     avr_load_firmware(avr, &fw);
     avr->frequency = F_CPU;
     avr->log = LOG_WARNING;
+    if (opt.stack_from > avr->ramend) {
+        fprintf(stderr, "fs_emulator: --stack-from 0x%lx is beyond RAM\n", opt.stack_from);
+        return 1;
+    }
+    if (opt.stack_from != 0) {
+        memset(avr->data + opt.stack_from, STACK_PAINT, avr->ramend + 1 - opt.stack_from);
+    }
 
     FILE *out = stdout;
     if (opt.log != NULL && (out = fopen(opt.log, "w")) == NULL) {
@@ -171,6 +188,14 @@ int main(int argc, char **argv)
         if (limit != 0 && avr->cycle >= limit) {
             break;
         }
+    }
+    if (opt.stack_from != 0) {
+        unsigned long low = opt.stack_from;
+        while (low <= avr->ramend && avr->data[low] == STACK_PAINT) {
+            low++;
+        }
+        emu_log(&log, avr->cycle, "stack", "%lu %lu", (unsigned long)avr->ramend + 1 - low,
+                low - opt.stack_from);
     }
     emu_log(&log, avr->cycle, "end", "%s", state == cpu_Crashed ? "crashed" : "stopped");
     if (bridge.tx_dropped > 0) {

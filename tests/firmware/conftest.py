@@ -35,3 +35,5 @@ def uno(firmware_build: str, tmp_path: Path) -> Iterator[EmulatedUno]:
         yield board
     finally:
         assert board.close() == 0, board.stderr_path.read_text()
+    used, untouched = board.stack_use()
+    assert untouched >= 256, f"stack used {used} bytes, only {untouched} bytes of RAM never touched"

@@ -246,3 +246,28 @@ def test_missing_board_is_reported(firmware_build: str, tmp_path: Path) -> None:
         assert status.output_errors >= 1
     finally:
         assert board.close() == 0
+
+
+def test_stack_headroom(
+    firmware_build: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The deepest paths (largest frames, STATUS, every NACK) leave RAM to spare."""
+    board = EmulatedUno(tmp_path)
+    board.wait_ready()
+    limits = {ch: proto.Limits(900, 1500, 2100, 5) for ch in range(16)}  # 144-byte payload
+    ack(board.request(proto.set_limits(board.next_seq(), limits)), "SET_LIMITS")
+    ack(board.request(proto.set_all(board.next_seq(), [1800] * 16)), "SET_ALL")
+    board.status()
+    nack(
+        board.request(proto.encode_frame(board.next_seq(), 0x10, bytes(3))),
+        "SET_ALL",
+        proto.ErrorCode.BAD_LENGTH,
+    )
+    board.write(bytes([proto.START, 100]) + bytes(120))  # a false start swallowing bytes
+    board.read_replies(0.2)
+    board.status()
+    assert board.close() == 0
+    used, untouched = board.stack_use()
+    with capsys.disabled():
+        print(f"\nstack: deepest use {used} bytes; {untouched} bytes of RAM never touched")
+    assert untouched >= 256

@@ -66,6 +66,16 @@ def build_firmware() -> str:
     return result.stdout
 
 
+def static_ram_end(elf: Path) -> int:
+    """The firmware's ``_end`` symbol (end of .data + .bss), from avr-nm."""
+    out = subprocess.run(["avr-nm", str(elf)], capture_output=True, text=True, check=True).stdout
+    for line in out.splitlines():
+        parts = line.split()  # "address type name"; undefined symbols have no address
+        if len(parts) == 3 and parts[2] == "_end":
+            return int(parts[0], 16)
+    raise RuntimeError(f"no _end symbol in {elf}")
+
+
 @dataclass(frozen=True)
 class Pulse:
     """A channel's pulse width changed at emulated time ``t_us``."""
@@ -94,6 +104,8 @@ class EmulatedUno:
                     str(self.log_path),
                     "--pty-link",
                     str(self.link),
+                    "--stack-from",
+                    hex(static_ram_end(ELF[output])),
                     *extra,
                 ],
                 stdout=subprocess.PIPE,
@@ -192,6 +204,11 @@ class EmulatedUno:
     def tail(self, lines: int = 40) -> str:
         """The end of the harness log, for failure messages."""
         return "\n".join(self.log_path.read_text().splitlines()[-lines:])
+
+    def stack_use(self) -> tuple[int, int]:
+        """After :meth:`close`: (deepest stack use, RAM never touched), bytes."""
+        (line,) = self.events("stack")
+        return int(line[1]), int(line[2])
 
     def close(self) -> int:
         """Stop the harness; returns its exit status."""
