@@ -5,8 +5,9 @@
  *
  *   fs_emulator --elf build/pca9685/facesynth_servo.elf [--log FILE] [--pty-link PATH]
  *               [--output pca9685|pins] [--no-board] [--max-ms N] [--trace-i2c]
- *               [--pin-tolerance-us X] [--stack-from ADDR]
+ *               [--pin-tolerance-us X] [--stack-from ADDR] [--board-after-ms N]
  *
+ * --board-after-ms connects the PCA9685 only after N ms of emulated time (a board powered late).
  * --stack-from takes the firmware's end of static RAM (the `_end` symbol, `avr-nm`): the RAM from
  * there up is painted before the run and the deepest stack use is logged at the end
  * ("stack <t_us> <bytes used> <bytes never touched>").
@@ -29,6 +30,7 @@
 #include "pty_bridge.h"
 #include "sim_avr.h"
 #include "sim_elf.h"
+#include "sim_cycle_timers.h"
 #include "sim_time.h"
 
 #define MCU "atmega328p"
@@ -67,6 +69,7 @@ typedef struct {
     double max_ms;
     double pin_tolerance_us;
     unsigned long stack_from;
+    double board_after_ms;
 } options_t;
 
 #define STACK_PAINT 0xC3
@@ -76,7 +79,7 @@ static void usage(void)
     fprintf(stderr,
             "usage: fs_emulator --elf FILE [--log FILE] [--pty-link PATH] [--output pca9685|pins]\n"
             "                   [--no-board] [--max-ms N] [--trace-i2c] [--pin-tolerance-us X]\n"
-            "                   [--stack-from ADDR]\n");
+            "                   [--stack-from ADDR] [--board-after-ms N]\n");
 }
 
 static int parse(int argc, char **argv, options_t *o)
@@ -104,6 +107,8 @@ static int parse(int argc, char **argv, options_t *o)
             o->output = argv[++i];
         } else if (strcmp(a, "--max-ms") == 0) {
             o->max_ms = atof(argv[++i]);
+        } else if (strcmp(a, "--board-after-ms") == 0) {
+            o->board_after_ms = atof(argv[++i]);
         } else if (strcmp(a, "--stack-from") == 0) {
             o->stack_from = strtoul(argv[++i], NULL, 0) & 0xFFFF; /* avr-nm shows 0x800000 + addr */
         } else if (strcmp(a, "--pin-tolerance-us") == 0) {
@@ -117,6 +122,13 @@ static int parse(int argc, char **argv, options_t *o)
         usage();
         return -1;
     }
+    return 0;
+}
+
+static avr_cycle_count_t attach_board(avr_t *avr, avr_cycle_count_t when, void *param)
+{
+    pca9685_attach((pca9685_t *)param, avr);
+    (void)when;
     return 0;
 }
 
@@ -168,7 +180,12 @@ int main(int argc, char **argv)
         pin_pulses_attach(&pins, avr, &log, opt.pin_tolerance_us);
     } else if (!opt.no_board) {
         pca9685_init(&board, avr, 0x40, &log, opt.trace_i2c);
-        pca9685_attach(&board, avr);
+        if (opt.board_after_ms > 0) {
+            avr_cycle_timer_register_usec(avr, (uint32_t)(opt.board_after_ms * 1000), attach_board,
+                                          &board);
+        } else {
+            pca9685_attach(&board, avr);
+        }
     }
 
     struct sigaction sa;

@@ -23,11 +23,30 @@ static void send_frame(const uint8_t *frame, size_t len, void *ctx)
     Serial.write(frame, len);
 }
 
-/* Write the channels that changed; on failure keep them pending and retry a little later. */
+static void output_failed(uint32_t now_ms)
+{
+    dev.output_fault = 1;
+    dev.counters.output_errors++;
+    retry_after_ms = now_ms + FS_OUTPUT_RETRY_MS;
+}
+
+/* Write the channels that changed. After a failure, wait FS_OUTPUT_RETRY_MS, set the output up
+ * again (a board that was absent or lost power is asleep at its power-on defaults) and rewrite
+ * every channel. */
 static void flush_outputs(uint32_t now_ms)
 {
     uint16_t mask = dev.servos.dirty;
-    if (mask == 0 || (dev.output_fault && (int32_t)(now_ms - retry_after_ms) < 0)) {
+    if (dev.output_fault) {
+        if ((int32_t)(now_ms - retry_after_ms) < 0) {
+            return;
+        }
+        if (!output_begin()) {
+            output_failed(now_ms);
+            return;
+        }
+        mask = (uint16_t)((1UL << dev.servos.count) - 1);
+    }
+    if (mask == 0) {
         return;
     }
     dev.servos.dirty = 0;
@@ -36,9 +55,7 @@ static void flush_outputs(uint32_t now_ms)
         return;
     }
     dev.servos.dirty |= mask;
-    dev.output_fault = 1;
-    dev.counters.output_errors++;
-    retry_after_ms = now_ms + FS_OUTPUT_RETRY_MS;
+    output_failed(now_ms);
 }
 
 /* Sleep until the next interrupt (UART byte, millis tick) unless a byte is already waiting. */
@@ -62,8 +79,7 @@ void setup()
     Serial.begin(FS_BAUD);
     fs_device_init(&dev, output_channels(), FS_OUTPUT_MODE, millis(), send_frame, NULL);
     if (!output_begin()) {
-        dev.output_fault = 1;
-        dev.counters.output_errors++;
+        output_failed(millis());
     }
     flush_outputs(millis()); /* every channel to neutral */
     wdt_enable(WDTO_250MS);  /* a hung loop resets the board (and so returns to neutral) */

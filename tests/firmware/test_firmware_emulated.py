@@ -194,7 +194,7 @@ def test_rate_limited_channel(uno: EmulatedUno) -> None:
     assert all(19 <= g <= 22 for g in gaps_ms), gaps_ms
 
 
-def test_command_to_pulse_latency(uno: EmulatedUno, capsys: pytest.CaptureFixture[str]) -> None:
+def test_command_to_pulse_latency(uno: EmulatedUno) -> None:
     """From the last byte of a SET_ALL in the UART to the PCA9685 latching channel 0 / all 16."""
     first, last = [], []
     for i in range(20):
@@ -207,12 +207,11 @@ def test_command_to_pulse_latency(uno: EmulatedUno, capsys: pytest.CaptureFixtur
         first.append(min(p.t_us for p in changes) - t_rx)
         last.append(max(p.t_us for p in changes) - t_rx)
         uno.read_replies(0.02)
-    with capsys.disabled():
-        print(
-            f"\nSET_ALL (39 bytes) -> PCA9685, emulated: first channel latched after "
-            f"{statistics.median(first):.0f} us (max {max(first):.0f}), all 16 after "
-            f"{statistics.median(last):.0f} us (max {max(last):.0f})"
-        )
+    print(  # shown with pytest -s (firmware/README.md quotes it)
+        f"\nSET_ALL (39 bytes) -> PCA9685, emulated: first channel latched after "
+        f"{statistics.median(first):.0f} us (max {max(first):.0f}), all 16 after "
+        f"{statistics.median(last):.0f} us (max {max(last):.0f})"
+    )
     assert max(first) < 2000 and max(last) < 5000
 
 
@@ -240,17 +239,36 @@ def test_missing_board_is_reported(firmware_build: str, tmp_path: Path) -> None:
     board = EmulatedUno(tmp_path, "pca9685", "--no-board")
     try:
         board.wait_ready()
-        ack(board.request(proto.set_all(board.next_seq(), [1600] * 16)), "SET_ALL")
+        reply = board.request(proto.set_all(board.next_seq(), [1600] * 16))
+        assert isinstance(reply, proto.Ack) and reply.flags & proto.Flags.OUTPUT_FAULT
         status = board.status()
         assert status.flags & proto.Flags.OUTPUT_FAULT
         assert status.output_errors >= 1
+        assert board.pulses() == []
     finally:
         assert board.close() == 0
 
 
-def test_stack_headroom(
-    firmware_build: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
-) -> None:
+def test_board_connected_late_is_set_up(firmware_build: str, tmp_path: Path) -> None:
+    """A PCA9685 that answers only later is woken up with PRE_SCALE 121 and gets every channel."""
+    board = EmulatedUno(tmp_path, "pca9685", "--board-after-ms", "400")
+    try:
+        board.wait_ready()
+        ack(board.request(proto.set_some(board.next_seq(), {2: 1700})), "SET_SOME")
+        board.wait_for(lambda: len(board.widths()) == 16)
+        assert board.widths() == {
+            ch: pytest.approx(1700 if ch == 2 else NEUTRAL, abs=2.5) for ch in range(16)
+        }
+        regs = [(name, int(value, 16)) for _, name, value in board.events("reg")]
+        assert ("PRE_SCALE", 121) in regs and regs[-1] == ("MODE1", 0x20)
+        assert min(p.t_us for p in board.pulses()) >= 400_000
+        status = board.status()
+        assert not status.flags & proto.Flags.OUTPUT_FAULT and status.output_errors >= 1
+    finally:
+        assert board.close() == 0
+
+
+def test_stack_headroom(firmware_build: str, tmp_path: Path) -> None:
     """The deepest paths (largest frames, STATUS, every NACK) leave RAM to spare."""
     board = EmulatedUno(tmp_path)
     board.wait_ready()
@@ -268,6 +286,5 @@ def test_stack_headroom(
     board.status()
     assert board.close() == 0
     used, untouched = board.stack_use()
-    with capsys.disabled():
-        print(f"\nstack: deepest use {used} bytes; {untouched} bytes of RAM never touched")
+    print(f"\nstack: deepest use {used} bytes; {untouched} bytes of RAM never touched")
     assert untouched >= 256
