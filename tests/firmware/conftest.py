@@ -35,5 +35,7 @@ def uno(firmware_build: str, tmp_path: Path) -> Iterator[EmulatedUno]:
         yield board
     finally:
         assert board.close() == 0, board.stderr_path.read_text()
+    setups = [e for e in board.events("reg") if e[1] == "PRE_SCALE"]
+    assert len(setups) == 1, "the firmware set the PCA9685 up more than once: it rebooted"
     used, untouched = board.stack_use()
     assert untouched >= 256, f"stack used {used} bytes, only {untouched} bytes of RAM never touched"

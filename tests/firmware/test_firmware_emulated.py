@@ -118,12 +118,15 @@ def watchdog_delay_ms(uno: EmulatedUno) -> float:
 
 
 def test_watchdog_returns_to_neutral_after_timeout(uno: EmulatedUno) -> None:
-    # Neutral comes timeout_ms after the last command (millis() ticks are 1.024 ms).
+    # Neutral comes timeout_ms after the last command, to within millis()'s resolution: its
+    # ticks are 1.024 ms and a reading lags true time by up to about one tick.
     delay = watchdog_delay_ms(uno)
-    assert proto.WATCHDOG_DEFAULT_MS <= delay <= proto.WATCHDOG_DEFAULT_MS + 3, delay
+    print(f"\nwatchdog 500 ms: first channel at neutral {delay:.2f} ms after the command")
+    assert proto.WATCHDOG_DEFAULT_MS - 1.1 <= delay <= proto.WATCHDOG_DEFAULT_MS + 3, delay
     ack(uno.request(proto.set_watchdog(uno.next_seq(), 150)), "SET_WATCHDOG")
     delay = watchdog_delay_ms(uno)
-    assert 150 <= delay <= 153, delay
+    print(f"watchdog 150 ms: first channel at neutral {delay:.2f} ms after the command")
+    assert 150 - 1.1 <= delay <= 150 + 3, delay
     status = uno.status()
     assert status.watchdog_trips == 2 and status.watchdog_ms == 150
     assert not status.flags & proto.Flags.WATCHDOG_ARMED
