@@ -8,6 +8,8 @@ from pathlib import Path
 import pytest
 from uno_emulator import EmulatedUno, build_firmware, missing_packages
 
+from services.control.drivers.arduino import protocol as proto
+
 
 @pytest.fixture(scope="session")
 def firmware_build() -> str:
@@ -27,8 +29,8 @@ def firmware_build() -> str:
 
 
 @pytest.fixture
-def uno(firmware_build: str, tmp_path: Path) -> Iterator[EmulatedUno]:
-    """A freshly booted emulated Uno with the PCA9685 firmware, answering PING."""
+def booted_uno(firmware_build: str, tmp_path: Path) -> Iterator[EmulatedUno]:
+    """A freshly booted emulated Uno with the PCA9685 firmware, answering PING, as booted."""
     board = EmulatedUno(tmp_path)
     try:
         board.wait_ready()
@@ -39,3 +41,12 @@ def uno(firmware_build: str, tmp_path: Path) -> Iterator[EmulatedUno]:
     assert len(setups) == 1, "the firmware set the PCA9685 up more than once: it rebooted"
     used, untouched = board.stack_use()
     assert untouched >= 256, f"stack used {used} bytes, only {untouched} bytes of RAM never touched"
+
+
+@pytest.fixture
+def uno(booted_uno: EmulatedUno) -> EmulatedUno:
+    """:func:`booted_uno` with its watchdog at 60 s, so a test stalled by a busy machine does
+    not see positions return to neutral (the watchdog has its own tests)."""
+    reply = booted_uno.request(proto.set_watchdog(booted_uno.next_seq(), proto.WATCHDOG_MAX_MS))
+    assert isinstance(reply, proto.Ack), reply
+    return booted_uno

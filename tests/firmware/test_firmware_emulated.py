@@ -43,7 +43,8 @@ def nack(reply: proto.Reply, cmd: str, error: proto.ErrorCode) -> None:
     assert (reply.cmd, reply.error) == (proto.COMMANDS[cmd].code, error)
 
 
-def test_boot_ping_and_pca9685_setup(uno: EmulatedUno) -> None:
+def test_boot_ping_and_pca9685_setup(booted_uno: EmulatedUno) -> None:
+    uno = booted_uno
     version = uno.wait_ready()
     assert (version.protocol, version.channels, version.output) == (1, 16, proto.OutputKind.PCA9685)
     assert version.max_payload == proto.MAX_PAYLOAD
@@ -54,6 +55,7 @@ def test_boot_ping_and_pca9685_setup(uno: EmulatedUno) -> None:
     assert uno.widths() == {ch: pytest.approx(1498.16, abs=0.01) for ch in range(16)}
     status = uno.status()
     assert status.flags == proto.Flags(0) and status.frames_ok >= 1
+    assert status.watchdog_ms == proto.WATCHDOG_DEFAULT_MS
 
 
 def test_set_all_sixteen_channels(uno: EmulatedUno) -> None:
@@ -117,7 +119,8 @@ def watchdog_delay_ms(uno: EmulatedUno) -> float:
     return (min(p.t_us for p in back) - uno.rx_time_us(sent)) / 1000
 
 
-def test_watchdog_returns_to_neutral_after_timeout(uno: EmulatedUno) -> None:
+def test_watchdog_returns_to_neutral_after_timeout(booted_uno: EmulatedUno) -> None:
+    uno = booted_uno
     # Neutral comes timeout_ms after the last command, to within millis()'s resolution: its
     # ticks are 1.024 ms and a reading lags true time by up to about one tick.
     delay = watchdog_delay_ms(uno)
@@ -133,7 +136,6 @@ def test_watchdog_returns_to_neutral_after_timeout(uno: EmulatedUno) -> None:
 
 
 def test_bad_frames_change_nothing_and_are_counted(uno: EmulatedUno) -> None:
-    ack(uno.request(proto.set_watchdog(uno.next_seq(), proto.WATCHDOG_MAX_MS)), "SET_WATCHDOG")
     ack(uno.request(proto.set_all(uno.next_seq(), [1300] * 16)), "SET_ALL")
     settle(uno, dict.fromkeys(range(16), 1300))
     pulses_before = len(uno.pulses())
@@ -169,7 +171,9 @@ def test_bad_frames_change_nothing_and_are_counted(uno: EmulatedUno) -> None:
     assert uno.widths() == dict.fromkeys(range(16), pytest.approx(1300, abs=2.5))
 
 
-def test_sequence_wraps_around(uno: EmulatedUno) -> None:
+def test_sequence_wraps_around(booted_uno: EmulatedUno) -> None:
+    uno = booted_uno  # no command applied yet: the first SEQ may be anything
+    ack(uno.request(proto.set_watchdog(65533, proto.WATCHDOG_MAX_MS)), "SET_WATCHDOG")
     ack(uno.request(proto.set_all(65534, [1100] * 16)), "SET_ALL")
     nack(uno.request(proto.set_all(65534, [1900] * 16)), "SET_ALL", proto.ErrorCode.STALE_SEQUENCE)
     ack(uno.request(proto.set_all(1, [1200] * 16)), "SET_ALL")  # 65534 -> 1 wraps: newer
@@ -223,6 +227,10 @@ def test_pins_variant_drives_twelve_pins(firmware_build: str, tmp_path: Path) ->
     try:
         version = board.wait_ready()
         assert (version.channels, version.output) == (12, proto.OutputKind.PINS)
+        ack(
+            board.request(proto.set_watchdog(board.next_seq(), proto.WATCHDOG_MAX_MS)),
+            "SET_WATCHDOG",
+        )
         want = {ch: 1050 + 75 * ch for ch in range(12)}
         ack(board.request(proto.set_all(board.next_seq(), list(want.values()))), "SET_ALL")
         # Software pulses jitter by a few us (interrupt latency); the harness logs changes > 8 us.
@@ -257,8 +265,14 @@ def test_board_connected_late_is_set_up(firmware_build: str, tmp_path: Path) -> 
     board = EmulatedUno(tmp_path, "pca9685", "--board-after-ms", "400")
     try:
         board.wait_ready()
+        ack(
+            board.request(proto.set_watchdog(board.next_seq(), proto.WATCHDOG_MAX_MS)),
+            "SET_WATCHDOG",
+        )
         ack(board.request(proto.set_some(board.next_seq(), {2: 1700})), "SET_SOME")
-        board.wait_for(lambda: len(board.widths()) == 16)
+        # Whether the board appears before or after the command (wall-time race), it ends with
+        # every channel written.
+        board.wait_for(lambda: len(board.widths()) == 16 and near(board.widths()[2], 1700))
         assert board.widths() == {
             ch: pytest.approx(1700 if ch == 2 else NEUTRAL, abs=2.5) for ch in range(16)
         }
