@@ -222,6 +222,7 @@ async def test_run_serves_foxglove_while_it_runs(tmp_path: Path) -> None:
 
     csv = Path(__file__).parents[3] / "facesynth" / "app" / "data" / "OpenFace_Test.csv"
     port = free_port()
+    log = open(tmp_path / "run.log", "wb")  # noqa: SIM115 - closed in finally
     proc = await asyncio.create_subprocess_exec(
         sys.executable,
         "-m",
@@ -239,7 +240,7 @@ async def test_run_serves_foxglove_while_it_runs(tmp_path: Path) -> None:
         "--foxglove",
         f"127.0.0.1:{port}",
         stdout=asyncio.subprocess.PIPE,
-        stderr=asyncio.subprocess.DEVNULL,
+        stderr=log,
     )
     try:
         assert proc.stdout is not None
@@ -261,4 +262,14 @@ async def test_run_serves_foxglove_while_it_runs(tmp_path: Path) -> None:
             await client.close()
     finally:
         proc.send_signal(signal.SIGINT)
-        await asyncio.wait_for(proc.wait(), 30)
+        try:
+            await asyncio.wait_for(proc.wait(), 60)
+        except TimeoutError:
+            proc.kill()
+            await proc.wait()
+            raise AssertionError(
+                "run did not stop on SIGINT: " + (tmp_path / "run.log").read_text()[-3000:]
+            ) from None
+        finally:
+            log.close()
+    assert proc.returncode == 130
