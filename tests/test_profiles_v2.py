@@ -149,6 +149,9 @@ def test_virtual_profile() -> None:
         "lip_corner_left",
         "lower_lip",
         "jaw",
+        "head_yaw",
+        "head_pitch",
+        "head_roll",
     }
     for spec in profile.servos:
         assert not spec.points
@@ -493,7 +496,7 @@ def test_profile_check_missing_file_and_valid_profiles(
     assert capsys.readouterr().err.splitlines() == [
         f"facesynth profile: error: profile file {tmp_path / 'gone.toml'} does not exist"
     ]
-    for name, count in (("paper16", 16), ("virtual", 14)):
+    for name, count in (("paper16", 16), ("virtual", 17)):
         assert main(["profile", "check", name]) == 0
         assert capsys.readouterr().out == f"{name}: ok ({count} servos)\n"
 

@@ -119,6 +119,12 @@ def build_parser() -> argparse.ArgumentParser:
         default=3.0,
         help="seconds to wait for the last command after the input ends",
     )
+    p.add_argument(
+        "--render",
+        metavar="OUT.mp4",
+        help="when the input ends, also write the side-by-side video of it (performer with "
+        "landmarks | virtual face | servo bars of the translator's profile); see render",
+    )
 
     for stage, help_text in STAGE_HELP.items():
         p = add(stage, commands.cmd_stage, help_text)
@@ -132,6 +138,31 @@ def build_parser() -> argparse.ArgumentParser:
                 action="store_true",
                 help="list the servo drivers and their options, then exit",
             )
+
+    p = add(
+        "render",
+        commands.cmd_render,
+        "write the side-by-side video of a chain's input video: performer with landmarks | "
+        "virtual face | servo bars, one output frame per input frame",
+    )
+    p.add_argument(
+        "graph", nargs="?", metavar="GRAPH", help="graph file (default: the demo graph)"
+    )
+    p.add_argument("--out", required=True, metavar="OUT.mp4", help="video file (.mp4, .avi, …)")
+    p.add_argument(
+        "--bars",
+        metavar="PROFILE",
+        help="servo bars of this profile (default: the translator's profile unless it is "
+        "virtual; none: no bars)",
+    )
+    p.add_argument(
+        "--same-size",
+        action="store_true",
+        help="scale each side-by-side frame into the input's own size (default: the "
+        "performer keeps its size and the panels are added beside it)",
+    )
+    add_stage_arguments(p, ["sensor", "points", "features", "translator"])
+    p.add_argument("--log-level", default="WARNING", choices=("DEBUG", "INFO", "WARNING", "ERROR"))
 
     p = add(
         "compose",

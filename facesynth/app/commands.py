@@ -103,7 +103,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         getattr(configs[name], "out", configs[name].__struct_config__.tag)
         for name in graph.of_stage("control")
     ]
-    summary = {
+    summary: dict[str, Any] = {
         "frames": result.frames,
         "commands": result.commands,
         "last_frame_executed": result.last_frame,
@@ -112,8 +112,30 @@ def cmd_run(args: argparse.Namespace) -> int:
         "dropped": result.dropped,
         "out": outs[0] if len(outs) == 1 else outs,
     }
+    if args.render and not result.interrupted:
+        from facesynth.app.render import render_graph
+
+        summary["render"] = render_graph(graph, configs, args.render)
     print(json.dumps(summary))
     return 130 if result.interrupted else 0
+
+
+def cmd_render(args: argparse.Namespace) -> int:
+    """``facesynth render [GRAPH] --out OUT.mp4``: the side-by-side video of a graph's input."""
+    from facesynth.app.render import render_graph
+
+    graph = load_graph(args.graph, plugins=False)
+    configs = {}
+    for name, node in list(graph.nodes.items()):
+        if stage_of(node) == "control":
+            del graph.nodes[name]
+            continue
+        graph.nodes[name], configs[name] = apply_arguments(name, node, args)
+    summary = render_graph(
+        graph, configs, args.out, bars=args.bars, same_size=args.same_size
+    )
+    print(json.dumps(summary))
+    return 0
 
 
 def cmd_compose(args: argparse.Namespace) -> int:

@@ -17,6 +17,7 @@ import time
 from facesynth.runtime import codec
 from facesynth.runtime.bus.base import SubscriptionClosed
 from facesynth.runtime.profiles import Profile
+from facesynth.runtime.rig_view import RigView
 from facesynth.runtime.service import ServiceContext
 from schemas.messages import ServoCommands
 from services.control.core import CommandInfo, ControlCore, Watchdog
@@ -43,6 +44,7 @@ class ControlService:
 
     async def serve(self, ctx: ServiceContext) -> None:
         """Drive the servos until cancelled."""
+        self.driver.observe(RigView(ctx.bus, ctx.rig))
         await self.driver.connect()
         try:
             await self.driver.neutral(self.core.neutral())
