@@ -89,9 +89,12 @@ class PageServer:
             app.router.add_get(path, self._static)
         app.router.add_get("/ws", self._websocket)
         app.router.add_get("/state", self._state)
-        self._runner = web.AppRunner(app, handle_signals=False, access_log=None)
+        app.router.add_get("/favicon.ico", self._no_icon)
+        self._runner = web.AppRunner(
+            app, handle_signals=False, access_log=None, shutdown_timeout=1.0
+        )
         await self._runner.setup()
-        site = web.TCPSite(self._runner, self.host, self.port, shutdown_timeout=1.0)
+        site = web.TCPSite(self._runner, self.host, self.port)
         try:
             await site.start()
         except BaseException:
@@ -141,6 +144,9 @@ class PageServer:
             charset="utf-8",
             headers={"Cache-Control": "no-store", "X-Content-Type-Options": "nosniff"},
         )
+
+    async def _no_icon(self, request: web.Request) -> web.Response:
+        return web.Response(status=204)
 
     async def _state(self, request: web.Request) -> web.Response:
         return web.json_response(self.state())

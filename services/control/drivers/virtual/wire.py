@@ -58,13 +58,12 @@ _client_decoder = msgspec.json.Decoder(Hello | Ping)
 
 def parse_client(text: str) -> Hello | Ping:
     """A page's message, or raise :class:`ClientMessageError` (one line)."""
-    if len(text.encode()) > MAX_CLIENT_MESSAGE:
-        raise ClientMessageError(
-            f"message of {len(text.encode())} bytes (limit {MAX_CLIENT_MESSAGE})"
-        )
+    size = len(text.encode("utf-8", "surrogatepass"))
+    if size > MAX_CLIENT_MESSAGE:
+        raise ClientMessageError(f"message of {size} bytes (limit {MAX_CLIENT_MESSAGE})")
     try:
         message = _client_decoder.decode(text)
-    except (msgspec.DecodeError, msgspec.ValidationError) as exc:
+    except (msgspec.DecodeError, msgspec.ValidationError, UnicodeError) as exc:
         raise ClientMessageError(f"not a hello or ping message: {exc}") from None
     if isinstance(message, Ping) and not math.isfinite(message.t):
         raise ClientMessageError("ping time is not a finite number")
