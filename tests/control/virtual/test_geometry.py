@@ -101,7 +101,9 @@ def test_roll_tilts_the_whole_face_clockwise_on_screen() -> None:
     top_tilted = tilted["head"].points[upright["head"].points.index(top)]
     assert top_tilted[0] > top[0] + 20
     left, right = centre(tilted["eye_right"]), centre(tilted["eye_left"])
-    assert math.degrees(math.atan2(right[1] - left[1], right[0] - left[0])) == pytest.approx(25, abs=1)
+    assert math.degrees(math.atan2(right[1] - left[1], right[0] - left[0])) == pytest.approx(
+        25, abs=1
+    )
 
 
 @pytest.mark.parametrize(

@@ -210,12 +210,26 @@ async def test_the_page_follows_the_rigs_frames_points_and_stats() -> None:
             image = np.full((36, 64, 3), 200, np.uint8)
             frame = encode_frame(image, seq=4, t_capture_ns=1, t_media_ns=1)
             points = Points(
-                seq=4, t_capture_ns=1, t_media_ns=1, face=True, image_width=64, image_height=36,
+                seq=4,
+                t_capture_ns=1,
+                t_media_ns=1,
+                face=True,
+                image_width=64,
+                image_height=36,
                 sets=[PointSet(scheme="ibug68", dims=2, coords=[1.0] * 136)],
             )
             stats = ServiceStats(
-                service="points", instance="h-1", rig=rig, t_ns=1, uptime_s=1.0, received=1,
-                published=1, dropped=0, rejected=0, rate_hz=30.0, latency_p50_ms=4.0,
+                service="points",
+                instance="h-1",
+                rig=rig,
+                t_ns=1,
+                uptime_s=1.0,
+                received=1,
+                published=1,
+                dropped=0,
+                rejected=0,
+                rate_hz=30.0,
+                latency_p50_ms=4.0,
             )
             for _ in range(50):  # until the page's subscriptions are there
                 if driver.server.state()["follows_frames"]:
@@ -244,9 +258,7 @@ async def test_the_page_follows_the_rigs_frames_points_and_stats() -> None:
                 await asyncio.sleep(0.02)
             assert not driver.server.state()["follows_frames"]
             await asyncio.sleep(0.7)
-            assert not any(
-                str(key_expr) == input_key for key_expr, _ in bus.network.subscriptions
-            )
+            assert not any(str(key_expr) == input_key for key_expr, _ in bus.network.subscriptions)
     finally:
         await driver.close()
 

@@ -81,7 +81,12 @@ def test_frames_go_as_binary_with_a_header() -> None:
 
 def _points(sets: list[PointSet], face: bool = True) -> Points:
     return Points(
-        seq=3, t_capture_ns=1, t_media_ns=1, face=face, image_width=640, image_height=360,
+        seq=3,
+        t_capture_ns=1,
+        t_media_ns=1,
+        face=face,
+        image_width=640,
+        image_height=360,
         sets=sets,
     )
 
@@ -95,8 +100,11 @@ def test_points_carry_the_68_points_in_2d() -> None:
 
 @pytest.mark.parametrize(
     "sets",
-    [[], [PointSet(scheme="mesh468", dims=3, coords=[0.0] * 1404)],
-     [PointSet(scheme="ibug68", dims=2, coords=[0.0] * 5)]],
+    [
+        [],
+        [PointSet(scheme="mesh468", dims=3, coords=[0.0] * 1404)],
+        [PointSet(scheme="ibug68", dims=2, coords=[0.0] * 5)],
+    ],
 )
 def test_points_without_a_usable_68_point_set_show_no_face(sets: list[PointSet]) -> None:
     data = json.loads(wire.points(_points(sets)))
@@ -105,9 +113,19 @@ def test_points_without_a_usable_68_point_set_show_no_face(sets: list[PointSet])
 
 def _stats(service: str, note: str = "", p50: float | None = 1.234) -> ServiceStats:
     return ServiceStats(
-        service=service, instance="h-1", rig="r", t_ns=0, uptime_s=1.0, received=3,
-        published=2, dropped=1, rejected=0, rate_hz=29.97, latency_p50_ms=p50,
-        latency_p99_ms=None, note=note,
+        service=service,
+        instance="h-1",
+        rig="r",
+        t_ns=0,
+        uptime_s=1.0,
+        received=3,
+        published=2,
+        dropped=1,
+        rejected=0,
+        rate_hz=29.97,
+        latency_p50_ms=p50,
+        latency_p99_ms=None,
+        note=note,
     )
 
 
