@@ -17,6 +17,7 @@ from typing import Any
 from facesynth import __version__
 from facesynth.app.stage_args import add_stage_arguments
 from facesynth.runtime import keys
+from services.control.drivers.base import DriverError
 
 Handler = Callable[[argparse.Namespace], int]
 
@@ -275,6 +276,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except ValueError as exc:  # every facesynth error about options, files and messages
         print(f"facesynth {args.command}: error: {exc}", file=sys.stderr)
         return 2
+    except DriverError as exc:  # an output that cannot be opened (device, file, port in use)
+        print(f"facesynth {args.command}: error: {exc}", file=sys.stderr)
+        return 1
     except KeyboardInterrupt:
         return 130
     except BrokenPipeError:  # the reader went away (e.g. `| head`): stop quietly
