@@ -217,11 +217,21 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("action", choices=("list", "check", "show"))
     p.add_argument("name", nargs="?", help="profile name or TOML path (check, show)")
 
-    p = add("bench", commands.cmd_bench, "benchmarks: the five-process chain, or the tracker")
-    p.add_argument("what", choices=("chain", "tracker", "smoothing"))
+    p = add(
+        "bench",
+        commands.cmd_bench,
+        "benchmarks: the five-process chain, the tracker, smoothing, the live face page",
+    )
+    p.add_argument("what", choices=("chain", "tracker", "smoothing", "face"))
     p.add_argument("video", nargs="?", help="video (default: the bundled performer video)")
     p.add_argument(
-        "--seconds", type=float, default=15.0, help="chain: seconds of real-time input (default 15)"
+        "--seconds",
+        type=float,
+        default=None,
+        help="chain: seconds of real-time input (default 15); face: seconds per row (default 3)",
+    )
+    p.add_argument(
+        "--rate", type=float, default=100.0, help="face: commands per second (default 100)"
     )
     p.add_argument(
         "--fps", type=float, default=30.0, help="chain: frame rate of the input (default 30)"

@@ -274,6 +274,11 @@ def cmd_bench(args: argparse.Namespace) -> int:
 
         print(format_smoothing(bench_smoothing(args.profile, track=args.track)))
         return 0
+    if args.what == "face":
+        from facesynth.app.bench.face import bench_face, format_face
+
+        print(format_face(bench_face(seconds=args.seconds or 3.0, rate=args.rate)))
+        return 0
     if args.what == "chain":
         from facesynth.app.bench.chain import bench_chain, format_chain_bench
 
@@ -281,7 +286,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
             format_chain_bench(
                 bench_chain(
                     video=args.video,
-                    seconds=args.seconds,
+                    seconds=args.seconds or 15.0,
                     fps=args.fps,
                     openface_csv=args.openface_csv,
                     encoding=args.encoding,

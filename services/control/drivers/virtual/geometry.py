@@ -153,8 +153,8 @@ def _head(jaw: float) -> Shape:
     """The head outline: an egg whose chin drops with the jaw."""
     cx, cy, rx, top, bottom = FACE_WIDTH / 2, 235.0, 150.0, 185.0, 180.0 + 40.0 * jaw
     points = []
-    for i in range(72):
-        a = 2 * math.pi * i / 72
+    for i in range(56):
+        a = 2 * math.pi * i / 56
         s = math.sin(a)
         ry = bottom if s > 0 else top
         narrow = 1.0 - 0.18 * max(0.0, s) ** 2  # a narrower chin
@@ -186,7 +186,7 @@ def _eye(side: str, cx: float, cy: float, lid: float, gx: float, gy: float) -> l
     ]
 
 
-def _lid_curve(cx: float, cy: float, half: float, height: float, n: int = 13) -> list[Point]:
+def _lid_curve(cx: float, cy: float, half: float, height: float, n: int = 11) -> list[Point]:
     """A lid from the viewer's-left corner to the right one, ``height`` at the middle (y down)."""
     points = []
     for i in range(n):
@@ -232,7 +232,7 @@ def _mouth(
 
 
 def _lip_curve(
-    cx: float, half: float, right_y: float, left_y: float, middle_y: float, n: int = 15
+    cx: float, half: float, right_y: float, left_y: float, middle_y: float, n: int = 13
 ) -> list[Point]:
     """Through both corners and ``middle_y`` at the centre."""
     points = []
@@ -246,8 +246,8 @@ def _lip_curve(
 
 def _ellipse(name: str, cx: float, cy: float, rx: float, ry: float, *, fill: str) -> Shape:
     points = [
-        (cx + rx * math.cos(2 * math.pi * i / 24), cy + ry * math.sin(2 * math.pi * i / 24))
-        for i in range(24)
+        (cx + rx * math.cos(2 * math.pi * i / 18), cy + ry * math.sin(2 * math.pi * i / 18))
+        for i in range(18)
     ]
     return _shape(name, "polygon", points, fill=fill)
 
@@ -259,9 +259,12 @@ def _finish(shapes: list[Shape], angle: float, centre: Point) -> None:
     if angle:
         cos, sin = math.cos(angle), math.sin(angle)
         offset = points - centre
-        points = np.column_stack(
-            (offset[:, 0] * cos - offset[:, 1] * sin, offset[:, 0] * sin + offset[:, 1] * cos)
-        ) + centre
+        points = (
+            np.column_stack(
+                (offset[:, 0] * cos - offset[:, 1] * sin, offset[:, 0] * sin + offset[:, 1] * cos)
+            )
+            + centre
+        )
     flat = np.round(points, 1).tolist()
     start = 0
     for shape in shapes:
@@ -283,7 +286,7 @@ def _shape(
     return Shape(
         name=name,
         kind=kind,
-        points=[[x, y] for x, y in points],
+        points=points,  # type: ignore[arg-type] # tuples until _finish makes them lists
         fill=fill,
         stroke=stroke,
         width=width,
