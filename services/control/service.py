@@ -61,7 +61,10 @@ class ControlService:
             try:
                 while True:
                     try:
-                        sample = await asyncio.wait_for(subscription.receive(), tick)
+                        # asyncio.timeout, not wait_for: on Python 3.11 wait_for can swallow a
+                        # cancellation that races with a sample, and the service never stops.
+                        async with asyncio.timeout(tick):
+                            sample = await subscription.receive()
                     except TimeoutError:
                         if self.watchdog.expired(time.time_ns()):
                             ctx.log.info(

@@ -20,7 +20,7 @@ from typing import Any
 from aiohttp import WSCloseCode, WSMsgType, web
 
 from facesynth.runtime import codec, keys
-from facesynth.runtime.bus.base import Subscription, SubscriptionClosed
+from facesynth.runtime.bus.base import Subscription
 from facesynth.runtime.rig_view import RigView
 from schemas.messages import Frame, Points, ServiceStats
 from services.control.drivers.virtual import wire
@@ -73,6 +73,7 @@ class PageServer:
         self._wanted = asyncio.Event()
         self._sockets: set[web.WebSocketResponse] = set()
         self._tasks: list[asyncio.Task[None]] = []
+        self._following: dict[str, Subscription] = {}
         self._runner: web.AppRunner | None = None
         self._files = _static_files()
 
@@ -106,6 +107,7 @@ class PageServer:
             self.port = sockets[0].getsockname()[1]
         if self.rig is not None:
             self._tasks.append(asyncio.create_task(self._follow_stats(), name="page-stats"))
+            self._tasks.append(asyncio.create_task(self._send_stats(), name="page-status"))
             if self.frames:
                 for stage in ("input", "points"):
                     self._tasks.append(
@@ -122,9 +124,8 @@ class PageServer:
         self._tasks.clear()
         for ws in list(self._sockets):
             with contextlib.suppress(Exception):
-                await asyncio.wait_for(
-                    ws.close(code=WSCloseCode.GOING_AWAY, message=b"server stopping"), 1.0
-                )
+                async with asyncio.timeout(1.0):
+                    await ws.close(code=WSCloseCode.GOING_AWAY, message=b"server stopping")
         if self._runner is not None:
             await self._runner.cleanup()
             self._runner = None
@@ -246,65 +247,52 @@ class PageServer:
     def _update_demand(self) -> None:
         if self.fanout.wants_frames():
             self._wanted.set()
-        else:
-            self._wanted.clear()
+            return
+        self._wanted.clear()
+        for subscription in list(self._following.values()):
+            subscription.close()  # its follower goes back to waiting for a page that wants it
 
     async def _follow(self, stage: keys.Stage) -> None:
         """Forward the newest frame or points to the pages, subscribed only while wanted."""
         assert self.rig is not None
-        subscription: Subscription | None = None
+        while True:
+            await self._wanted.wait()
+            subscription = self.rig.latest(stage)
+            self._following[stage] = subscription
+            try:
+                async for sample in subscription:  # ends when the last page stops watching
+                    self._forward(stage, sample.payload)
+            finally:
+                subscription.close()
+                self._following.pop(stage, None)
+
+    def _forward(self, stage: keys.Stage, payload: bytes) -> None:
         try:
-            while True:
-                if subscription is None:
-                    await self._wanted.wait()
-                    subscription = self.rig.latest(stage)
+            if stage == "input":
+                message = wire.frame(codec.decode(payload, Frame))
+                if message is not None:
+                    self.fanout.offer("frame", message)
+            else:
+                self.fanout.offer("points", wire.points(codec.decode(payload, Points)))
+        except ValueError:
+            self.rejected_input += 1
+
+    async def _follow_stats(self) -> None:
+        """Keep every service's newest stats."""
+        assert self.rig is not None
+        subscription = self.rig.stats()
+        try:
+            async for sample in subscription:
                 try:
-                    sample = await asyncio.wait_for(subscription.receive(), 0.5)
-                except TimeoutError:
-                    sample = None
-                except SubscriptionClosed:
-                    return
-                if not self._wanted.is_set():
-                    subscription.close()
-                    subscription = None
-                    continue
-                if sample is None:
-                    continue
-                try:
-                    if stage == "input":
-                        message = wire.frame(codec.decode(sample.payload, Frame))
-                        if message is not None:
-                            self.fanout.offer("frame", message)
-                    else:
-                        self.fanout.offer(
-                            "points", wire.points(codec.decode(sample.payload, Points))
-                        )
+                    self._board.update(codec.decode(sample.payload, ServiceStats), time.time_ns())
                 except ValueError:
                     self.rejected_input += 1
         finally:
-            if subscription is not None:
-                subscription.close()
-
-    async def _follow_stats(self) -> None:
-        """Keep every service's newest stats; send the status table every second."""
-        assert self.rig is not None
-        subscription = self.rig.stats()
-        last_sent = 0.0
-        try:
-            while True:
-                with contextlib.suppress(TimeoutError):
-                    sample = await asyncio.wait_for(subscription.receive(), STATS_EVERY_S)
-                    try:
-                        self._board.update(
-                            codec.decode(sample.payload, ServiceStats), time.time_ns()
-                        )
-                    except ValueError:
-                        self.rejected_input += 1
-                if time.monotonic() - last_sent >= STATS_EVERY_S:
-                    last_sent = time.monotonic()
-                    self._last_stats = self._board.message(time.time_ns())
-                    self.fanout.offer("stats", self._last_stats)
-        except SubscriptionClosed:
-            return
-        finally:
             subscription.close()
+
+    async def _send_stats(self) -> None:
+        """The status table to every page, every second."""
+        while True:
+            await asyncio.sleep(STATS_EVERY_S)
+            self._last_stats = self._board.message(time.time_ns())
+            self.fanout.offer("stats", self._last_stats)
