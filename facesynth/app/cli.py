@@ -18,6 +18,7 @@ from facesynth import __version__
 from facesynth.app.stage_args import add_stage_arguments
 from facesynth.runtime import keys
 from services.control.drivers.base import DriverError
+from services.points.tracker.runtimes import backend_choices
 
 Handler = Callable[[argparse.Namespace], int]
 
@@ -264,7 +265,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True, help="output JSON-lines file")
     p.add_argument(
         "--inference",
-        choices=("auto", "litert", "opencv"),
+        choices=backend_choices(),
         default="auto",
         help="inference runtime (default auto: LiteRT when installed)",
     )
