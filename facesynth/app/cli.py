@@ -220,17 +220,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("action", choices=("list", "check", "show"))
     p.add_argument("name", nargs="?", help="profile name or TOML path (check, show)")
 
-<<<<<<< HEAD
-    p = add("bench", commands.cmd_bench, "benchmarks: the five-process chain, or the tracker")
-    p.add_argument("what", choices=("chain", "tracker", "smoothing", "recording"))
-=======
     p = add(
         "bench",
         commands.cmd_bench,
-        "benchmarks: the five-process chain, the tracker, smoothing, the live face page",
+        "benchmarks: the five-process chain, the tracker, smoothing, recording, the live face page",
     )
-    p.add_argument("what", choices=("chain", "tracker", "smoothing", "face"))
->>>>>>> issue10-face
+    p.add_argument("what", choices=("chain", "tracker", "smoothing", "recording", "face"))
     p.add_argument("video", nargs="?", help="video (default: the bundled performer video)")
     p.add_argument(
         "--seconds",

@@ -276,17 +276,15 @@ def cmd_bench(args: argparse.Namespace) -> int:
 
         print(format_smoothing(bench_smoothing(args.profile, track=args.track)))
         return 0
-<<<<<<< HEAD
     if args.what == "recording":
         from facesynth.app.bench.recording import bench_recording, format_recording_bench
 
         print(format_recording_bench(bench_recording(minutes=args.minutes, fps=args.fps)))
-=======
+        return 0
     if args.what == "face":
         from facesynth.app.bench.face import bench_face, format_face
 
         print(format_face(bench_face(seconds=args.seconds or 3.0, rate=args.rate)))
->>>>>>> issue10-face
         return 0
     if args.what == "chain":
         from facesynth.app.bench.chain import bench_chain, format_chain_bench
