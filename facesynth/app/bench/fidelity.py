@@ -9,8 +9,8 @@ and the expression for 1 s at 30 fps; each image is tracked for a few frames unt
 settles, and its points are replayed for the rest (a still image gives the same points every
 frame once the crop holds).
 
-Every servo belongs to a region (brows, gaze, lids, mouth: :func:`region`), and every expression
-to one or two; an expression's *expected* servos must move the right way by at least
+Every servo belongs to a region (brows, gaze, lids, mouth, head: :func:`region`), and every
+expression to one or two; an expression's *expected* servos must move the right way by at least
 :data:`MIN_MOVE` of their travel, and the servos of the *other* regions must stay within
 :data:`CROSS_TALK` of theirs (travel: from neutral to the limit on that side). Servos of the
 expression's own region that are not expected (a smile also lifts the cheeks, a jaw drop also
@@ -77,6 +77,8 @@ REGIONS: Final[dict[str, frozenset[str]]] = {
 def region(servo: str) -> str:
     """The face region a servo (or blendshape control) belongs to, from its name."""
     lower = servo.lower()
+    if lower.startswith("head_"):
+        return "head"
     if "brow" in lower:
         return "brows"
     if "eye_x" in lower or "eye_y" in lower or "gaze" in lower or lower.startswith("eyelook"):
