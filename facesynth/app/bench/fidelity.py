@@ -21,7 +21,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any, Final
+from typing import Final
 
 import msgspec
 import numpy as np
@@ -292,12 +292,3 @@ def format_fidelity(rows: Sequence[FidelityRow]) -> str:
             )
     return "\n".join(lines)
 
-
-def summary(rows: Sequence[FidelityRow]) -> dict[str, Any]:
-    """Passes per profile and model: ``{"profile/model": [passed, total]}``."""
-    out: dict[str, Any] = {}
-    for r in rows:
-        key = f"{r.profile}/{r.model}"
-        passed, total = out.get(key, [0, 0])
-        out[key] = [passed + (r.right_way and r.within_bound), total + 1]
-    return out
