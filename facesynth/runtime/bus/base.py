@@ -19,6 +19,8 @@ import contextlib
 import time
 from collections.abc import AsyncIterator
 from dataclasses import dataclass
+from types import TracebackType
+from typing import Self
 
 
 @dataclass(frozen=True, slots=True)
@@ -128,7 +130,22 @@ class Token(abc.ABC):
 
 
 class Bus(abc.ABC):
-    """Publish bytes on keys, subscribe to key expressions, announce liveliness."""
+    """Publish bytes on keys, subscribe to key expressions, announce liveliness.
+
+    A bus is an async context manager: ``async with bus:`` closes it on the way out
+    (:meth:`close` still works on its own).
+    """
+
+    async def __aenter__(self) -> Self:
+        return self
+
+    async def __aexit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        traceback: TracebackType | None,
+    ) -> None:
+        await self.close()
 
     @abc.abstractmethod
     def publish(self, key: str, payload: bytes) -> None:
