@@ -4,7 +4,7 @@ VENV ?= .venv
 PYTHON ?= python3
 BIN := $(VENV)/bin
 
-.PHONY: demo test lint bench install clean
+.PHONY: demo test lint bench install clean firmware-test
 
 $(BIN)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -28,9 +28,14 @@ lint: $(BIN)/.installed
 	$(BIN)/lint-imports --no-cache
 	$(BIN)/python -m schemas.export --check
 
+## The servo firmware: host unit tests, Uno build with size report, simavr harness, tests/firmware.
+firmware-test: $(BIN)/.installed
+	$(MAKE) -C firmware host-test build emulator
+	$(BIN)/python -m pytest -q tests/firmware
+
 bench: $(BIN)/.installed
 	$(BIN)/facesynth bench chain
 	$(BIN)/facesynth bench tracker
 
 clean:
-	rm -rf $(VENV) .mypy_cache .ruff_cache .pytest_cache facesynth-commands.jsonl
+	rm -rf $(VENV) .mypy_cache .ruff_cache .pytest_cache facesynth-commands.jsonl firmware/build

@@ -20,6 +20,8 @@ COMMANDS = [
     "profile",
     "bench",
     "track",
+    "compose",
+    "calibrate",
 ]
 
 
@@ -42,6 +44,10 @@ def _files(tmp: Path) -> dict[str, Path]:
         "garbage.mp4": "this is not a video",
         "bad.json5": "{ mode: ",
         "track.jsonl": '{"frame": 0, "face": true, "ibug68": [[1, 2]]}\n',
+        "graph.toml": '[nodes.control]\nstage = "control"\n[nodes.f]\nstage = "features"\n',
+        "nodriver.toml": '[nodes.c]\nstage = "control"\ndriver = { driver = "record" }\n',
+        "badgraph.toml": "[nodes.x\n",
+        "features.toml": '[nodes.f]\nstage = "features"\n',
     }
     for name, text in files.items():
         (tmp / name).write_text(text)
@@ -76,6 +82,36 @@ CASES = [
         "cannot open a Zenoh client session",
     ),
     ("profile check broken", ["profile", "check", "{bad.toml}"], "not valid TOML"),
+    ("missing graph", ["run", "/nonexistent/g.toml"], "graph /nonexistent/g.toml does not exist"),
+    ("broken graph", ["features", "--graph", "{badgraph.toml}"], "not valid TOML"),
+    ("node without graph", ["features", "--node", "f"], "--node needs --graph"),
+    (
+        "node of another stage",
+        ["features", "--graph", "{graph.toml}", "--node", "control"],
+        "node 'control' runs control, not features",
+    ),
+    (
+        "option of another backend",
+        ["points", "--threads", "2", "--openface-csv", "{garbage.csv}"],
+        "--threads does not apply to backend openface",
+    ),
+    (
+        "two backends",
+        ["points", "--openface-csv", "a", "--points-jsonl", "b"],
+        "choose one backend",
+    ),
+    (
+        "compose outside deploy",
+        ["compose", "{features.toml}", "--graph-path", "/tmp/g.toml"],
+        "--graph-path must lie in /etc/facesynth",
+    ),
+    ("graph without out", ["control", "--graph", "{nodriver.toml}"], "driver record needs --out"),
+    (
+        "compose checks drivers",
+        ["compose", "{nodriver.toml}"],
+        "Object missing required field `out`",
+    ),
+    ("bad watchdog", ["control", "--out", "x", "--watchdog", "0"], "--watchdog: Expected"),
     ("profile without name", ["profile", "check"], "needs a profile"),
 ]
 

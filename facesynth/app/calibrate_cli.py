@@ -18,7 +18,9 @@ from typing import TextIO
 
 import numpy as np
 
-from facesynth.app import build
+from facesynth.app.nodes import PointsNode, SensorNode
+from facesynth.app.stage_args import apply_arguments
+from facesynth.app.wiring import build_backend, build_source
 from facesynth.runtime.calibration import CALIBRATIONS, save_calibration
 from facesynth.runtime.frames import encode_frame
 from facesynth.runtime.keys import check_name
@@ -80,9 +82,10 @@ def run_calibration(args: argparse.Namespace, out: TextIO | None = None) -> Path
     """Record and save a calibration; return its path. Progress goes to ``out`` (stdout)."""
     out = out if out is not None else sys.stdout
     check_name(args.name, "calibration")
-    backend = build.build_backend(args)
-    replay_frames = None if build.has_source(args) else backend.frame_count()
-    source = build.build_source(args, replay_frames)
+    _, backend_config = apply_arguments("points", PointsNode(), args)
+    _, source_config = apply_arguments("sensor", SensorNode(), args)
+    backend = build_backend(backend_config)
+    source = build_source(source_config, backend.frame_count())
     if backend.needs_pixels() and source.info.name == "ticks":
         raise CalibrationStepError("the tracker needs images: give --camera or --video")
     schedule = guided_schedule(args, source.info.live)

@@ -11,10 +11,16 @@ import asyncio
 import gc
 import logging
 import time
-from collections.abc import Awaitable, Callable, Mapping
+from collections.abc import Awaitable, Callable
 from dataclasses import dataclass
 from typing import Any
 
+import msgspec
+
+from facesynth.app.graph import Graph
+from facesynth.app.nodes import stage_of
+from facesynth.app.wiring import OptionError, StageParts, build_node
+from facesynth.runtime import codec, keys
 from facesynth.runtime.bus.base import Bus
 from facesynth.runtime.bus.zenoh_bus import (
     ZenohBus,
@@ -24,7 +30,8 @@ from facesynth.runtime.bus.zenoh_bus import (
     router_locators,
 )
 from facesynth.runtime.service import ServiceContext, run_service, until_signalled
-from services.control.service import ControlService
+from schemas.messages import ServoCommands
+from services.points.backends.base import PointsBackend
 from services.sensor.service import SensorService
 
 log = logging.getLogger("facesynth")
@@ -90,41 +97,68 @@ class ChainResult:
     interrupted: bool
 
 
+def build_chain(graph: Graph, configs: dict[str, msgspec.Struct | None]) -> list[StageParts]:
+    """Every node of ``graph``, built, for one process: exactly one sensor, the rest any number.
+
+    ``configs`` holds each node's validated plugin config. A replayed point stream sets the
+    number of frames when the sensor names no video; the tracker needs frames with pixels.
+    """
+    sensors = graph.of_stage("sensor")
+    if len(sensors) != 1:
+        raise OptionError(
+            f"a graph run in one process needs one sensor node (found {len(sensors) or 'none'})"
+        )
+    parts = [
+        build_node(name, node, graph, configs.get(name))
+        for name, node in graph.nodes.items()
+        if stage_of(node) != "sensor"
+    ]
+    backends = [p.service for p in parts if isinstance(p.service, PointsBackend)]
+    replay_frames = next((b.frame_count() for b in backends if b.frame_count() is not None), None)
+    name, node = next(iter(sensors.items()))
+    sensor = build_node(name, node, graph, configs.get(name), replay_frames=replay_frames)
+    if any(b.needs_pixels() for b in backends) and sensor.service.source.info.name == "ticks":
+        raise OptionError("the tracker needs images: give --video, --camera or --images")
+    return [sensor, *parts]
+
+
 async def run_chain(
     bus: Bus,
     rig: str,
-    sensor: SensorService,
-    bodies: Mapping[str, ServiceBody],
-    control: ControlService,
+    parts: list[StageParts],
     *,
     drain_timeout: float = 3.0,
     stats_interval: float = 1.0,
 ) -> ChainResult:
-    """Run sensor, points, features, translator and control on one bus until the input ends.
+    """Run every stage of ``parts`` on one bus until the sensor's input ends.
 
-    ``bodies`` holds the points, features and translator service bodies. After the sensor's
-    last frame, waits until the control interface has executed it (or nothing has moved for
-    ``drain_timeout`` seconds), then stops every stage.
+    The sensor (the first part) waits for the other stages' liveliness, then plays its source.
+    After its last frame, the chain has drained when ``…/servo_state`` reports that frame, as
+    any observer on the bus would see it (or when nothing has moved for ``drain_timeout``
+    seconds); then every stage stops.
     """
+    sensor_part, others = parts[0], parts[1:]
+    sensor: SensorService = sensor_part.service
     contexts: dict[str, ServiceContext] = {}
     tasks: list[asyncio.Task[Any]] = []
     started = time.monotonic()
+    progress = ServoStateWatch(bus, keys.stage_key(rig, "servo_state"))
 
-    def start(name: str, body: ServiceBody) -> ServiceContext:
-        ctx = ServiceContext(bus, rig, name, stats_interval=stats_interval)
-        contexts[name] = ctx
-        tasks.append(asyncio.create_task(run_service(ctx, body), name=name))
+    def context(part: StageParts) -> ServiceContext:
+        ctx = ServiceContext(bus, rig, part.stage, stats_interval=stats_interval)
+        if part.name != part.stage:
+            ctx.instance = f"{ctx.instance}-{part.name}"
+        contexts[part.name] = ctx
         return ctx
 
-    start("control", control.serve)
-    for name, body in bodies.items():
-        start(name, body)
-    sensor.options.wait_for = ["control", *bodies]
+    for part in others:
+        tasks.append(asyncio.create_task(run_service(context(part), part.body), name=part.name))
+    sensor.options.wait_for = sorted({part.stage for part in others})
     interrupted = False
     try:
-        sensor_ctx = ServiceContext(bus, rig, "sensor", stats_interval=stats_interval)
-        contexts["sensor"] = sensor_ctx
-        sensor_task = asyncio.create_task(run_service(sensor_ctx, sensor.serve), name="sensor")
+        sensor_task = asyncio.create_task(
+            run_service(context(sensor_part), sensor.serve), name=sensor_part.name
+        )
         for task in tasks:  # a stage that fails at start-up (driver, model) ends the run
             task.add_done_callback(
                 lambda t: sensor_task.cancel() if not t.cancelled() and t.exception() else None
@@ -132,21 +166,23 @@ async def run_chain(
         result = await until_signalled(sensor_task)
         if result is None:
             interrupted = True
-        else:
-            await _drain(control, sensor.last_seq, drain_timeout)
+        elif any(part.stage == "control" for part in others):
+            await progress.wait_for(sensor.last_seq, drain_timeout)
     except asyncio.CancelledError:
         interrupted = True
     finally:
+        progress.close()
         for task in tasks:
             task.cancel()
         outcomes = await asyncio.gather(*tasks, return_exceptions=True)
     for outcome in outcomes:
         if isinstance(outcome, BaseException) and not isinstance(outcome, asyncio.CancelledError):
             raise outcome
+    controls = [contexts[p.name] for p in others if p.stage == "control"]
     return ChainResult(
         frames=sensor.last_seq + 1,
-        commands=contexts["control"].stats.published,
-        last_frame=control.last_frame,
+        commands=sum(ctx.stats.published for ctx in controls),
+        last_frame=progress.last_seq,
         rejected={name: ctx.stats.rejected for name, ctx in contexts.items()},
         dropped={name: ctx.dropped() for name, ctx in contexts.items()},
         seconds=time.monotonic() - started,
@@ -154,16 +190,39 @@ async def run_chain(
     )
 
 
-async def _drain(control: ControlService, last_seq: int, timeout: float) -> None:
-    """Wait until ``control`` executed frame ``last_seq`` or made no progress for ``timeout``."""
-    while control.last_frame < last_seq:
-        control.progress.clear()
-        try:
-            await asyncio.wait_for(control.progress.wait(), timeout)
-        except TimeoutError:
-            log.warning(
-                "the chain stopped before the last frame (%d; last executed %d)",
-                last_seq,
-                control.last_frame,
-            )
-            return
+class ServoStateWatch:
+    """Follows ``…/servo_state`` on the bus: the last frame a control interface applied."""
+
+    def __init__(self, bus: Bus, key: str) -> None:
+        self.last_seq = -1
+        self._subscription = bus.subscribe_latest(key)
+        self._task = asyncio.create_task(self._follow(), name="servo-state-watch")
+        self._progress = asyncio.Event()
+
+    async def _follow(self) -> None:
+        async for sample in self._subscription:
+            try:
+                seq = codec.decode(sample.payload, ServoCommands).seq
+            except ValueError:
+                continue
+            self.last_seq = max(self.last_seq, seq)
+            self._progress.set()
+
+    async def wait_for(self, seq: int, timeout: float) -> None:
+        """Until frame ``seq`` was applied, or nothing was applied for ``timeout`` seconds."""
+        while self.last_seq < seq:
+            self._progress.clear()
+            try:
+                await asyncio.wait_for(self._progress.wait(), timeout)
+            except TimeoutError:
+                log.warning(
+                    "the chain stopped before the last frame (%d; last applied %d)",
+                    seq,
+                    self.last_seq,
+                )
+                return
+
+    def close(self) -> None:
+        """Stop following."""
+        self._subscription.close()
+        self._task.cancel()

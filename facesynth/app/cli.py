@@ -15,16 +15,29 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 from facesynth import __version__
+from facesynth.app.stage_args import add_stage_arguments
+from facesynth.runtime import keys
+from services.points.tracker.runtimes import backend_choices
 
 Handler = Callable[[argparse.Namespace], int]
+
+#: The five stages' sub-commands.
+STAGE_HELP = {
+    "sensor": "S: publish frames from a video, camera or image folder on …/input",
+    "points": "P: publish face landmarks on …/points (tracker, or a replayed recording)",
+    "features": "F: publish pose-free features on …/features",
+    "translator": "T: publish servo positions on …/servo_commands through a profile",
+    "control": "C: drive servos (or record) from …/servo_commands",
+}
 
 
 def _zenoh_arguments(parser: argparse.ArgumentParser) -> None:
     group = parser.add_argument_group("Zenoh")
     group.add_argument(
         "--rig",
-        default=os.environ.get("FACESYNTH_RIG", "default"),
-        help="rig name: keys are facesynth/<rig>/<stage> (default: $FACESYNTH_RIG or 'default')",
+        default=os.environ.get("FACESYNTH_RIG"),
+        help="rig name: keys are facesynth/<rig>/<stage> "
+        "(default: $FACESYNTH_RIG, else the graph's, else 'default')",
     )
     group.add_argument(
         "--mode",
@@ -62,140 +75,17 @@ def _zenoh_arguments(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--log-level", default="INFO", choices=("DEBUG", "INFO", "WARNING", "ERROR"))
 
 
-def _source_arguments(parser: argparse.ArgumentParser) -> None:
-    group = parser.add_argument_group("frame source (sensor)")
+def _graph_arguments(parser: argparse.ArgumentParser) -> None:
+    group = parser.add_argument_group("graph")
     group.add_argument(
-        "--video", metavar="PATH", help="video file (default: the bundled performer video)"
-    )
-    group.add_argument("--camera", type=int, metavar="N", help="camera index (one-frame buffer)")
-    group.add_argument("--images", metavar="DIR", help="folder of images, in name order")
-    group.add_argument(
-        "--ticks", type=int, metavar="N", help="N frames without pixels (clock for replays)"
-    )
-    group.add_argument("--fps", type=float, help="frame rate override (images/ticks default 30)")
-    group.add_argument("--loop", action="store_true", help="loop the video or image folder")
-    group.add_argument(
-        "--fast",
-        action="store_true",
-        help="as fast as the chain takes frames, none lost (default: real time)",
-    )
-    group.add_argument(
-        "--window",
-        type=int,
-        default=2,
-        help="--fast: frames in flight ahead of the last servo command (default 2)",
-    )
-    group.add_argument(
-        "--encoding",
-        choices=("jpeg", "raw"),
-        default="jpeg",
-        help="frame encoding on the bus (default jpeg)",
-    )
-    group.add_argument("--quality", type=int, default=90, help="JPEG quality 1-100 (default 90)")
-    group.add_argument("--max-frames", type=int, metavar="N", help="stop after N frames")
-
-
-def _points_arguments(parser: argparse.ArgumentParser) -> None:
-    group = parser.add_argument_group("point streamer")
-    group.add_argument(
-        "--openface-csv",
-        metavar="PATH",
-        help="replay OpenFace 2 CSV landmarks (row n answers frame n)",
-    )
-    group.add_argument("--points-jsonl", metavar="PATH", help="replay a facesynth track file")
-    group.add_argument(
-        "--loop-replay",
-        action="store_true",
-        help="loop the replayed points instead of reporting no face past their end",
-    )
-    group.add_argument(
-        "--inference",
-        choices=("auto", "litert", "opencv"),
-        default="auto",
-        help="tracker inference backend (default auto: LiteRT when installed)",
-    )
-    group.add_argument(
-        "--threads", type=int, default=1, help="tracker inference threads (default 1)"
-    )
-    group.add_argument(
-        "--select",
-        choices=("largest", "score"),
-        default="largest",
-        help="several faces: follow the largest (default) or best-scoring one, then stick to it",
-    )
-    group.add_argument(
-        "--redetect-every",
-        type=int,
-        default=30,
-        metavar="N",
-        help="while tracking, re-check with the face detector every N frames (default 30)",
-    )
-
-
-def _mapping_arguments(
-    parser: argparse.ArgumentParser, *, profile: bool, calibration: bool, neutral: bool
-) -> None:
-    group = parser.add_argument_group("mapping")
-    if profile:
-        group.add_argument(
-            "--profile", default="paper16", help="robot profile name or TOML path (default paper16)"
-        )
-        group.add_argument(
-            "--mirror",
-            action="store_true",
-            help="mirror the performer (robot's right follows the performer's left)",
-        )
-    if calibration:
-        group.add_argument(
-            "--calibration", metavar="NAME|PATH", help="performer calibration (neutral + ranges)"
-        )
-    if neutral:
-        group.add_argument(
-            "--auto-range",
-            action="store_true",
-            help="without a calibration: adapt the neutral (rolling median) and the feature "
-            "ranges (slowly decaying extremes) to the running stream",
-        )
-        group.add_argument(
-            "--neutral-seconds",
-            type=float,
-            metavar="S",
-            help="without a calibration: seconds of face used as neutral (default: profile's, 1 s)",
-        )
-
-
-def _driver_arguments(parser: argparse.ArgumentParser, *, default_out: str | None) -> None:
-    group = parser.add_argument_group("control interface")
-    group.add_argument(
-        "--driver", default="record", choices=("record",), help="servo driver (default record)"
-    )
-    group.add_argument(
-        "--out",
-        default=default_out,
+        "--graph",
         metavar="FILE",
-        help="record driver: JSON-lines output"
-        + (f" (default {default_out})" if default_out else ""),
+        help="take this stage's options from a node of a graph file (flags override them)",
     )
     group.add_argument(
-        "--driver-config",
-        metavar="FILE",
-        help="driver settings from a TOML/JSON file (overrides --driver)",
-    )
-    group.add_argument(
-        "--watchdog",
-        type=float,
-        default=0.5,
-        metavar="S",
-        help="seconds without commands before the face returns to neutral (default 0.5)",
-    )
-
-
-def _queue_argument(parser: argparse.ArgumentParser, default: int) -> None:
-    parser.add_argument(
-        "--queue",
-        type=int,
-        default=default,
-        help=f"input queue length; 1 = latest only (default {default})",
+        "--node",
+        metavar="NAME",
+        help="the node to run (default: the graph's only node of this stage)",
     )
 
 
@@ -218,12 +108,11 @@ def build_parser() -> argparse.ArgumentParser:
     p = add(
         "run",
         commands.cmd_run,
-        "run the whole chain (S → P → F → T → C) in one process on an embedded Zenoh router",
+        "run a chain graph (default: the demo, S → P → F → T → C) in one process on an "
+        "embedded Zenoh router",
     )
-    _source_arguments(p)
-    _points_arguments(p)
-    _mapping_arguments(p, profile=True, calibration=True, neutral=True)
-    _driver_arguments(p, default_out="facesynth-commands.jsonl")
+    p.add_argument("graph", nargs="?", metavar="GRAPH", help="graph file (default: the demo graph)")
+    add_stage_arguments(p, keys.SERVICES)
     _zenoh_arguments(p)
     p.add_argument(
         "--drain-timeout",
@@ -232,55 +121,31 @@ def build_parser() -> argparse.ArgumentParser:
         help="seconds to wait for the last command after the input ends",
     )
 
+    for stage, help_text in STAGE_HELP.items():
+        p = add(stage, commands.cmd_stage, help_text)
+        p.set_defaults(stage=stage)
+        _graph_arguments(p)
+        add_stage_arguments(p, [stage])
+        _zenoh_arguments(p)
+        if stage == "control":
+            p.add_argument(
+                "--list-drivers",
+                action="store_true",
+                help="list the servo drivers and their options, then exit",
+            )
+
     p = add(
-        "sensor",
-        commands.cmd_sensor,
-        "S: publish frames from a video, camera or image folder on …/input",
+        "compose",
+        commands.cmd_compose,
+        "write the docker-compose file that runs each node of a graph in a container",
     )
-    _source_arguments(p)
+    p.add_argument("graph", metavar="GRAPH", help="graph file")
+    p.add_argument("--out", metavar="FILE", help="write here (default: print it)")
     p.add_argument(
-        "--wait-for",
-        action="append",
-        metavar="SERVICES",
-        help="wait until these services are alive before sending, "
-        "e.g. points,features,translator,control",
+        "--graph-path",
+        default="/etc/facesynth/graph.toml",
+        help="where the graph is mounted in the containers (default /etc/facesynth/graph.toml)",
     )
-    p.add_argument(
-        "--wait-timeout",
-        type=float,
-        default=30.0,
-        help="seconds to wait for --wait-for (default 30)",
-    )
-    _zenoh_arguments(p)
-
-    p = add(
-        "points",
-        commands.cmd_points,
-        "P: publish face landmarks on …/points (tracker, or a replayed recording)",
-    )
-    _points_arguments(p)
-    _queue_argument(p, 2)
-    _zenoh_arguments(p)
-
-    p = add("features", commands.cmd_features, "F: publish pose-free features on …/features")
-    _mapping_arguments(p, profile=False, calibration=True, neutral=True)
-    _queue_argument(p, 8)
-    _zenoh_arguments(p)
-
-    p = add(
-        "translator",
-        commands.cmd_translator,
-        "T: publish servo positions on …/servo_commands through a profile",
-    )
-    _mapping_arguments(p, profile=True, calibration=True, neutral=False)
-    _queue_argument(p, 8)
-    _zenoh_arguments(p)
-
-    p = add("control", commands.cmd_control, "C: drive servos (or record) from …/servo_commands")
-    _mapping_arguments(p, profile=True, calibration=False, neutral=False)
-    _driver_arguments(p, default_out=None)
-    _queue_argument(p, 8)
-    _zenoh_arguments(p)
 
     p = add(
         "calibrate",
@@ -288,8 +153,7 @@ def build_parser() -> argparse.ArgumentParser:
         "record a performer's neutral face and expression ranges (guided, or from a video)",
     )
     p.add_argument("name", help="calibration name (then: --calibration NAME)")
-    _source_arguments(p)
-    _points_arguments(p)
+    add_stage_arguments(p, ["sensor", "points"])
     p.add_argument(
         "--schedule",
         metavar="STEP=START-END,…",
@@ -357,7 +221,12 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("video")
     p.add_argument("--out", required=True, help="output JSON-lines file")
-    p.add_argument("--inference", choices=("auto", "litert", "opencv"), default="auto")
+    p.add_argument(
+        "--inference",
+        choices=backend_choices(),
+        default="auto",
+        help="inference runtime (default auto: LiteRT when installed)",
+    )
     return parser
 
 

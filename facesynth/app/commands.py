@@ -7,104 +7,91 @@ import asyncio
 import json
 import logging
 import time
+from pathlib import Path
 from typing import Any
 
-from facesynth.app import build
+from facesynth.app import wiring
 from facesynth.app.chain import (
     ChainResult,
+    build_chain,
     freeze_startup_objects,
     open_embedded,
     run_chain,
     run_single,
 )
+from facesynth.app.compose import compose_file
+from facesynth.app.graph import Graph, load_graph, select_node
+from facesynth.app.nodes import NODE_TYPES, SensorNode, stage_of
+from facesynth.app.plugin_help import describe_plugins
+from facesynth.app.stage_args import apply_arguments
+from facesynth.app.wiring import OptionError, build_node, replay_frames_of
 from facesynth.runtime import keys
+from facesynth.runtime.atomic import write_atomic
 from facesynth.runtime.bus.zenoh_bus import ZenohBus, endpoints, open_session, router_locators
-from facesynth.runtime.service import run_async, until_signalled
-from services.control.service import ControlService
-from services.features.service import serve_features
-from services.points.service import serve_points
-from services.sensor.service import SensorService
-from services.translator.service import serve_translator
+from facesynth.runtime.service import default_instance, run_async, until_signalled
+from services.control.drivers.registry import DRIVERS
 
 log = logging.getLogger("facesynth")
 
 
-def _single(args: argparse.Namespace, service: str, body: Any) -> int:
-    options = build.zenoh_options(args)
-    run_async(run_single(options, args.rig, service, body, stats_interval=args.stats_interval))
+def cmd_stage(args: argparse.Namespace) -> int:
+    """``facesynth sensor|points|features|translator|control``: one node as its own service."""
+    stage: str = args.stage
+    if getattr(args, "list_drivers", False):
+        print(describe_plugins(DRIVERS))
+        return 0
+    if args.graph:
+        graph = load_graph(args.graph, plugins=False)
+        name = args.node
+        node = select_node(graph, stage, name, args.graph)
+        name = name or next(n for n, v in graph.nodes.items() if v is node)
+    else:
+        if args.node:
+            raise OptionError("--node needs --graph")
+        name, node = stage, NODE_TYPES[stage]()
+        graph = Graph(nodes={name: node})
+    node, config = apply_arguments(name, node, args)
+    graph.nodes[name] = node
+    replay_frames = None
+    if isinstance(node, SensorNode) and args.graph:
+        if not node.wait_for:  # started from a graph: wait for the graph's other stages
+            others = {stage_of(n) for n in graph.nodes.values() if stage_of(n) != "sensor"}
+            node.wait_for = sorted(others)
+        replay_frames = replay_frames_of(graph)
+    parts = build_node(name, node, graph, config, replay_frames=replay_frames)
+    options = wiring.zenoh_options(args)
+    rig = args.rig or graph.rig
+    instance = None if name == stage else f"{default_instance()}-{name}"
+    run_async(
+        run_single(
+            options, rig, stage, parts.body, instance=instance, stats_interval=args.stats_interval
+        )
+    )
     return 0
 
 
-def cmd_sensor(args: argparse.Namespace) -> int:
-    """``facesynth sensor``."""
-    source = build.build_source(args)
-    sensor = SensorService(source, build.sensor_options(args))
-    return _single(args, "sensor", sensor.serve)
-
-
-def cmd_points(args: argparse.Namespace) -> int:
-    """``facesynth points``."""
-    backend = build.build_backend(args)
-    return _single(args, "points", lambda ctx: serve_points(ctx, backend, args.queue))
-
-
-def cmd_features(args: argparse.Namespace) -> int:
-    """``facesynth features``."""
-    processor = build.build_processor(args, build.build_calibration(args))
-    return _single(args, "features", lambda ctx: serve_features(ctx, processor, args.queue))
-
-
-def cmd_translator(args: argparse.Namespace) -> int:
-    """``facesynth translator``."""
-    translator = build.build_translator(build.build_profile(args), build.build_calibration(args))
-    return _single(args, "translator", lambda ctx: serve_translator(ctx, translator, args.queue))
-
-
-def cmd_control(args: argparse.Namespace) -> int:
-    """``facesynth control``."""
-    control = ControlService(
-        build.build_profile(args),
-        build.build_driver(args),
-        watchdog_s=args.watchdog,
-        queue=args.queue,
-    )
-    return _single(args, "control", control.serve)
-
-
 def cmd_run(args: argparse.Namespace) -> int:
-    """``facesynth run``: the whole chain in one process."""
-    backend = build.build_backend(args)
-    replay_frames = None if build.has_source(args) else backend.frame_count()
-    source = build.build_source(args, replay_frames)
-    if backend.needs_pixels() and source.info.name == "ticks":
-        raise build.OptionError("the tracker needs images: give --video, --camera or --images")
-    profile = build.build_profile(args)
-    calibration = build.build_calibration(args)
-    processor = build.build_processor(args, calibration, profile)
-    translator = build.build_translator(profile, calibration)
-    control = ControlService(profile, build.build_driver(args), watchdog_s=args.watchdog)
-    sensor = SensorService(source, build.sensor_options(args, wait_for=[]))
+    """``facesynth run [GRAPH]``: every node of a graph in one process."""
+    graph = load_graph(args.graph, plugins=False)
+    configs = {}
+    for name, node in list(graph.nodes.items()):
+        graph.nodes[name], configs[name] = apply_arguments(name, node, args)
+    rig = args.rig or graph.rig
+    parts = build_chain(graph, configs)
     listen = endpoints(args.listen) or ["tcp/127.0.0.1:7447"]
-    options = build.zenoh_options(args, default_mode="router")
+    options = wiring.zenoh_options(args, default_mode="router")
     options.connect = endpoints(args.connect)
 
     async def main() -> ChainResult:
         session, locators = await asyncio.to_thread(open_embedded, listen, options)
         bus = ZenohBus(session)
-        log.info("embedded Zenoh router on %s (rig %s)", ", ".join(locators), args.rig)
+        log.info("embedded Zenoh router on %s (rig %s)", ", ".join(locators), rig)
         freeze_startup_objects()
         try:
-            bodies = {
-                "points": lambda ctx: serve_points(ctx, backend, 2),
-                "features": lambda ctx: serve_features(ctx, processor, 8),
-                "translator": lambda ctx: serve_translator(ctx, translator, 8),
-            }
             return await run_chain(
                 bus,
-                args.rig,
-                sensor,
-                bodies,
-                control,
+                rig,
+                parts,
                 drain_timeout=args.drain_timeout,
                 stats_interval=args.stats_interval,
             )
@@ -112,6 +99,10 @@ def cmd_run(args: argparse.Namespace) -> int:
             await bus.close()
 
     result = run_async(main())
+    outs = [
+        getattr(configs[name], "out", configs[name].__struct_config__.tag)
+        for name in graph.of_stage("control")
+    ]
     summary = {
         "frames": result.frames,
         "commands": result.commands,
@@ -119,15 +110,25 @@ def cmd_run(args: argparse.Namespace) -> int:
         "seconds": round(result.seconds, 2),
         "rejected": result.rejected,
         "dropped": result.dropped,
-        "out": args.out if not args.driver_config else args.driver_config,
+        "out": outs[0] if len(outs) == 1 else outs,
     }
     print(json.dumps(summary))
     return 130 if result.interrupted else 0
 
 
+def cmd_compose(args: argparse.Namespace) -> int:
+    """``facesynth compose GRAPH``: the docker-compose file for a graph."""
+    text = compose_file(load_graph(args.graph), args.graph, graph_path=args.graph_path)
+    if args.out:
+        write_atomic(Path(args.out), text.encode())
+    else:
+        print(text, end="")
+    return 0
+
+
 def cmd_router(args: argparse.Namespace) -> int:
     """``facesynth router``: a Zenoh router in Python."""
-    options = build.zenoh_options(args, default_mode="router")
+    options = wiring.zenoh_options(args, default_mode="router")
     options.mode = "router"
     if not options.listen and options.config_file_path() is None:
         options.listen = ["tcp/0.0.0.0:7447"]
@@ -153,7 +154,7 @@ def cmd_status(args: argparse.Namespace) -> int:
     from facesynth.runtime.codec import decode
     from schemas.messages import ServiceStats
 
-    options = build.zenoh_options(args)
+    options = wiring.zenoh_options(args)
     rig = None if args.all_rigs else args.rig
 
     async def main() -> tuple[list[str], dict[str, ServiceStats]]:
@@ -224,7 +225,7 @@ def cmd_profile(args: argparse.Namespace) -> int:
             print(name)
         return 0
     if not args.name:
-        raise build.OptionError(f"profile {args.action} needs a profile name or path")
+        raise OptionError(f"profile {args.action} needs a profile name or path")
     if args.action == "check":
         try:
             profile = load_profile(args.name)

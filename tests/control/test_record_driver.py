@@ -1,4 +1,4 @@
-"""services.control.drivers: the record driver and the typed driver configuration."""
+"""services.control.drivers.record: the record driver, and driver configs through the registry."""
 
 from __future__ import annotations
 
@@ -9,23 +9,18 @@ from pathlib import Path
 
 import pytest
 
+from facesynth.runtime.plugins import PluginError
 from services.control.core import CommandInfo
 from services.control.drivers.base import DriverError
-from services.control.drivers.config import (
-    DriverConfigError,
-    RecordConfig,
-    load_driver_config,
-    make_driver,
-    parse_driver_config,
-)
-from services.control.drivers.record import RecordDriver, RecordLine, read_record
+from services.control.drivers.record import RecordConfig, RecordDriver, RecordLine, read_record
+from services.control.drivers.registry import DRIVERS
 
 KEYS = {"seq", "frame", "t_capture_ns", "t_sent_ns", "face", "servos"}
 
 
 async def test_lines_have_exactly_the_documented_keys(tmp_path: Path) -> None:
     out = tmp_path / "deep" / "dir" / "commands.jsonl"
-    driver = RecordDriver(out)
+    driver = RecordDriver(RecordConfig(out=str(out)))
     await driver.connect()
     before = time.time_ns()
     await driver.send({"jaw": 1500.0, "brow": 1234.56789}, CommandInfo(7, 1111, True))
@@ -47,7 +42,7 @@ async def test_lines_have_exactly_the_documented_keys(tmp_path: Path) -> None:
 
 async def test_every_line_is_flushed_while_open(tmp_path: Path) -> None:
     out = tmp_path / "commands.jsonl"
-    driver = RecordDriver(out)
+    driver = RecordDriver(RecordConfig(out=str(out)))
     await driver.connect()
     try:
         for i in range(3):
@@ -65,7 +60,7 @@ async def test_every_line_is_flushed_while_open(tmp_path: Path) -> None:
 async def test_connect_truncates_an_old_record(tmp_path: Path) -> None:
     out = tmp_path / "commands.jsonl"
     out.write_text("old content\n" * 5)
-    driver = RecordDriver(out)
+    driver = RecordDriver(RecordConfig(out=str(out)))
     await driver.connect()
     await driver.send({"jaw": 1600.0}, CommandInfo(0, 1, True))
     await driver.close()
@@ -94,13 +89,13 @@ def test_read_record_ignores_a_torn_last_line(tmp_path: Path) -> None:
 
 
 async def test_send_before_connect(tmp_path: Path) -> None:
-    driver = RecordDriver(tmp_path / "x.jsonl")
+    driver = RecordDriver(RecordConfig(out=str(tmp_path / "x.jsonl")))
     with pytest.raises(DriverError, match="record driver is not connected"):
         await driver.send({"jaw": 1500.0}, CommandInfo(0, 0, True))
 
 
 async def test_send_after_close(tmp_path: Path) -> None:
-    driver = RecordDriver(tmp_path / "x.jsonl")
+    driver = RecordDriver(RecordConfig(out=str(tmp_path / "x.jsonl")))
     await driver.connect()
     await driver.close()
     await driver.close()  # closing twice is harmless
@@ -112,20 +107,20 @@ async def test_unopenable_record_file(tmp_path: Path) -> None:
     folder = tmp_path / "a-folder"
     folder.mkdir()
     with pytest.raises(DriverError, match=f"cannot open record file {re.escape(str(folder))}"):
-        await RecordDriver(folder).connect()
+        await RecordDriver(RecordConfig(out=str(folder))).connect()
     blocker = tmp_path / "file"
     blocker.write_text("")
     with pytest.raises(DriverError, match="cannot open record file"):
-        await RecordDriver(blocker / "sub" / "x.jsonl").connect()
+        await RecordDriver(RecordConfig(out=str(blocker / "sub" / "x.jsonl"))).connect()
 
 
 # --- configuration ----------------------------------------------------------------------------
 
 
 def test_parse_record_config() -> None:
-    config = parse_driver_config({"driver": "record", "out": "c.jsonl"})
+    config = DRIVERS.parse({"driver": "record", "out": "c.jsonl"})
     assert config == RecordConfig(out="c.jsonl")
-    driver = make_driver(config)
+    driver = DRIVERS.build(config, None)
     assert isinstance(driver, RecordDriver)
     assert driver.path == Path("c.jsonl")
 
@@ -133,8 +128,8 @@ def test_parse_record_config() -> None:
 @pytest.mark.parametrize(
     ("data", "detail"),
     [
-        ({"driver": "serial", "out": "x"}, "Invalid value 'serial' - at `$.driver`"),
-        ({"driver": 3, "out": "x"}, "`$.driver`"),
+        ({"driver": "serial", "out": "x"}, "unknown driver 'serial' (known: "),
+        ({"driver": 3, "out": "x"}, "a driver needs driver = NAME (known: "),
         ({"driver": "record"}, "Object missing required field `out`"),
         ({"driver": "record", "out": 5}, "Expected `str`, got `int` - at `$.out`"),
         ({"driver": "record", "out": "x", "baud": 9600}, "Object contains unknown field `baud`"),
@@ -148,12 +143,11 @@ def test_parse_record_config() -> None:
     ],
 )
 def test_bad_driver_configs(data: dict[str, object], detail: str) -> None:
-    with pytest.raises(DriverConfigError) as info:
-        parse_driver_config(data, "rig.toml")
+    with pytest.raises(PluginError) as info:
+        DRIVERS.parse(data, "rig.toml")
     message = str(info.value)
     assert message.startswith("rig.toml: ")
     assert detail in message
-    assert message.endswith("(drivers: record)")
 
 
 @pytest.mark.parametrize(
@@ -168,17 +162,17 @@ def test_bad_driver_configs(data: dict[str, object], detail: str) -> None:
 def test_load_driver_config(tmp_path: Path, name: str, text: str) -> None:
     path = tmp_path / name
     path.write_text(text)
-    assert load_driver_config(path) == RecordConfig(out="rec.jsonl")
+    assert DRIVERS.load(path) == RecordConfig(out="rec.jsonl")
 
 
 @pytest.mark.parametrize(
     ("name", "content", "detail"),
     [
-        ("bad.toml", b'driver = "record\n', "not valid toml"),
-        ("bad.json", b'{"driver": "record",', "not valid json"),
+        ("bad.toml", b'driver = "record\n', "not valid TOML"),
+        ("bad.json", b'{"driver": "record",', "not valid JSON"),
         ("bad.json", b'["record"]', "expected a table of settings"),
         ("bad.json", b'"record"', "expected a table of settings"),
-        ("bad.toml", b'driver = "nope"\nout = "x"\n', "Invalid value 'nope'"),
+        ("bad.toml", b'driver = "nope"\nout = "x"\n', "unknown driver 'nope'"),
         ("bad.toml", b'driver = "record"\nout = "caf\xe9"\n', "cannot read driver config"),
         ("noext", b"driver = \n", "not valid TOML"),
     ],
@@ -195,8 +189,8 @@ def test_load_driver_config(tmp_path: Path, name: str, text: str) -> None:
 def test_bad_driver_config_files(tmp_path: Path, name: str, content: bytes, detail: str) -> None:
     path = tmp_path / name
     path.write_bytes(content)
-    with pytest.raises(DriverConfigError) as info:
-        load_driver_config(path)
+    with pytest.raises(PluginError) as info:
+        DRIVERS.load(path)
     message = str(info.value)
     assert str(path) in message
     assert detail in message
@@ -205,15 +199,15 @@ def test_bad_driver_config_files(tmp_path: Path, name: str, content: bytes, deta
 def test_missing_driver_config(tmp_path: Path) -> None:
     path = tmp_path / "gone.toml"
     where = re.escape(str(path))
-    with pytest.raises(DriverConfigError, match=f"cannot read driver config {where}"):
-        load_driver_config(path)
+    with pytest.raises(PluginError, match=f"cannot read driver config {where}"):
+        DRIVERS.load(path)
 
 
 async def test_a_driver_is_an_async_context_manager_that_connects_and_closes(
     tmp_path: Path,
 ) -> None:
     out = tmp_path / "commands.jsonl"
-    driver = RecordDriver(out)
+    driver = RecordDriver(RecordConfig(out=str(out)))
     with pytest.raises(KeyError, match="boom"):
         async with driver as entered:
             assert entered is driver and out.exists()

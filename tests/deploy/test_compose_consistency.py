@@ -1,4 +1,4 @@
-"""docker-compose.yml and deploy/ stay consistent with the CLI and with Zenoh's config parser."""
+"""docker-compose.yml and deploy/ stay consistent with the graph, the CLI and Zenoh's parser."""
 
 from __future__ import annotations
 
@@ -9,10 +9,30 @@ import yaml
 import zenoh
 
 from facesynth.app.cli import build_parser
+from facesynth.app.compose import compose_file
+from facesynth.app.graph import load_graph
+from facesynth.app.nodes import stage_of
 
 ROOT = Path(__file__).resolve().parents[2]
 COMPOSE = yaml.safe_load((ROOT / "docker-compose.yml").read_text())
 SERVICES = COMPOSE["services"]
+GRAPH = load_graph(ROOT / "deploy" / "graph.toml")
+
+
+def test_compose_file_is_generated_from_the_graph() -> None:
+    generated = compose_file(GRAPH, "deploy/graph.toml", graph_path="/etc/facesynth/graph.toml")
+    assert (ROOT / "docker-compose.yml").read_text() == generated, (
+        "docker-compose.yml is stale: run facesynth compose deploy/graph.toml --out "
+        "docker-compose.yml"
+    )
+
+
+@pytest.mark.parametrize("name", sorted(set(SERVICES) - {"router"}))
+def test_every_compose_service_runs_a_node_of_the_graph(name: str) -> None:
+    command = SERVICES[name]["command"]
+    node = GRAPH.nodes[command[command.index("--node") + 1]]
+    assert command[0] == stage_of(node)
+    assert command[command.index("--graph") + 1] == "/etc/facesynth/graph.toml"
 
 
 def test_compose_runs_router_and_the_five_stages() -> None:

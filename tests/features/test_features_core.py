@@ -19,7 +19,7 @@ from services.features.core import (
     normalise,
     nose_distances,
 )
-from services.points.openface import load_openface_csv
+from services.points.openface_csv import load_openface_csv
 
 S = 1_000_000_000
 RIGHT_BROW = list(range(17, 22))
@@ -323,4 +323,4 @@ def test_unusable_points_raise_feature_error() -> None:
     with pytest.raises(FeatureError, match="no face frame"):
         processor.process(_points_message(collapsed))
     assert not processor.estimator.ready  # unusable frames are not neutral samples
-    assert processor.estimator._samples == []
+    assert processor.estimator._window.samples == []

@@ -23,7 +23,7 @@ from facesynth.runtime.frames import encode_frame
 from schemas.messages import Features, Points
 from services.features.core import FeatureProcessor, ibug_points, optional_points
 from services.features.expressions import raw_features, relative
-from services.points.tracking import TrackerBackend
+from services.points.backends.tracker import TrackerBackend
 
 
 @pytest.fixture(scope="module")

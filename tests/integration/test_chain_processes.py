@@ -25,7 +25,7 @@ from facesynth.runtime.profiles import load_profile
 from schemas.messages import Features, Frame, Points, PointSet, ServiceStats, ServoCommands
 from services.control.drivers.record import RecordLine, read_record
 from services.features.core import FeatureProcessor
-from services.points.backends import OpenFaceReplay
+from services.points.backends.openface import OpenFaceConfig, OpenFaceReplay
 from services.translator.core import Translator
 
 CSV = str(sample_openface_csv())
@@ -73,7 +73,7 @@ def wait_for_frames(path: Path, count: int, timeout: float) -> list[RecordLine]:
 
 def expected_commands() -> list[dict[str, float]]:
     """The commands the pure cores give for the CSV replayed at 30 fps."""
-    replay = OpenFaceReplay(CSV)
+    replay = OpenFaceReplay(OpenFaceConfig(csv=str(CSV)))
     processor = FeatureProcessor(neutral_seconds=1.0)
     translator = Translator(load_profile("paper16"))
     out = []

@@ -13,8 +13,10 @@ import pytest
 
 from facesynth.runtime import codec
 from schemas.messages import Frame, Points
-from services.points.backends import BackendError, OpenFaceReplay, TrackReplay
-from services.points.openface import OpenFaceError, load_openface_csv
+from services.points.backends import BackendError
+from services.points.backends.openface import OpenFaceConfig, OpenFaceReplay
+from services.points.backends.track import TrackFileConfig, TrackReplay
+from services.points.openface_csv import OpenFaceError, load_openface_csv
 
 
 def _real_csv() -> Path:
@@ -40,7 +42,7 @@ def _valid(points: Points) -> Points:
 
 
 def test_openface_replay_answers_frame_n_with_row_n() -> None:
-    replay = OpenFaceReplay(_real_csv())
+    replay = OpenFaceReplay(OpenFaceConfig(csv=str(_real_csv())))
     rows = load_openface_csv(_real_csv())
     assert replay.frame_count() == 100
     assert replay.needs_pixels() is False
@@ -66,7 +68,7 @@ def test_openface_replay_answers_frame_n_with_row_n() -> None:
     ids=["past-end", "far-past-end", "loop-100", "loop-101", "loop-257"],
 )
 def test_openface_replay_past_the_end(loop: bool, seq: int, row: int | None) -> None:
-    replay = OpenFaceReplay(_real_csv(), loop=loop)
+    replay = OpenFaceReplay(OpenFaceConfig(csv=str(_real_csv()), loop=loop))
     points = _valid(replay.process(_frame(seq)))
     assert points.seq == seq
     if row is None:
@@ -83,7 +85,7 @@ def test_openface_replay_failed_rows_are_no_face(tmp_path: Path) -> None:
     fields[success] = " 0"
     path = tmp_path / "of.csv"
     path.write_text("\n".join([header, data[0], ",".join(fields), data[2]]) + "\n")
-    replay = OpenFaceReplay(path)
+    replay = OpenFaceReplay(OpenFaceConfig(csv=str(path)))
     assert [replay.process(_frame(i)).face for i in range(4)] == [True, False, True, False]
     lost = _valid(replay.process(_frame(1)))
     assert lost.sets == [] and lost.confidence == replay.rows[1].confidence > 0
@@ -93,7 +95,7 @@ def test_openface_replay_bad_file(tmp_path: Path) -> None:
     path = tmp_path / "of.csv"
     path.write_text("")
     with pytest.raises(OpenFaceError, match="the file is empty"):
-        OpenFaceReplay(path)
+        OpenFaceReplay(OpenFaceConfig(csv=str(path)))
 
 
 # --- TrackReplay ------------------------------------------------------------------------------
@@ -122,7 +124,7 @@ def test_track_replay(tmp_path: Path) -> None:
     path = _track(
         tmp_path, _line(0), _line(1, False, presence=0.2), "", _line(2, mesh=None, iris=None)
     )
-    replay = TrackReplay(path)
+    replay = TrackReplay(TrackFileConfig(path=str(path)))
     assert replay.frame_count() == 3  # the blank line is not a frame
     first = _valid(replay.process(_frame(0)))
     assert first.face is True and first.confidence == 0.93 and first.source == "track"
@@ -139,12 +141,17 @@ def test_track_replay(tmp_path: Path) -> None:
     only_ibug = _valid(replay.process(_frame(2)))
     assert [s.scheme for s in only_ibug.sets] == ["ibug68"]
     assert _valid(replay.process(_frame(3))).face is False  # past the end
-    assert TrackReplay(path, loop=True).process(_frame(3)).sets == first.sets
+    assert (
+        TrackReplay(TrackFileConfig(path=str(path), loop=True)).process(_frame(3)).sets
+        == first.sets
+    )
 
 
 def test_track_replay_3d_ibug(tmp_path: Path) -> None:
     ibug3 = np.column_stack([IBUG, np.arange(68.0)])
-    replay = TrackReplay(_track(tmp_path, _line(0, ibug68=ibug3.tolist())))
+    replay = TrackReplay(
+        TrackFileConfig(path=str(_track(tmp_path, _line(0, ibug68=ibug3.tolist()))))
+    )
     (ibug, *_) = replay.process(_frame(0)).sets
     assert ibug.dims == 3 and ibug.coords[:3] == [*IBUG[0], 0.0]
 
@@ -204,7 +211,7 @@ def test_malformed_track_files(tmp_path: Path, lines: list[str], detail: str) ->
     # json.dumps writes 1e999 as Infinity; put the literal back as a JSON number.
     path = _track(tmp_path, *(line.replace("Infinity", "1e999") for line in lines))
     with pytest.raises(BackendError) as info:
-        TrackReplay(path)
+        TrackReplay(TrackFileConfig(path=str(path)))
     message = str(info.value)
     assert message.startswith(str(path))
     assert detail in message
@@ -213,4 +220,4 @@ def test_malformed_track_files(tmp_path: Path, lines: list[str], detail: str) ->
 def test_missing_track_file(tmp_path: Path) -> None:
     path = tmp_path / "gone.jsonl"
     with pytest.raises(BackendError, match=f"cannot read {re.escape(str(path))}"):
-        TrackReplay(path)
+        TrackReplay(TrackFileConfig(path=str(path)))

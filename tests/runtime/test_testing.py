@@ -15,7 +15,7 @@ from facesynth.runtime.testing import StageRun
 from schemas.messages import Features, Frame, Points, ServoCommands
 from services.features.core import FeatureProcessor
 from services.features.service import serve_features
-from services.points.backends import OpenFaceReplay
+from services.points.backends.openface import OpenFaceConfig, OpenFaceReplay
 from services.points.service import serve_points
 from services.translator.core import Translator
 from services.translator.service import serve_translator
@@ -42,7 +42,7 @@ def no_face(seq: int) -> Points:
 
 async def test_three_stages_in_a_row_each_on_its_own_run() -> None:
     """P, F and T shells, each fed what the one before published (usable for any stage)."""
-    replay = OpenFaceReplay(sample_openface_csv())
+    replay = OpenFaceReplay(OpenFaceConfig(csv=str(sample_openface_csv())))
     points = StageRun(lambda c: serve_points(c, replay), service="points")
     features = StageRun(lambda c: serve_features(c, FeatureProcessor()), service="features")
     translator = StageRun(

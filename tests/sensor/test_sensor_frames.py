@@ -14,7 +14,10 @@ import pytest
 from facesynth.runtime import codec
 from facesynth.runtime.frames import FrameError, decode_frame, encode_frame
 from schemas.messages import Frame
-from services.sensor.sources import FolderSource, SourceError, TickSource, VideoSource
+from services.sensor.sources import SourceError
+from services.sensor.sources.folder import FolderConfig, FolderSource
+from services.sensor.sources.ticks import TicksConfig, TickSource
+from services.sensor.sources.video import VideoConfig, VideoSource
 
 VIDEO = Path(str(resources.files("facesynth.app.data") / "WolfgangLanger_Pexels.mp4"))
 
@@ -145,7 +148,7 @@ def test_decode_errors(frame: Frame, detail: str) -> None:
 
 
 def test_video_source_reads_the_sample_video() -> None:
-    source = VideoSource(VIDEO)
+    source = VideoSource(VideoConfig(path=str(VIDEO)))
     try:
         assert source.info.fps == pytest.approx(23.98, abs=0.01)
         assert source.info.frames == 472
@@ -160,7 +163,7 @@ def test_video_source_reads_the_sample_video() -> None:
 
 
 def test_video_source_fps_override() -> None:
-    source = VideoSource(VIDEO, fps=10.0)
+    source = VideoSource(VideoConfig(path=str(VIDEO), fps=10.0))
     try:
         times = [t for _, t in itertools.islice(source.frames(), 3)]
     finally:
@@ -172,13 +175,13 @@ def test_video_source_fps_override() -> None:
 def test_video_source_errors(tmp_path: Path) -> None:
     missing = tmp_path / "gone.mp4"
     with pytest.raises(SourceError, match=f"video {re.escape(str(missing))} does not exist"):
-        VideoSource(missing)
+        VideoSource(VideoConfig(path=str(missing)))
     garbage = tmp_path / "garbage.mp4"
     garbage.write_bytes(b"this is not a video" * 200)
     with pytest.raises(SourceError, match=f"cannot open {re.escape(str(garbage))} as a video"):
-        VideoSource(garbage)
+        VideoSource(VideoConfig(path=str(garbage)))
     with pytest.raises(SourceError, match="does not exist"):
-        VideoSource(tmp_path)  # a folder is not a video file
+        VideoSource(VideoConfig(path=str(tmp_path)))  # a folder is not a video file
 
 
 # --- FolderSource -----------------------------------------------------------------------------
@@ -196,7 +199,7 @@ def _folder(tmp_path: Path, names: list[str]) -> Path:
 def test_folder_source_reads_images_in_name_order(tmp_path: Path) -> None:
     folder = _folder(tmp_path, ["b.png", "a.png", "c.bmp"])
     (folder / "notes.txt").write_text("not an image")
-    source = FolderSource(folder, fps=10.0)
+    source = FolderSource(FolderConfig(folder=str(folder), fps=10.0))
     assert source.info.frames == 3
     assert [p.name for p in source.files] == ["a.png", "b.png", "c.bmp"]
     frames = list(source.frames())
@@ -206,7 +209,9 @@ def test_folder_source_reads_images_in_name_order(tmp_path: Path) -> None:
 
 
 def test_folder_source_loops_with_growing_media_time(tmp_path: Path) -> None:
-    source = FolderSource(_folder(tmp_path, ["a.png", "b.png"]), fps=4.0, loop=True)
+    source = FolderSource(
+        FolderConfig(folder=str(_folder(tmp_path, ["a.png", "b.png"])), fps=4.0, loop=True)
+    )
     frames = list(itertools.islice(source.frames(), 5))
     assert [int(image[0, 0, 0]) for image, _ in frames] == [0, 40, 0, 40, 0]
     assert [t for _, t in frames] == [0, 250_000_000, 500_000_000, 750_000_000, 1_000_000_000]
@@ -214,23 +219,23 @@ def test_folder_source_loops_with_growing_media_time(tmp_path: Path) -> None:
 
 def test_folder_source_errors(tmp_path: Path) -> None:
     with pytest.raises(SourceError, match=r"image folder .*gone does not exist"):
-        FolderSource(tmp_path / "gone")
+        FolderSource(FolderConfig(folder=str(tmp_path / "gone")))
     empty = tmp_path / "empty"
     empty.mkdir()
     (empty / "readme.md").write_text("x")
     where = re.escape(str(empty))
     with pytest.raises(SourceError, match=f"no images \\(.png, .jpg.*\\) in {where}"):
-        FolderSource(empty)
+        FolderSource(FolderConfig(folder=str(empty)))
     folder = _folder(tmp_path, ["a.png"])
     for fps in (0.0, -1.0, float("nan")):
         with pytest.raises(SourceError, match="the image folder rate must be positive"):
-            FolderSource(folder, fps=fps)
+            FolderSource(FolderConfig(folder=str(folder), fps=fps))
 
 
 def test_folder_source_garbage_image(tmp_path: Path) -> None:
     folder = _folder(tmp_path, ["a.png"])
     (folder / "b.jpg").write_bytes(b"not a jpeg at all")
-    source = FolderSource(folder)
+    source = FolderSource(FolderConfig(folder=str(folder)))
     frames = source.frames()
     first, _ = next(frames)
     assert first.shape == (20, 30, 3)
@@ -242,7 +247,7 @@ def test_folder_source_garbage_image(tmp_path: Path) -> None:
 
 
 def test_tick_source() -> None:
-    source = TickSource(4, fps=20.0)
+    source = TickSource(TicksConfig(count=4, fps=20.0))
     assert (source.info.name, source.info.fps, source.info.frames) == ("ticks", 20.0, 4)
     assert list(source.frames()) == [
         (None, 0),
@@ -253,7 +258,7 @@ def test_tick_source() -> None:
 
 
 def test_tick_source_rounds_media_time() -> None:
-    times = [t for _, t in TickSource(4, fps=30.0).frames()]
+    times = [t for _, t in TickSource(TicksConfig(count=4, fps=30.0)).frames()]
     assert times == [0, 33_333_333, 66_666_667, 100_000_000]
 
 
@@ -264,4 +269,4 @@ def test_tick_source_rounds_media_time() -> None:
 )
 def test_tick_source_errors(count: int, fps: float) -> None:
     with pytest.raises(SourceError, match="ticks need a positive count and rate"):
-        TickSource(count, fps=fps)
+        TickSource(TicksConfig(count=count, fps=fps))

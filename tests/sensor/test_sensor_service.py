@@ -14,9 +14,14 @@ from facesynth.runtime.clock import FAKE_EPOCH_NS
 from facesynth.runtime.testing import StageRun
 from schemas.messages import ServoCommands
 from services.sensor.service import SensorOptions, SensorService
-from services.sensor.sources import FrameSource, SourceInfo, TickSource
+from services.sensor.sources import FrameSource, SourceInfo
+from services.sensor.sources.ticks import TicksConfig, TickSource
 
 MS = 1_000_000
+
+
+def ticks(count: int, fps: float = 30.0) -> TickSource:
+    return TickSource(TicksConfig(count=count, fps=fps))
 
 
 def sensor_run(source: FrameSource, **options: object) -> tuple[StageRun, SensorService]:
@@ -39,7 +44,7 @@ def ack(seq: int) -> ServoCommands:
 
 
 async def test_frames_leave_at_the_recordings_pace() -> None:
-    run, _ = sensor_run(TickSource(5, fps=10.0))
+    run, _ = sensor_run(ticks(5, 10.0))
     async with run:
         assert await run.finish(timeout=10.0) == 4
         assert sent(run) == [(0, 0), (1, 100), (2, 200), (3, 300), (4, 400)]
@@ -75,7 +80,7 @@ async def test_a_recording_that_wraps_around_starts_a_new_schedule() -> None:
 
 
 async def test_max_frames_stops_early() -> None:
-    run, sensor = sensor_run(TickSource(100, fps=50.0), max_frames=3)
+    run, sensor = sensor_run(ticks(100, 50.0), max_frames=3)
     async with run:
         assert await run.finish(timeout=10.0) == 2
         assert sent(run) == [(0, 0), (1, 20), (2, 40)] and sensor.last_seq == 2
@@ -85,7 +90,7 @@ async def test_max_frames_stops_early() -> None:
 
 
 async def test_fast_keeps_at_most_window_frames_ahead_of_the_last_command() -> None:
-    run, _ = sensor_run(TickSource(6, fps=1.0), fast=True, window=2)
+    run, _ = sensor_run(ticks(6, 1.0), fast=True, window=2)
     async with run:
         assert sent(run) == [(0, 0), (1, 0)]  # two frames in flight before any result
         await run.advance(0.1)
@@ -100,7 +105,7 @@ async def test_fast_keeps_at_most_window_frames_ahead_of_the_last_command() -> N
 async def test_a_result_that_never_comes_costs_exactly_ack_timeout_then_the_sensor_sends_on(
     caplog: pytest.LogCaptureFixture,
 ) -> None:
-    run, sensor = sensor_run(TickSource(4, fps=1000.0), fast=True, window=1, ack_timeout=2.0)
+    run, sensor = sensor_run(ticks(4, 1000.0), fast=True, window=1, ack_timeout=2.0)
     with caplog.at_level(logging.WARNING, logger="facesynth.sensor"):
         async with run:
             assert sent(run) == [(0, 0)]
@@ -113,7 +118,7 @@ async def test_a_result_that_never_comes_costs_exactly_ack_timeout_then_the_sens
 
 
 async def test_a_late_result_still_opens_the_window_before_the_timeout() -> None:
-    run, sensor = sensor_run(TickSource(2, fps=1000.0), fast=True, window=1, ack_timeout=2.0)
+    run, sensor = sensor_run(ticks(2, 1000.0), fast=True, window=1, ack_timeout=2.0)
     async with run:
         await run.advance(1.5)
         await run.send("servo_commands", ack(0))
@@ -121,7 +126,7 @@ async def test_a_late_result_still_opens_the_window_before_the_timeout() -> None
 
 
 async def test_undecodable_results_are_ignored() -> None:
-    run, _ = sensor_run(TickSource(2, fps=1000.0), fast=True, window=1, ack_timeout=1.0)
+    run, _ = sensor_run(ticks(2, 1000.0), fast=True, window=1, ack_timeout=1.0)
     async with run:
         await run.send("servo_commands", b"\x00not msgpack")
         await run.advance(0.5)
@@ -131,7 +136,7 @@ async def test_undecodable_results_are_ignored() -> None:
 
 
 async def test_with_a_control_interface_alive_credit_comes_from_what_it_applied() -> None:
-    run, _ = sensor_run(TickSource(2, fps=1000.0), fast=True, window=1, ack_timeout=5.0)
+    run, _ = sensor_run(ticks(2, 1000.0), fast=True, window=1, ack_timeout=5.0)
     run.network.bus().declare_token(keys.health_key(run.rig, "control", "c1"))
     async with run:
         await run.send("servo_commands", ack(0))  # commanded, not applied: no credit
@@ -145,7 +150,7 @@ async def test_with_a_control_interface_alive_credit_comes_from_what_it_applied(
 
 
 async def test_waits_for_the_named_services_then_starts() -> None:
-    run, _ = sensor_run(TickSource(1), wait_for=["points"], wait_timeout=10.0)
+    run, _ = sensor_run(ticks(1), wait_for=["points"], wait_timeout=10.0)
     async with run:
         await run.advance(0.3)
         assert sent(run) == []
@@ -155,7 +160,7 @@ async def test_waits_for_the_named_services_then_starts() -> None:
 
 
 async def test_gives_up_waiting_after_wait_timeout(caplog: pytest.LogCaptureFixture) -> None:
-    run, _ = sensor_run(TickSource(1), wait_for=["points", "features"], wait_timeout=1.0)
+    run, _ = sensor_run(ticks(1), wait_for=["points", "features"], wait_timeout=1.0)
     with caplog.at_level(logging.WARNING, logger="facesynth.sensor"):
         async with run:
             await run.finish(timeout=5.0)
@@ -164,7 +169,7 @@ async def test_gives_up_waiting_after_wait_timeout(caplog: pytest.LogCaptureFixt
 
 
 async def test_stats_go_out_every_stats_interval() -> None:
-    run, _ = sensor_run(TickSource(30, fps=10.0))
+    run, _ = sensor_run(ticks(30, 10.0))
     async with run:
         await run.finish(timeout=10.0)  # the last frame leaves at 2.9 s and the sensor ends
     stats = run.on("stats")

@@ -14,7 +14,7 @@ from facesynth.runtime.calibration import Calibration
 from facesynth.runtime.profiles import Profile, ServoSpec, load_profile
 from schemas.messages import Features, Points, PointSet, ServoCommands
 from services.features.core import FeatureProcessor, normalise, nose_distances
-from services.points.openface import load_openface_csv
+from services.points.openface_csv import load_openface_csv
 from services.translator.core import TranslationError, Translator, interpolate
 
 

@@ -17,16 +17,27 @@ import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from facesynth.app.data import sample_video
+from facesynth.app.graph import Graph, graph_to_toml
+from facesynth.app.nodes import (
+    ControlNode,
+    FeaturesNode,
+    PointsNode,
+    SensorNode,
+    TranslatorNode,
+    stage_of,
+)
 from facesynth.runtime import codec, keys
 from facesynth.runtime.bus.zenoh_bus import ZenohBus, ZenohOptions
+from facesynth.runtime.stats import memory_mb
 from schemas.messages import ServiceStats
 from services.control.drivers.record import read_record
 
-STAGES = ("sensor", "points", "features", "translator", "control")
+STAGES = keys.SERVICES
 #: Frames of the first seconds (start-up and F's neutral window) left out of "steady state".
 STEADY_AFTER_S = 2.0
 
@@ -59,15 +70,6 @@ def _facesynth(*args: str, log: Path) -> subprocess.Popen[bytes]:
         )
 
 
-def _peak_rss_mb(pid: int) -> float:
-    try:
-        text = Path(f"/proc/{pid}/status").read_text()
-    except OSError:
-        return float("nan")
-    match = re.search(r"VmHWM:\s+(\d+) kB", text)
-    return int(match.group(1)) / 1024 if match else float("nan")
-
-
 def _router_locator(log: Path, proc: subprocess.Popen[bytes], timeout: float = 15.0) -> str:
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
@@ -98,6 +100,42 @@ async def _collect_stats(locator: str, rig: str, seconds: float) -> dict[str, Se
         await bus.close()
 
 
+def bench_graph(
+    *,
+    video: str,
+    fps: float,
+    frames: int,
+    encoding: str,
+    openface_csv: str | None,
+    threads: int,
+    record: Path,
+    rig: str,
+) -> Graph:
+    """The benchmark's chain: the video looped in real time, tracker (or a replay), record."""
+    backend: dict[str, Any] = (
+        {"backend": "openface", "csv": openface_csv, "loop": True}
+        if openface_csv
+        else {"backend": "tracker", "threads": threads}
+    )
+    return Graph(
+        rig=rig,
+        description="facesynth bench chain",
+        nodes={
+            "sensor": SensorNode(
+                source={"source": "video", "path": video, "loop": True, "fps": fps},
+                max_frames=frames,
+                encoding=encoding,  # type: ignore[arg-type]
+                wait_for=["points", "features", "translator", "control"],
+                wait_timeout=60.0,
+            ),
+            "points": PointsNode(backend=backend),
+            "features": FeaturesNode(),
+            "translator": TranslatorNode(),
+            "control": ControlNode(driver={"driver": "record", "out": str(record)}),
+        },
+    )
+
+
 def bench_chain(
     video: str | None = None,
     seconds: float = 15.0,
@@ -118,42 +156,31 @@ def bench_chain(
         try:
             locator = _router_locator(router_log, router)
             common = ["--connect", locator, "--rig", rig, "--stats-interval", "0.5", "--mode", mode]
+            graph = bench_graph(
+                video=video or str(sample_video()),
+                fps=fps,
+                frames=frames,
+                encoding=encoding,
+                openface_csv=openface_csv,
+                threads=threads,
+                record=folder / "commands.jsonl",
+                rig=rig,
+            )
+            graph_file = folder / "bench.toml"
+            graph_file.write_text(graph_to_toml(graph))
             record = folder / "commands.jsonl"
-            points_args = (
-                ["--openface-csv", openface_csv, "--loop-replay"]
-                if openface_csv
-                else ["--threads", str(threads)]
-            )
-            procs["control"] = _facesynth(
-                "control",
-                "--driver",
-                "record",
-                "--out",
-                str(record),
-                *common,
-                log=folder / "control.log",
-            )
-            procs["translator"] = _facesynth("translator", *common, log=folder / "translator.log")
-            procs["features"] = _facesynth("features", *common, log=folder / "features.log")
-            procs["points"] = _facesynth("points", *points_args, *common, log=folder / "points.log")
-            procs["sensor"] = _facesynth(
-                "sensor",
-                "--video",
-                video or str(sample_video()),
-                "--loop",
-                "--fps",
-                str(fps),
-                "--max-frames",
-                str(frames),
-                "--wait-for",
-                "points,features,translator,control",
-                "--wait-timeout",
-                "60",
-                "--encoding",
-                encoding,
-                *common,
-                log=folder / "sensor.log",
-            )
+            # Downstream first, so each stage listens before its input flows.
+            for name in reversed(list(graph.nodes)):
+                stage = stage_of(graph.nodes[name])
+                procs[name] = _facesynth(
+                    stage,
+                    "--graph",
+                    str(graph_file),
+                    "--node",
+                    name,
+                    *common,
+                    log=folder / f"{name}.log",
+                )
             started = time.monotonic()
             stats_task_result: dict[str, ServiceStats] = {}
 
@@ -168,7 +195,7 @@ def bench_chain(
             if procs["sensor"].returncode != 0:
                 raise RuntimeError((folder / "sensor.log").read_text(errors="replace"))
             rss = {
-                name: _peak_rss_mb(proc.pid) for name, proc in procs.items() if proc.poll() is None
+                name: memory_mb(proc.pid)[1] for name, proc in procs.items() if proc.poll() is None
             }
             rss.setdefault(
                 "sensor",

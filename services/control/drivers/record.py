@@ -5,12 +5,22 @@ from __future__ import annotations
 import time
 from collections.abc import Mapping
 from pathlib import Path
-from typing import IO
+from typing import IO, Annotated
 
 import msgspec
 
+from facesynth.runtime.profiles import Profile
 from services.control.core import CommandInfo
 from services.control.drivers.base import DriverError, ServoDriver
+from services.control.drivers.registry import DRIVERS
+
+
+class RecordConfig(
+    msgspec.Struct, tag="record", tag_field="driver", kw_only=True, forbid_unknown_fields=True
+):
+    """Record every command to a JSON-lines file."""
+
+    out: Annotated[str, msgspec.Meta(description="JSON-lines file the commands are written to")]
 
 
 class RecordLine(msgspec.Struct, kw_only=True):
@@ -24,11 +34,12 @@ class RecordLine(msgspec.Struct, kw_only=True):
     servos: dict[str, float]
 
 
+@DRIVERS.register(RecordConfig)
 class RecordDriver(ServoDriver):
-    """Writes ``{"seq", "frame", "t_capture_ns", "t_sent_ns", "face", "servos"}`` lines."""
+    """Record every command as a JSON line (seq, frame, times, face, servos), flushed."""
 
-    def __init__(self, out: str | Path) -> None:
-        self.path = Path(out)
+    def __init__(self, config: RecordConfig, profile: Profile | None = None) -> None:
+        self.path = Path(config.out)
         self._file: IO[bytes] | None = None
         self._encoder = msgspec.json.Encoder()
         self.count = 0

@@ -1,0 +1,193 @@
+"""The chain, described once, as data: a graph file lists the nodes of a rig.
+
+::
+
+    rig = "default"
+
+    [nodes.sensor]
+    stage = "sensor"
+    source = { source = "video" }          # the bundled performer video
+
+    [nodes.control]
+    stage = "control"
+    profile = "paper16"
+    driver = { driver = "record", out = "facesynth-commands.jsonl" }
+
+Each ``[nodes.NAME]`` table is one stage's options (:mod:`facesynth.app.nodes`); plugin tables
+(``source``, ``backend``, ``driver``) are checked against their registries when the graph is
+loaded. ``facesynth run GRAPH`` runs every node in one process; ``facesynth STAGE --graph GRAPH
+[--node NAME]`` runs one node as its own service; ``facesynth compose GRAPH`` writes the
+docker-compose file that runs each node in a container. Command-line flags override the file.
+"""
+
+from __future__ import annotations
+
+import tomllib
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import msgspec
+
+from facesynth.app.nodes import NODE_TYPES, PLUGIN_FIELDS, Node, stage_of
+from facesynth.runtime import keys
+from facesynth.runtime.plugins import PluginError, Registry
+from services.control.drivers.registry import DRIVERS
+from services.points.backends.registry import BACKENDS
+from services.sensor.sources.registry import SOURCES
+
+GRAPHS_DIR = Path(__file__).parent / "graphs"
+#: The graph ``facesynth run`` runs without one: the demo.
+DEFAULT_GRAPH = GRAPHS_DIR / "demo.toml"
+
+#: The plugin table of each stage that has one, and its registry.
+PLUGIN_TABLES: dict[str, tuple[str, Registry[Any]]] = {
+    "sensor": ("source", SOURCES),
+    "points": ("backend", BACKENDS),
+    "control": ("driver", DRIVERS),
+}
+
+
+class GraphError(ValueError):
+    """A graph file that cannot be used; the message names the file and the node."""
+
+
+class Graph(msgspec.Struct, kw_only=True, forbid_unknown_fields=True):
+    """A rig's chain: its nodes by name."""
+
+    rig: str = "default"
+    description: str = ""
+    nodes: dict[str, Node]
+
+    def of_stage(self, stage: str) -> dict[str, Any]:
+        """The nodes running ``stage``, by name."""
+        return {name: node for name, node in self.nodes.items() if stage_of(node) == stage}
+
+
+def plugin_config(node: Any, where: str) -> msgspec.Struct | None:
+    """A node's plugin config (source, backend or driver) validated by its registry."""
+    table = PLUGIN_TABLES.get(stage_of(node))
+    if table is None:
+        return None
+    field, registry = table
+    try:
+        return registry.parse(getattr(node, field), where)
+    except PluginError as exc:
+        raise GraphError(str(exc)) from None
+
+
+def check_graph(graph: Graph, where: str, *, plugins: bool = True) -> Graph:
+    """Check names and (unless ``plugins`` is false) plugin tables; returns ``graph``."""
+    if not graph.nodes:
+        raise GraphError(f"{where}: a graph needs at least one node")
+    try:
+        keys.check_name(graph.rig)
+        for name in graph.nodes:
+            keys.check_name(name, "node")
+    except keys.KeyNameError as exc:
+        raise GraphError(f"{where}: {exc}") from None
+    if plugins:
+        for name, node in graph.nodes.items():
+            plugin_config(node, f"{where}: node {name}")
+    return graph
+
+
+class _GraphFile(msgspec.Struct, kw_only=True, forbid_unknown_fields=True):
+    """A graph file before its nodes are read (so errors can name the node)."""
+
+    rig: str = "default"
+    description: str = ""
+    nodes: dict[str, dict[str, Any]]
+
+
+def parse_graph(data: Mapping[str, Any], where: str = "<graph>", *, plugins: bool = True) -> Graph:
+    """A graph from a parsed TOML mapping; ``plugins=False`` leaves the plugin tables unchecked
+    (command-line flags may still complete them: the CLI checks them after applying its flags)."""
+    try:
+        raw = msgspec.convert(dict(data), _GraphFile)
+    except msgspec.ValidationError as exc:
+        raise GraphError(f"{where}: {_located(str(exc))}") from None
+    nodes = {}
+    for name, table in raw.nodes.items():
+        stage = table.get("stage")
+        if isinstance(stage, str) and stage not in NODE_TYPES:
+            raise GraphError(
+                f"{where}: node {name}: unknown stage {stage!r} (stages: {', '.join(NODE_TYPES)})"
+            )
+        try:
+            nodes[name] = msgspec.convert(table, Node)
+        except msgspec.ValidationError as exc:
+            raise GraphError(f"{where}: node {name}: {_located(str(exc))}") from None
+    graph = Graph(rig=raw.rig, description=raw.description, nodes=nodes)
+    return check_graph(graph, where, plugins=plugins)
+
+
+def _located(message: str) -> str:
+    """``… - at `$.watchdog``` → ``watchdog: …``."""
+    text, sep, path = message.partition(" - at `$.")
+    return f"{path.rstrip('`')}: {text}" if sep else message
+
+
+def load_graph(path: str | Path | None = None, *, plugins: bool = True) -> Graph:
+    """The graph in ``path`` (a TOML file), or the demo graph (see :func:`parse_graph`)."""
+    file = Path(path) if path is not None else DEFAULT_GRAPH
+    try:
+        text = file.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise GraphError(f"graph {file} does not exist") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise GraphError(f"cannot read graph {file}: {exc}") from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise GraphError(f"{file}: not valid TOML: {exc}") from None
+    return parse_graph(data, str(file), plugins=plugins)
+
+
+def select_node(graph: Graph, stage: str, name: str | None, where: str) -> Any:
+    """The node to run as ``stage``: the one named, or the graph's only node of that stage."""
+    if name is not None:
+        node = graph.nodes.get(name)
+        if node is None:
+            raise GraphError(f"{where}: no node {name!r} (nodes: {', '.join(graph.nodes)})")
+        if stage_of(node) != stage:
+            raise GraphError(f"{where}: node {name!r} runs {stage_of(node)}, not {stage}")
+        return node
+    nodes = graph.of_stage(stage)
+    if len(nodes) != 1:
+        found = ", ".join(nodes) or "none"
+        raise GraphError(f"{where}: name the {stage} node with --node (nodes of {stage}: {found})")
+    return next(iter(nodes.values()))
+
+
+def graph_to_toml(graph: Graph) -> str:
+    """A graph as TOML text (as :func:`load_graph` reads it)."""
+    lines = [f"rig = {_toml(graph.rig)}"]
+    if graph.description:
+        lines.append(f"description = {_toml(graph.description)}")
+    for name, node in graph.nodes.items():
+        lines.extend(("", f"[nodes.{name}]"))
+        data = msgspec.to_builtins(node)
+        default = msgspec.to_builtins(NODE_TYPES[stage_of(node)]())
+        for key, value in data.items():
+            if value is not None and (
+                key in ("stage", *PLUGIN_FIELDS) or value != default.get(key)
+            ):
+                lines.append(f"{key} = {_toml(value)}")
+    return "\n".join(lines) + "\n"
+
+
+def _toml(value: Any) -> str:
+    """One TOML value (strings, numbers, booleans, lists and inline tables)."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, str):
+        return msgspec.json.encode(value).decode()
+    if isinstance(value, int | float):
+        return repr(value)
+    if isinstance(value, list):
+        return "[" + ", ".join(_toml(v) for v in value) + "]"
+    if isinstance(value, dict):
+        items = [f"{k} = {_toml(v)}" for k, v in value.items() if v is not None]
+        return "{ " + ", ".join(items) + " }"
+    raise TypeError(f"cannot write {value!r} as TOML")

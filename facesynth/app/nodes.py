@@ -1,0 +1,139 @@
+"""The nodes of a chain graph: one options struct per stage, tagged with the stage's name.
+
+A node's fields are its stage's options, read from a graph file (``[nodes.NAME]`` with
+``stage = "…"``) and overridden by command-line flags, which are derived from these fields
+(:mod:`facesynth.app.arguments`). Plugin configs (the sensor's ``source``, the point streamer's
+``backend``, the control interface's ``driver``) are plain tables here, validated by their
+registries, so a plugin registered at run time is as usable as a shipped one.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Any, Literal, Union
+
+import msgspec
+from msgspec import Meta
+
+from facesynth.runtime import keys
+
+#: The CLI takes these fields through plugin flags (``--driver``, ``--video``, ``--openface-csv``).
+PLUGIN_FIELDS = ("source", "backend", "driver")
+
+
+class _Node(msgspec.Struct, kw_only=True, forbid_unknown_fields=True, tag_field="stage"):
+    """Options every node may have."""
+
+    description: Annotated[str, Meta(extra={"cli": False})] = ""
+
+
+class SensorNode(_Node, tag="sensor"):
+    """S: frames from a source on ``…/input``."""
+
+    source: dict[str, Any] = msgspec.field(default_factory=lambda: {"source": "video"})
+    fast: Annotated[
+        bool, Meta(description="as fast as the chain takes frames, none lost (default: real time)")
+    ] = False
+    window: Annotated[
+        int, Meta(ge=1, description="--fast: frames in flight ahead of the last servo command")
+    ] = 2
+    encoding: Annotated[
+        Literal["jpeg", "raw"], Meta(description="frame encoding on the bus (default jpeg)")
+    ] = "jpeg"
+    quality: Annotated[int, Meta(ge=1, le=100, description="JPEG quality 1-100 (default 90)")] = 90
+    max_frames: Annotated[int, Meta(ge=0, description="stop after N frames")] | None = None
+    wait_for: Annotated[
+        list[str],
+        Meta(
+            description="wait until these services are alive before sending, e.g. "
+            "points,features,translator,control (default: the graph's other stages)"
+        ),
+    ] = []
+    wait_timeout: Annotated[
+        float, Meta(ge=0, description="seconds to wait for --wait-for (default 30)")
+    ] = 30.0
+
+
+class PointsNode(_Node, tag="points"):
+    """P: landmarks of each frame on ``…/points``."""
+
+    backend: dict[str, Any] = msgspec.field(default_factory=lambda: {"backend": "tracker"})
+    queue: Annotated[int, Meta(ge=1, description="input queue length; 1 = latest only")] = 2
+
+
+class FeaturesNode(_Node, tag="features"):
+    """F: pose-free features on ``…/features``."""
+
+    calibration: (
+        Annotated[str, Meta(description="performer calibration (neutral + ranges): NAME or PATH")]
+        | None
+    ) = None
+    auto_range: Annotated[
+        bool,
+        Meta(
+            description="without a calibration: adapt the neutral (rolling median) and the "
+            "feature ranges (slowly decaying extremes) to the running stream"
+        ),
+    ] = False
+    neutral_seconds: (
+        Annotated[
+            float,
+            Meta(
+                gt=0,
+                description="without a calibration: seconds of face used as neutral "
+                "(default: the translator profile's, else 1 s)",
+            ),
+        ]
+        | None
+    ) = None
+    queue: Annotated[int, Meta(ge=1, description="input queue length; 1 = latest only")] = 8
+
+
+class TranslatorNode(_Node, tag="translator"):
+    """T: servo positions through a robot profile on ``…/servo_commands``."""
+
+    profile: Annotated[
+        str, Meta(description="robot profile name or TOML path (default paper16)")
+    ] = "paper16"
+    mirror: Annotated[
+        bool, Meta(description="mirror the performer (robot's right follows the performer's left)")
+    ] = False
+    calibration: (
+        Annotated[str, Meta(description="performer calibration (neutral + ranges): NAME or PATH")]
+        | None
+    ) = None
+    queue: Annotated[int, Meta(ge=1, description="input queue length; 1 = latest only")] = 8
+
+
+class ControlNode(_Node, tag="control"):
+    """C: checked, clamped commands to a servo driver; what was applied on ``…/servo_state``."""
+
+    profile: Annotated[
+        str, Meta(description="robot profile name or TOML path (default paper16)")
+    ] = "paper16"
+    mirror: Annotated[
+        bool, Meta(description="mirror the performer (robot's right follows the performer's left)")
+    ] = False
+    driver: dict[str, Any] = msgspec.field(default_factory=lambda: {"driver": "record"})
+    watchdog: Annotated[
+        float,
+        Meta(gt=0, description="seconds without commands before the face returns to neutral"),
+    ] = 0.5
+    queue: Annotated[int, Meta(ge=1, description="input queue length; 1 = latest only")] = 8
+
+
+Node = Union[SensorNode, PointsNode, FeaturesNode, TranslatorNode, ControlNode]  # noqa: UP007
+
+#: Node struct of each stage, in chain order.
+NODE_TYPES: dict[str, type[Node]] = {
+    "sensor": SensorNode,
+    "points": PointsNode,
+    "features": FeaturesNode,
+    "translator": TranslatorNode,
+    "control": ControlNode,
+}
+assert tuple(NODE_TYPES) == keys.SERVICES
+
+
+def stage_of(node: msgspec.Struct) -> str:
+    """The stage a node runs."""
+    return str(node.__struct_config__.tag)

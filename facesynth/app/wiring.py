@@ -1,0 +1,209 @@
+"""From a graph node (and its plugin config) to a running stage: sources, backends, cores, drivers.
+
+Every builder raises a ``ValueError`` subclass with a clear message for bad options or files;
+the CLI prints it and exits with status 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+from collections.abc import Awaitable, Callable
+from dataclasses import dataclass
+from typing import Any
+
+import msgspec
+
+from facesynth.app.data import sample_video
+from facesynth.app.graph import Graph, plugin_config
+from facesynth.app.nodes import (
+    ControlNode,
+    FeaturesNode,
+    PointsNode,
+    SensorNode,
+    TranslatorNode,
+    stage_of,
+)
+from facesynth.runtime.bus.zenoh_bus import DEFAULT_ROUTER, ZenohOptions, endpoints
+from facesynth.runtime.calibration import Calibration, load_calibration
+from facesynth.runtime.profiles import Profile, load_profile
+from facesynth.runtime.service import ServiceContext
+from services.control.drivers.registry import DRIVERS
+from services.control.service import ControlService
+from services.features.core import FeatureProcessor
+from services.features.service import serve_features
+from services.points.backends.base import PointsBackend, Replay
+from services.points.backends.registry import BACKENDS
+from services.points.service import serve_points
+from services.sensor.service import SensorOptions, SensorService
+from services.sensor.sources.base import FrameSource, SourceError
+from services.sensor.sources.registry import SOURCES
+from services.sensor.sources.ticks import TicksConfig
+from services.sensor.sources.video import VideoConfig
+from services.translator.core import Translator
+from services.translator.service import serve_translator
+
+ServiceBody = Callable[[ServiceContext], Awaitable[Any]]
+
+
+class OptionError(ValueError):
+    """Options or nodes that do not fit together."""
+
+
+def zenoh_options(args: argparse.Namespace, *, default_mode: str = "client") -> ZenohOptions:
+    """Zenoh options from ``--mode/--connect/--listen/--zenoh-config/--scouting``.
+
+    A config file (``--zenoh-config`` or ``$ZENOH_CONFIG``) keeps its own mode and endpoints
+    unless options override them; without one, a client connects to the default local router.
+    Clients send everything through the router: one fixed path per message, so nothing is lost
+    while peers would be opening direct links to each other mid-stream.
+    """
+    options = ZenohOptions(
+        mode=args.mode,
+        connect=endpoints(args.connect),
+        listen=endpoints(args.listen),
+        config_file=args.zenoh_config,
+        scouting=args.scouting,
+    )
+    if options.config_file_path() is None:
+        options.mode = options.mode or default_mode
+        if options.mode != "router" and not options.connect and not options.listen:
+            options.connect = [DEFAULT_ROUTER]
+    return options
+
+
+def build_source(config: msgspec.Struct, replay_frames: int | None = None) -> FrameSource:
+    """The frame source of a config; the bundled video when a video source names no file.
+
+    With a replayed point stream (``replay_frames``) and no video named, ticks drive the chain.
+    """
+    if isinstance(config, VideoConfig) and config.path is None:
+        if replay_frames is not None:
+            return SOURCES.build(TicksConfig(count=replay_frames, fps=config.fps))
+        path = sample_video()
+        if not path.is_file():
+            raise SourceError(f"the bundled sample video is missing ({path}); pass --video")
+        config = msgspec.structs.replace(config, path=str(path))
+    return SOURCES.build(config)
+
+
+def build_backend(config: msgspec.Struct) -> PointsBackend:
+    """The points backend of a config (the tracker loads its models here)."""
+    return BACKENDS.build(config)
+
+
+def build_profile(name: str, mirror: bool) -> Profile:
+    """The profile called ``name``, mirrored when ``mirror`` (which flips the profile's own)."""
+    profile = load_profile(name)
+    if mirror:
+        profile.mirror = not profile.mirror
+    return profile
+
+
+def build_calibration(name: str | None) -> Calibration | None:
+    """The calibration called ``name``, if any."""
+    return load_calibration(name) if name else None
+
+
+def build_processor(node: FeaturesNode, default_neutral_s: float = 1.0) -> FeatureProcessor:
+    """The feature processor, with the calibration's neutral when there is one."""
+    seconds = node.neutral_seconds if node.neutral_seconds is not None else default_neutral_s
+    calibration = build_calibration(node.calibration)
+    if calibration is not None:
+        return FeatureProcessor.from_calibration(
+            calibration, neutral_seconds=seconds, auto_range=node.auto_range
+        )
+    return FeatureProcessor(neutral_seconds=seconds, auto_range=node.auto_range)
+
+
+def build_translator(node: TranslatorNode) -> Translator:
+    """The translator of a node: its profile and calibration."""
+    return Translator(build_profile(node.profile, node.mirror), build_calibration(node.calibration))
+
+
+def build_control(node: ControlNode, driver: msgspec.Struct) -> ControlService:
+    """The control interface of a node, with its driver."""
+    profile = build_profile(node.profile, node.mirror)
+    return ControlService(
+        profile, DRIVERS.build(driver, profile), watchdog_s=node.watchdog, queue=node.queue
+    )
+
+
+def sensor_options(node: SensorNode) -> SensorOptions:
+    """The sensor's pacing and encoding options."""
+    return SensorOptions(
+        fast=node.fast,
+        window=node.window,
+        encoding=node.encoding,
+        quality=node.quality,
+        max_frames=node.max_frames,
+        wait_for=list(node.wait_for),
+        wait_timeout=node.wait_timeout,
+    )
+
+
+@dataclass
+class StageParts:
+    """What one node became: its service body, and the objects a runner may look at."""
+
+    name: str
+    stage: str
+    body: ServiceBody
+    service: Any = None
+
+
+def build_node(
+    name: str,
+    node: Any,
+    graph: Graph,
+    config: msgspec.Struct | None = None,
+    *,
+    replay_frames: int | None = None,
+) -> StageParts:
+    """The running form of ``graph.nodes[name]`` (``node``, perhaps overridden).
+
+    ``config`` is the node's plugin config if already validated (else read from the node);
+    ``replay_frames`` the length of a replayed point stream in the chain, if any.
+    """
+    stage = stage_of(node)
+    config = config or plugin_config(node, f"node {name}")
+    if isinstance(node, SensorNode):
+        assert config is not None
+        source = build_source(config, replay_frames)
+        sensor = SensorService(source, sensor_options(node))
+        return StageParts(name, stage, sensor.serve, sensor)
+    if isinstance(node, PointsNode):
+        assert config is not None
+        backend = build_backend(config)
+        return StageParts(name, stage, lambda ctx: serve_points(ctx, backend, node.queue), backend)
+    if isinstance(node, FeaturesNode):
+        processor = build_processor(node, _profile_neutral_seconds(graph, node))
+        return StageParts(
+            name, stage, lambda ctx: serve_features(ctx, processor, node.queue), processor
+        )
+    if isinstance(node, TranslatorNode):
+        translator = build_translator(node)
+        return StageParts(
+            name, stage, lambda ctx: serve_translator(ctx, translator, node.queue), translator
+        )
+    if isinstance(node, ControlNode):
+        assert config is not None
+        control = build_control(node, config)
+        return StageParts(name, stage, control.serve, control)
+    raise OptionError(f"node {name}: unknown stage {stage!r}")
+
+
+def replay_frames_of(graph: Graph) -> int | None:
+    """Frames of a replayed point stream in the graph (ticks then drive the chain), if any."""
+    for name, node in graph.of_stage("points").items():
+        config = plugin_config(node, f"node {name}")
+        factory = BACKENDS.get(str(config.__struct_config__.tag)).factory if config else None
+        if config is not None and isinstance(factory, type) and issubclass(factory, Replay):
+            return BACKENDS.build(config).frame_count()
+    return None
+
+
+def _profile_neutral_seconds(graph: Graph, node: FeaturesNode) -> float:
+    """F's neutral window without a calibration: the translator profile's, else 1 s."""
+    for translator in graph.of_stage("translator").values():
+        return build_profile(translator.profile, False).neutral_seconds
+    return 1.0

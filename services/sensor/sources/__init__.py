@@ -1,0 +1,8 @@
+"""Frame sources, one module each, registered in :data:`~.registry.SOURCES`.
+
+Every source yields ``(image or None, t_media_ns)``; ``None`` images are ticks (no pixels).
+"""
+
+from services.sensor.sources.base import FrameSource, SourceError, SourceInfo
+
+__all__ = ["FrameSource", "SourceError", "SourceInfo"]

@@ -1,0 +1,47 @@
+"""The frame source seam: where frames come from, and what every source tells about itself.
+
+Every source yields ``(image or None, t_media_ns)``; ``None`` images are ticks (no pixels).
+"""
+
+from __future__ import annotations
+
+import abc
+from collections.abc import Iterator
+from dataclasses import dataclass
+from types import ModuleType
+
+import numpy as np
+
+from facesynth.runtime.opencv import import_cv2
+
+
+class SourceError(ValueError):
+    """A source that cannot be opened or read (missing file, not a video, no camera)."""
+
+
+@dataclass
+class SourceInfo:
+    """What a source is: a name for logs, its nominal rate, and its frame count if known."""
+
+    name: str
+    fps: float
+    frames: int | None
+    live: bool
+
+
+class FrameSource(abc.ABC):
+    """Base of all sources: ``info`` plus an iterator of ``(image | None, t_media_ns)``."""
+
+    info: SourceInfo
+
+    @abc.abstractmethod
+    def frames(self) -> Iterator[tuple[np.ndarray | None, int]]:
+        """Yield frames until the source ends."""
+
+    def close(self) -> None:  # noqa: B027 - an optional hook: most sources hold nothing
+        """Release the device or file (nothing to release by default)."""
+
+
+def opencv() -> ModuleType:
+    """The ``cv2`` module; :class:`SourceError` when OpenCV is not installed."""
+    return import_cv2(SourceError)

@@ -1,0 +1,78 @@
+"""A video file, timed by frame index and the file's frame rate."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Annotated
+
+import msgspec
+import numpy as np
+
+from services.sensor.sources.base import FrameSource, SourceError, SourceInfo, opencv
+from services.sensor.sources.registry import SOURCES
+
+
+class VideoConfig(
+    msgspec.Struct, tag="video", tag_field="source", kw_only=True, forbid_unknown_fields=True
+):
+    """A video file (default: the bundled performer video)."""
+
+    path: (
+        Annotated[
+            str,
+            msgspec.Meta(
+                description="video file (default: the bundled performer video)",
+                extra={"flag": "--video", "selects": True},
+            ),
+        ]
+        | None
+    ) = None
+    loop: Annotated[bool, msgspec.Meta(description="loop the video or image folder")] = False
+    fps: Annotated[float, msgspec.Meta(gt=0, le=1000, description="frame rate override")] | None = (
+        None
+    )
+
+
+@SOURCES.register(VideoConfig)
+class VideoSource(FrameSource):
+    """Frames of a video file, timed by their index and the file's frame rate."""
+
+    def __init__(self, config: VideoConfig) -> None:
+        if config.path is None:
+            raise SourceError("a video source needs a path (--video PATH)")
+        cv2 = opencv()
+        self.path = Path(config.path)
+        loop, fps = config.loop, config.fps
+        if not self.path.is_file():
+            raise SourceError(f"video {self.path} does not exist")
+        self.loop = loop
+        self._capture = cv2.VideoCapture(str(self.path))
+        if not self._capture.isOpened():
+            raise SourceError(f"cannot open {self.path} as a video")
+        rate = fps or float(self._capture.get(cv2.CAP_PROP_FPS) or 0.0)
+        if not rate > 0 or rate > 1000:
+            rate = 30.0
+        count = int(self._capture.get(cv2.CAP_PROP_FRAME_COUNT) or 0)
+        self.info = SourceInfo(str(self.path), rate, count or None, live=False)
+
+    def frames(self) -> Iterator[tuple[np.ndarray | None, int]]:
+        cv2 = opencv()
+        period_ns = 1e9 / self.info.fps
+        index = 0
+        while True:
+            ok, image = self._capture.read()
+            if not ok:
+                if index == 0:
+                    raise SourceError(f"{self.path}: no frame could be decoded")
+                if not self.loop:
+                    return
+                self._capture.set(cv2.CAP_PROP_POS_FRAMES, 0)
+                ok, image = self._capture.read()
+                if not ok:
+                    return
+            yield image, round(index * period_ns)
+            index += 1
+
+    def close(self) -> None:
+        self._capture.release()

@@ -1,0 +1,131 @@
+"""facesynth.runtime.stats: counters, publication rate, capture-to-publish latency, memory."""
+
+from __future__ import annotations
+
+import math
+import os
+import subprocess
+import sys
+from subprocess import PIPE
+
+import pytest
+
+from facesynth.runtime import codec, stats
+from facesynth.runtime.stats import RATE_WINDOW_NS, StageStats
+from schemas.messages import ServiceStats
+
+MS = 1_000_000
+S = 1_000_000_000
+
+
+def _stats() -> StageStats:
+    return StageStats("features", "i1", "lab", window=100)
+
+
+@pytest.mark.parametrize(
+    ("times_ns", "now_ns", "rate"),
+    [
+        ([], 10 * S, 0.0),
+        ([S], S, 0.0),
+        ([S, 2 * S], 2 * S, 1.0),
+        ([i * 40 * MS for i in range(26)], 25 * 40 * MS, 25.0),
+        ([i * 100 * MS for i in range(11)], 2 * S, 5.0),  # 10 publications over 2 s
+    ],
+    ids=["nothing", "one", "two-1s-apart", "25hz", "10hz-then-silence"],
+)
+def test_rate(times_ns: list[int], now_ns: int, rate: float) -> None:
+    s = _stats()
+    for t in times_ns:
+        s.record_published(0, now_ns=t)
+    assert s.rate_hz(now_ns) == pytest.approx(rate)
+    assert s.published == len(times_ns)
+
+
+def test_rate_forgets_publications_older_than_the_window() -> None:
+    s = _stats()
+    for i in range(10):  # 10 Hz for one second, then silence
+        s.record_published(0, now_ns=i * 100 * MS)
+    assert s.rate_hz(900 * MS) == pytest.approx(10.0)
+    assert s.rate_hz(900 * MS + RATE_WINDOW_NS + 1) == 0.0
+    s.record_published(0, now_ns=20 * S)
+    s.record_published(0, now_ns=20 * S + 500 * MS)
+    assert s.rate_hz(20 * S + 500 * MS) == pytest.approx(2.0)
+    assert len(s._published_at) == 2  # the old ones were pruned
+
+
+def test_latency_is_measured_from_capture() -> None:
+    s = _stats()
+    for latency_ms in range(1, 101):  # 1..100 ms
+        s.record_published(t_capture_ns=1000 * S, now_ns=1000 * S + latency_ms * MS)
+    snap = s.snapshot(now_ns=1000 * S + 200 * MS)
+    assert snap.window == 100
+    assert snap.latency_p50_ms == pytest.approx(50.5)
+    assert snap.latency_p99_ms == pytest.approx(99.01)
+
+
+def test_messages_without_capture_time_have_no_latency() -> None:
+    s = _stats()
+    s.record_published(t_capture_ns=0, now_ns=5 * S)
+    snap = s.snapshot(now_ns=5 * S)
+    assert snap.published == 1
+    assert snap.window == 0
+    assert snap.latency_p50_ms is None and snap.latency_p99_ms is None
+
+
+def test_latency_window_keeps_the_latest() -> None:
+    s = StageStats("points", "i", "lab", window=3)
+    for latency_ms in (100, 100, 1, 2, 3):
+        s.record_published(t_capture_ns=S, now_ns=S + latency_ms * MS)
+    snap = s.snapshot(now_ns=2 * S)
+    assert snap.window == 3
+    assert snap.latency_p50_ms == pytest.approx(2.0)
+
+
+def test_snapshot_carries_counters_and_is_a_valid_message() -> None:
+    s = _stats()
+    s.started_ns = 10 * S
+    s.received, s.rejected, s.dropped = 7, 2, 1
+    s.record_published(t_capture_ns=11 * S, now_ns=11 * S + 4 * MS)
+    snap = s.snapshot(now_ns=13 * S, note="waiting")
+    assert (snap.service, snap.instance, snap.rig) == ("features", "i1", "lab")
+    assert (snap.received, snap.published, snap.rejected, snap.dropped) == (7, 1, 2, 1)
+    assert snap.uptime_s == pytest.approx(3.0)
+    assert snap.t_ns == 13 * S
+    assert snap.note == "waiting"
+    assert snap.rss_mb > 0 and snap.peak_rss_mb >= snap.rss_mb
+    assert codec.decode(codec.encode(snap), ServiceStats) == snap
+
+
+def test_memory_mb_is_plausible() -> None:
+    rss, peak = stats.memory_mb()
+    assert 1 < rss < 100_000
+    assert peak >= rss
+
+
+def test_memory_mb_without_proc(monkeypatch: pytest.MonkeyPatch) -> None:
+    def no_proc(*args: object, **kwargs: object) -> None:
+        raise OSError("no /proc")
+
+    monkeypatch.setattr("builtins.open", no_proc)
+    rss, peak = stats.memory_mb()
+    assert rss == peak > 1
+
+
+def test_memory_mb_of_another_process() -> None:
+    script = "import sys; print('ready', flush=True); sys.stdin.read()"
+    child = subprocess.Popen([sys.executable, "-c", script], stdin=PIPE, stdout=PIPE)
+    try:
+        assert child.stdout is not None and child.stdout.readline() == b"ready\n"
+        rss, peak = stats.memory_mb(child.pid)
+        assert 1 < rss <= peak < 100_000
+    finally:
+        child.communicate(b"", timeout=30)
+    assert all(math.isnan(v) for v in stats.memory_mb(child.pid))  # gone: no figures
+
+
+def test_memory_mb_of_another_process_without_proc(monkeypatch: pytest.MonkeyPatch) -> None:
+    def no_proc(*args: object, **kwargs: object) -> None:
+        raise OSError("no /proc")
+
+    monkeypatch.setattr("builtins.open", no_proc)
+    assert all(math.isnan(v) for v in stats.memory_mb(os.getpid()))
