@@ -125,7 +125,11 @@ class FakeClock:
         return self._sleepers[0][0] if self._sleepers else None
 
     async def settle(self) -> None:
-        """Let every task that can run at the current instant run, without moving time."""
+        """Let every task that can run at the current instant run, without moving time.
+
+        Reads asyncio's run queue to know when nothing is left to run (and refuses a loop that
+        never rests); on a loop without one (uvloop) it yields ``SETTLE_TURNS`` times instead.
+        """
         loop = asyncio.get_running_loop()
         ready = getattr(loop, "_ready", None)  # asyncio's run queue; absent on other loops
         for _ in range(SETTLE_TURNS):

@@ -28,7 +28,7 @@ RAMP_RATE_HZ = 25
 
 
 class ControlService:
-    """The C service; ``last_frame`` tells how far the chain has come."""
+    """The C service: one profile, one driver, a watchdog."""
 
     def __init__(
         self, profile: Profile, driver: ServoDriver, *, watchdog_s: float = 0.5, queue: int = 8
@@ -37,8 +37,6 @@ class ControlService:
         self.driver = driver
         self.watchdog = Watchdog(watchdog_s)
         self.queue = queue
-        self.last_frame = -1
-        self.progress = asyncio.Event()
         #: Seconds to return to neutral when commands stop (the profile's ``neutral_ramp_s``).
         self.ramp_s = max(0.0, profile.neutral_ramp_s)
 
@@ -99,8 +97,6 @@ class ControlService:
                     positions=positions,
                 )
                 ctx.publish("servo_state", applied)
-                self.last_frame = max(self.last_frame, commands.seq)
-                self.progress.set()
         finally:
             await _cancel(ramp)
 
