@@ -55,7 +55,10 @@ class SystemClock:
         await asyncio.sleep(max(0.0, seconds))
 
     async def wait_for(self, awaitable: Awaitable[T], timeout: float) -> T:
-        return await asyncio.wait_for(awaitable, max(0.0, timeout))
+        # asyncio.timeout, not asyncio.wait_for: on Python 3.11 wait_for can swallow a
+        # cancellation that races with the awaitable's result, and a service never stops.
+        async with asyncio.timeout(max(0.0, timeout)):
+            return await awaitable
 
 
 class IdleTimeout(AssertionError):

@@ -18,6 +18,7 @@ from facesynth.runtime import codec
 from facesynth.runtime.bus.base import SubscriptionClosed
 from facesynth.runtime.clock import Clock
 from facesynth.runtime.profiles import Profile
+from facesynth.runtime.rig_view import RigView
 from facesynth.runtime.service import ServiceContext
 from schemas.messages import ServoCommands
 from services.control.core import CommandInfo, ControlCore, Watchdog
@@ -28,7 +29,7 @@ RAMP_RATE_HZ = 25
 
 
 class ControlService:
-    """The C service: one profile, one driver, a watchdog."""
+    """The C service: one profile, one driver, a watchdog; ``last_frame`` was applied last."""
 
     def __init__(
         self, profile: Profile, driver: ServoDriver, *, watchdog_s: float = 0.5, queue: int = 8
@@ -37,12 +38,14 @@ class ControlService:
         self.driver = driver
         self.watchdog = Watchdog(watchdog_s)
         self.queue = queue
+        self.last_frame = -1
         #: Seconds to return to neutral when commands stop (the profile's ``neutral_ramp_s``).
         self.ramp_s = max(0.0, profile.neutral_ramp_s)
 
     async def serve(self, ctx: ServiceContext) -> None:
         """Drive the servos until cancelled."""
         clock = ctx.clock
+        self.driver.observe(RigView(ctx.bus, ctx.rig))
         async with self.driver:
             try:
                 await self.driver.neutral(self.core.neutral())
@@ -97,6 +100,7 @@ class ControlService:
                     positions=positions,
                 )
                 ctx.publish("servo_state", applied)
+                self.last_frame = max(self.last_frame, commands.seq)
         finally:
             await _cancel(ramp)
 

@@ -7,6 +7,7 @@ from collections.abc import Mapping
 from types import TracebackType
 from typing import Self
 
+from facesynth.runtime.rig_view import RigView
 from services.control.core import CommandInfo
 
 
@@ -33,6 +34,13 @@ class ServoDriver(abc.ABC):
         traceback: TracebackType | None,
     ) -> None:
         await self.close()
+
+    def observe(self, rig: RigView) -> None:  # noqa: B027 - an optional hook
+        """Optional: called once before :meth:`connect` with a read-only view of the rig.
+
+        Drivers that show more than positions (the live face page shows frames, landmarks and
+        stage latencies) subscribe through it; the others ignore it.
+        """
 
     @abc.abstractmethod
     async def connect(self) -> None:
