@@ -198,6 +198,7 @@ def _subscriber(locator: str, config: str) -> None:
     for _ in range(1200):  # a minute at most
         time.sleep(0.05)
         print(count, flush=True)
+    os._exit(0)  # never wait on Zenoh's threads at interpreter exit
 
 
 def main() -> None:
