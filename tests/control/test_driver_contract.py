@@ -201,6 +201,19 @@ async def test_send_before_connect_and_after_close_is_a_driver_error(harness: Ha
         await harness.driver.send(positions(), CommandInfo(2, None, True))
 
 
+async def test_async_with_connects_and_closes_even_when_the_block_fails(harness: Harness) -> None:
+    counted = _Counted(harness)
+    values = positions(jaw=700.0)
+    with pytest.raises(KeyError, match="stop"):
+        async with harness.driver as entered:
+            assert entered is harness.driver
+            await harness.after_connect()
+            assert await counted.send(values) == harness.expected(values)
+            raise KeyError("stop")
+    with pytest.raises(DriverError):  # closed on the way out
+        await harness.driver.send(positions(), CommandInfo(2, None, True))
+
+
 async def test_close_without_connect_is_harmless(harness: Harness) -> None:
     await harness.driver.close()
 

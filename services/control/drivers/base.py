@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import abc
 from collections.abc import Mapping
+from types import TracebackType
+from typing import Self
 
 from facesynth.runtime.rig_view import RigView
 from services.control.core import CommandInfo
@@ -14,7 +16,24 @@ class DriverError(RuntimeError):
 
 
 class ServoDriver(abc.ABC):
-    """One output of the control interface: a servo board, a virtual face, a recorder."""
+    """One output of the control interface: a servo board, a virtual face, a recorder.
+
+    A driver is an async context manager: ``async with driver:`` connects it and closes it on
+    the way out, whatever happened. It does not move the face on exit: returning to neutral is
+    the control interface's decision, made before the driver closes.
+    """
+
+    async def __aenter__(self) -> Self:
+        await self.connect()
+        return self
+
+    async def __aexit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        traceback: TracebackType | None,
+    ) -> None:
+        await self.close()
 
     def observe(self, rig: RigView) -> None:  # noqa: B027 - an optional hook
         """Optional: called once before :meth:`connect` with a read-only view of the rig.
