@@ -126,6 +126,19 @@ class ServoCommands(msgspec.Struct, tag="servo_commands", tag_field=TAG_FIELD, k
     ``positions`` maps the profile's servo names to pulse widths in microseconds, already
     clamped to the profile's limits. ``face`` is false while no face is tracked (the positions
     then lead to neutral).
+
+    Freshness (added with the control interface's motion safety; older senders leave the
+    defaults and their commands are not aged): ``sender`` is the publishing service instance,
+    ``sender_seq`` counts its messages from 1, ``sent_ns`` is its wall clock at publication and
+    ``sender_host`` names the host whose clock that is. A controller drops a command that is
+    not newer than one it applied from the same sender, or older than the profile's
+    ``max_command_age_s``, measured against that host's clock offset as the controller sees it.
+
+    On ``…/servo_state`` the control interface also reports moves of its own (start-up,
+    catching up with a target within the servos' speed limits, the return to neutral when
+    commands stop, shutdown, and an idle report): ``command`` is then false, and ``seq``,
+    ``t_capture_ns`` and ``t_media_ns`` are those of the last command it applied (0 before
+    any), so flow control and drain checks count only ``command`` states.
     """
 
     seq: int
@@ -134,6 +147,11 @@ class ServoCommands(msgspec.Struct, tag="servo_commands", tag_field=TAG_FIELD, k
     face: bool
     profile: str
     positions: dict[str, float]
+    sender: str = ""
+    sender_seq: int = 0
+    sent_ns: int = 0
+    sender_host: str = ""
+    command: bool = True
 
 
 class ServiceStats(msgspec.Struct, tag="service_stats", tag_field=TAG_FIELD, kw_only=True):

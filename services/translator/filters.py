@@ -9,7 +9,7 @@ output. Both keep their state between calls and have ``reset()``.
   through. A sample at the same time as the previous one (a repeated frame) returns the previous
   output; a sample earlier than the previous one (a looped replay) or after a gap longer than
   ``max_gap_s`` restarts the filter (passes through).
-* :func:`limit_step` / :class:`RateLimiter`: moves a position toward a target no faster than
+* :class:`RateLimiter` (with :func:`facesynth.runtime.motion.limit_step`): moves a position toward a target no faster than
   ``max_speed`` and with a speed that changes no faster than ``max_accel``, braking so it stops
   at the target (0 = unlimited). A step longer than ``max_dt_s`` counts as ``max_dt_s``: after a
   gap in the input the servo still moves gradually.
@@ -19,6 +19,18 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+
+from facesynth.runtime.motion import braking_speed, limit_step
+
+__all__ = [
+    "DEFAULT_MAX_DT_S",
+    "DEFAULT_MAX_GAP_S",
+    "OneEuroFilter",
+    "RateLimiter",
+    "braking_speed",
+    "limit_step",
+    "smoothing_factor",
+]
 
 #: A gap in a signal longer than this restarts a One Euro filter (seconds).
 DEFAULT_MAX_GAP_S = 0.5
@@ -80,56 +92,6 @@ class OneEuroFilter:
         self._x += smoothing_factor(cutoff, dt) * (x - self._x)
         self._t_ns = t_ns
         return self._x
-
-
-def braking_speed(distance: float, max_accel: float, dt_s: float) -> float:
-    """The largest speed ``v`` from which steps of ``dt_s`` at ``v, v - a·dt, v - 2a·dt, …``
-    (while positive) cover at most ``distance`` (>= 0): moving at it now, the limiter can still
-    stop at the target."""
-    step = max_accel * dt_s
-    if distance <= 0:
-        return 0.0
-    # Covered from v = (k + f)·step, 0 <= f < 1: dt·step·((k + 1)·f + k(k + 1)/2).
-    budget = distance / (dt_s * step)
-    k = math.floor((math.sqrt(8.0 * budget + 1.0) - 1.0) / 2.0)
-    while k * (k + 1) / 2 > budget:
-        k -= 1
-    while (k + 1) * (k + 2) / 2 <= budget:
-        k += 1
-    fraction = (budget - k * (k + 1) / 2) / (k + 1)
-    return (k + min(fraction, 1.0)) * step
-
-
-def limit_step(
-    position: float,
-    velocity: float,
-    target: float,
-    dt_s: float,
-    max_speed: float = 0.0,
-    max_accel: float = 0.0,
-) -> tuple[float, float]:
-    """``(position, velocity)`` after one step of ``dt_s`` toward ``target``.
-
-    ``max_speed`` (units/s) and ``max_accel`` (units/s²) bound the move; 0 means unlimited.
-    ``dt_s <= 0`` does not move.
-    """
-    if dt_s <= 0:
-        return position, velocity
-    error = target - position
-    speed = abs(error) / dt_s  # reach the target in this step, no overshoot
-    if max_speed > 0:
-        speed = min(speed, max_speed)
-    if max_accel > 0:
-        speed = min(speed, braking_speed(abs(error), max_accel, dt_s))
-        wanted = math.copysign(speed, error)
-        change = max_accel * dt_s
-        new_velocity = min(max(wanted, velocity - change), velocity + change)
-    else:
-        new_velocity = math.copysign(speed, error)
-    new_position = position + new_velocity * dt_s
-    if max_accel <= 0 and (target - new_position) * error <= 0:
-        new_position = target  # reached (without an acceleration bound, never past it)
-    return new_position, new_velocity
 
 
 @dataclass

@@ -136,6 +136,40 @@ GOLDEN: dict[str, tuple[type[msgspec.Struct], dict[str, Any]]] = {
             "positions": {"jaw": 1612.5, "right_eyebrow": 1480.25, "right_eye_x": 1375.0},
         },
     ),
+    # Added with the freshness fields (issue 12): a translator's command that can be aged.
+    "servo_commands_sent": (
+        ServoCommands,
+        {
+            "seq": 43,
+            "t_capture_ns": 1_717_000_000_165_000_000,
+            "t_media_ns": 1_793_458_333,
+            "face": True,
+            "profile": "paper16",
+            "positions": {"jaw": 1625.0, "right_eyebrow": 1482.5, "right_eye_x": 1380.0},
+            "sender": "tracker-host-4242",
+            "sender_seq": 44,
+            "sent_ns": 1_717_000_000_171_250_000,
+            "sender_host": "tracker-host",
+            "command": True,
+        },
+    ),
+    # ... and a control interface's own move on …/servo_state (returning to neutral).
+    "servo_state_own_move": (
+        ServoCommands,
+        {
+            "seq": 43,
+            "t_capture_ns": 1_717_000_000_165_000_000,
+            "t_media_ns": 1_793_458_333,
+            "face": False,
+            "profile": "paper16",
+            "positions": {"jaw": 1560.0, "right_eyebrow": 1500.0, "right_eye_x": 1500.0},
+            "sender": "board-77",
+            "sender_seq": 12,
+            "sent_ns": 1_717_000_000_800_000_000,
+            "sender_host": "board",
+            "command": False,
+        },
+    ),
     "service_stats": (
         ServiceStats,
         {

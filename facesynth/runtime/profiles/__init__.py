@@ -26,7 +26,8 @@ source units, default 0), ``max_speed`` (µs/s) and ``max_accel`` (µs/s²) (0 =
 ``smoothing`` (overrides of the profile's One Euro parameters). Per profile, optional:
 ``[smoothing]`` (One Euro filter; absent or ``enabled = false`` = no filtering),
 ``neutral_ramp_s`` (how long a servo without ``max_speed`` takes to return to neutral when the
-face is lost) and ``[[safety.exclusive]]`` rules (never two servos of a group beyond
+face is lost), ``max_command_age_s`` (the control interface drops older commands, 0.25 s by
+default) and ``[[safety.exclusive]]`` rules (never two servos of a group beyond
 ``threshold`` of their travel at once). :data:`FORMAT_REFERENCE` is a commented example of every
 field.
 

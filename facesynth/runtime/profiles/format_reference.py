@@ -8,6 +8,8 @@ mirror = false                 # true: the robot's right follows the performer's
 neutral_seconds = 1.0          # F: seconds of face used as neutral without a calibration
 neutral_ramp_s = 0.5           # servos without max_speed: seconds back to neutral (linear)
                                # when the face is lost, and to catch up when it returns; 0 = jump
+max_command_age_s = 0.25       # C drops commands older than this (0.02-5 s): a stalled or
+                               # healed link's backlog is never executed
 
 [smoothing]                    # One Euro filter per source signal; absent = no filtering
 enabled = true

@@ -96,6 +96,7 @@ class Profile(msgspec.Struct, forbid_unknown_fields=True, kw_only=True):
     mirror: bool = False
     neutral_seconds: float = 1.0
     neutral_ramp_s: float = 0.5
+    max_command_age_s: float = 0.25
     smoothing: Smoothing | None = None
     safety: Safety = msgspec.field(default_factory=Safety)
     servos: list[ServoSpec]

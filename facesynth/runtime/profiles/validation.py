@@ -10,6 +10,11 @@ from facesynth.runtime.landmarks import N_IBUG
 
 from .model import Profile, ServoSpec, Smoothing, SmoothingOverride
 
+#: ``max_command_age_s`` bounds: shorter than a frame's way through a loaded chain drops live
+#: commands; longer than a few seconds executes what a healed link held back.
+MIN_COMMAND_AGE_S = 0.02
+MAX_COMMAND_AGE_S = 5.0
+
 
 def _finite(*values: float | None) -> bool:
     return all(v is None or math.isfinite(v) for v in values)
@@ -135,6 +140,14 @@ def validate_profile(profile: Profile) -> list[str]:
     if not (math.isfinite(profile.neutral_ramp_s) and profile.neutral_ramp_s >= 0):
         problems.append(
             f"neutral_ramp_s must be a number of seconds >= 0 (got {profile.neutral_ramp_s:g})"
+        )
+    if not (
+        math.isfinite(profile.max_command_age_s)
+        and MIN_COMMAND_AGE_S <= profile.max_command_age_s <= MAX_COMMAND_AGE_S
+    ):
+        problems.append(
+            f"max_command_age_s must be a number of seconds from {MIN_COMMAND_AGE_S:g} to "
+            f"{MAX_COMMAND_AGE_S:g} (got {profile.max_command_age_s:g})"
         )
     if profile.smoothing is not None:
         problems.extend(_smoothing_problems("smoothing", profile.smoothing))

@@ -333,6 +333,18 @@ def test_invalid_structure_channels_limits_and_points(text: str, detail: str) ->
             "neutral_ramp_s must be a number of seconds >= 0 (got -0.5)",
         ),
         (
+            profile_toml(max_command_age_s=0.0),
+            "max_command_age_s must be a number of seconds from 0.02 to 5 (got 0)",
+        ),
+        (
+            profile_toml(max_command_age_s=60),
+            "max_command_age_s must be a number of seconds from 0.02 to 5 (got 60)",
+        ),
+        (
+            profile_toml(max_command_age_s=math.inf),
+            "max_command_age_s must be a number of seconds from 0.02 to 5 (got inf)",
+        ),
+        (
             profile_toml(PAIR, exclusive=[{"servos": ["up", "sideways"]}]),
             "safety.exclusive[0]: unknown servos ['sideways']",
         ),
@@ -409,6 +421,9 @@ def test_invalid_structure_channels_limits_and_points(text: str, detail: str) ->
         "min-cutoff-nan",
         "servo-min-cutoff-zero",
         "neutral-ramp-negative",
+        "command-age-zero",
+        "command-age-a-minute",
+        "command-age-infinite",
         "safety-unknown-servo",
         "safety-one-servo",
         "safety-same-servo-twice",
