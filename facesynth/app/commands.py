@@ -190,7 +190,8 @@ def cmd_status(args: argparse.Namespace) -> int:
             deadline = time.monotonic() + args.timeout
             while (remaining := deadline - time.monotonic()) > 0:
                 try:
-                    sample = await asyncio.wait_for(subscription.receive(), remaining)
+                    async with asyncio.timeout(remaining):
+                        sample = await subscription.receive()
                 except TimeoutError:
                     break
                 try:
