@@ -15,6 +15,8 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 from facesynth import __version__
+from facesynth.app.control_tools import add_tool_arguments
+from facesynth.app.firmware import add_firmware_arguments, cmd_firmware
 from facesynth.app.stage_args import add_stage_arguments
 from facesynth.runtime import keys
 from services.points.tracker.runtimes import backend_choices
@@ -27,7 +29,8 @@ STAGE_HELP = {
     "points": "P: publish face landmarks on …/points (tracker, or a replayed recording)",
     "features": "F: publish pose-free features on …/features",
     "translator": "T: publish servo positions on …/servo_commands through a profile",
-    "control": "C: drive servos (or record) from …/servo_commands",
+    "control": "C: drive servos (or record) from …/servo_commands; `control test` and "
+    "`control status` are bring-up tools for a servo board",
 }
 
 
@@ -133,6 +136,7 @@ def build_parser() -> argparse.ArgumentParser:
                 action="store_true",
                 help="list the servo drivers and their options, then exit",
             )
+            add_tool_arguments(p)
 
     p = add(
         "compose",
@@ -171,6 +175,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", help="output file (default ~/.config/facesynth/calibrations/NAME.json)")
     p.add_argument("--log-level", default="WARNING", choices=("DEBUG", "INFO", "WARNING", "ERROR"))
 
+    p = add(
+        "firmware",
+        cmd_firmware,
+        "the Arduino Uno servo firmware: build it (gcc-avr) or flash it to a board (avrdude)",
+    )
+    add_firmware_arguments(p)
+
     p = add("router", commands.cmd_router, "run a Zenoh router (for hosts without zenohd)")
     _zenoh_arguments(p)
     p.set_defaults(mode="router")
@@ -186,8 +197,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("action", choices=("list", "check", "show"))
     p.add_argument("name", nargs="?", help="profile name or TOML path (check, show)")
 
-    p = add("bench", commands.cmd_bench, "benchmarks: the five-process chain, or the tracker")
-    p.add_argument("what", choices=("chain", "tracker", "smoothing"))
+    p = add(
+        "bench",
+        commands.cmd_bench,
+        "benchmarks: the five-process chain, the tracker, smoothing, servo drivers on the wire",
+    )
+    p.add_argument("what", choices=("chain", "tracker", "smoothing", "drivers"))
     p.add_argument("video", nargs="?", help="video (default: the bundled performer video)")
     p.add_argument(
         "--seconds", type=float, default=15.0, help="chain: seconds of real-time input (default 15)"
@@ -205,7 +220,9 @@ def build_parser() -> argparse.ArgumentParser:
         "--encoding", choices=("jpeg", "raw"), default="jpeg", help="chain: frame encoding"
     )
     p.add_argument("--threads", type=int, default=1, help="chain: tracker inference threads")
-    p.add_argument("--profile", default="paper16", help="smoothing: profile to measure")
+    p.add_argument(
+        "--profile", default="paper16", help="smoothing, drivers: profile to measure"
+    )
     p.add_argument(
         "--track", help="smoothing: a facesynth track file to measure tracking noise from"
     )

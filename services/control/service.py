@@ -12,7 +12,9 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import logging
 import time
+from collections.abc import Mapping
 
 from facesynth.runtime import codec
 from facesynth.runtime.bus.base import SubscriptionClosed
@@ -24,6 +26,8 @@ from services.control.drivers.base import ServoDriver
 
 #: Steps per second of a return to neutral.
 RAMP_RATE_HZ = 25
+
+log = logging.getLogger("facesynth.control")
 
 
 class ControlService:
@@ -40,6 +44,8 @@ class ControlService:
         self.progress = asyncio.Event()
         #: Seconds to return to neutral when commands stop (the profile's ``neutral_ramp_s``).
         self.ramp_s = max(0.0, profile.neutral_ramp_s)
+        #: Sends the driver failed (logged, never raised: the service keeps running).
+        self.driver_errors = 0
 
     async def serve(self, ctx: ServiceContext) -> None:
         """Drive the servos until cancelled."""
@@ -58,6 +64,7 @@ class ControlService:
             ramp: asyncio.Task[None] | None = None
             try:
                 while True:
+                    ctx.stats.note = self.driver.state()
                     try:
                         sample = await asyncio.wait_for(subscription.receive(), tick)
                     except TimeoutError:
@@ -81,7 +88,7 @@ class ControlService:
                     await _cancel(ramp)  # commands are back: they take over
                     ramp = None
                     info = CommandInfo(commands.seq, commands.t_capture_ns, commands.face)
-                    await self.driver.send(positions, info)
+                    await self._send(positions, info)
                     self.watchdog.feed(time.time_ns())
                     applied = ServoCommands(
                         seq=commands.seq,
@@ -106,12 +113,19 @@ class ControlService:
         """Move to neutral in even steps over ``ramp_s`` (at once when it is 0)."""
         steps = max(1, round(self.ramp_s * RAMP_RATE_HZ))
         for positions in self.core.ramp_to_neutral(steps):
-            await self.driver.send(
-                positions, CommandInfo(frame=None, t_capture_ns=None, face=False)
-            )
+            await self._send(positions, CommandInfo(frame=None, t_capture_ns=None, face=False))
             self.core.mark_sent(positions)
             if steps > 1:
                 await asyncio.sleep(self.ramp_s / steps)
+
+    async def _send(self, positions: Mapping[str, float], info: CommandInfo) -> None:
+        """Hand positions to the driver; its errors are counted and logged, never raised."""
+        try:
+            await self.driver.send(positions, info)
+        except Exception as exc:  # a driver error must not stop the face's controller
+            self.driver_errors += 1
+            if self.driver_errors <= 10 or self.driver_errors % 100 == 0:
+                log.warning("driver error (%d so far): %s", self.driver_errors, exc)
 
 
 async def _cancel(task: asyncio.Task[None] | None) -> None:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Mapping
 from pathlib import Path
@@ -43,6 +44,9 @@ class RecordDriver(ServoDriver):
         self._file: IO[bytes] | None = None
         self._encoder = msgspec.json.Encoder()
         self.count = 0
+        #: With a profile, positions are checked and clamped like a board's (the safety
+        #: contract every driver keeps); without, they are recorded as given.
+        self.specs = {spec.name: spec for spec in profile.servos} if profile else None
 
     async def connect(self) -> None:
         try:
@@ -60,7 +64,9 @@ class RecordDriver(ServoDriver):
             t_capture_ns=info.t_capture_ns,
             t_sent_ns=time.time_ns(),
             face=info.face,
-            servos={name: round(value, 3) for name, value in positions.items()},
+            servos={
+                name: round(self._checked(name, value), 3) for name, value in positions.items()
+            },
         )
         try:
             self._file.write(self._encoder.encode(line) + b"\n")
@@ -68,6 +74,16 @@ class RecordDriver(ServoDriver):
         except OSError as exc:
             raise DriverError(f"cannot write record file {self.path}: {exc}") from None
         self.count += 1
+
+    def _checked(self, name: str, value: float) -> float:
+        if self.specs is None:
+            return value
+        spec = self.specs.get(name)
+        if spec is None:
+            raise DriverError(f"servo {name!r} is not in the profile")
+        if not math.isfinite(value):
+            raise DriverError(f"position of {name!r} is {value}")
+        return spec.clamp(value)
 
     async def close(self) -> None:
         if self._file is not None:

@@ -1,0 +1,109 @@
+"""Fixtures for the driver tests: fake Maestro and SSC-32 boards on ptys, the emulated Uno
+(the real firmware on simavr, tests/firmware/uno_emulator.py), profiles, facesynth processes."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "firmware"))
+
+from fake_devices.maestro import FakeMaestro
+from fake_devices.ssc32 import FakeSSC32
+from uno_rig import UnoRig, firmware_ready
+
+__all__ = ["firmware_ready"]
+
+
+@pytest.fixture
+def maestro(tmp_path: Path) -> Iterator[FakeMaestro]:
+    """A fake Mini Maestro 24, plugged in at ``tmp_path/ttyMaestro``."""
+    device = FakeMaestro(tmp_path / "ttyMaestro", channels=24)
+    device.plug()
+    yield device
+    device.close()
+
+
+@pytest.fixture
+def ssc32(tmp_path: Path) -> Iterator[FakeSSC32]:
+    """A fake SSC-32U, plugged in at ``tmp_path/ttySSC32``."""
+    device = FakeSSC32(tmp_path / "ttySSC32")
+    device.plug()
+    yield device
+    device.close()
+
+
+@pytest.fixture
+def uno(firmware_ready: None, tmp_path: Path) -> Iterator[UnoRig]:
+    """The PCA9685 firmware on an emulated Uno, behind a cable at ``tmp_path/ttyUno``."""
+    rig = UnoRig(tmp_path / "uno", cable=True)
+    yield rig
+    rig.close()
+
+
+def write_profile(path: Path, servos: list[dict[str, object]], name: str = "testface") -> Path:
+    """A profile TOML file: each servo a dict of ServoSpec fields (a points source is added)."""
+    lines = [f'name = "{name}"', "neutral_ramp_s = 0.2", ""]
+    for servo in servos:
+        lines.append("[[servos]]")
+        fields = {"points": [48], "face_min": -0.1, "face_max": 0.1, **servo}
+        for key, value in fields.items():
+            text = (
+                f'"{value}"'
+                if isinstance(value, str)
+                else str(value).lower()
+                if isinstance(value, bool)
+                else str(value)
+            )
+            lines.append(f"{key} = {text}")
+        lines.append("")
+    path.write_text("\n".join(lines))
+    return path
+
+
+class Processes:
+    """``python -m facesynth ARGS`` processes, each logging to ``<name>.log``; stopped at the
+    end of the test (SIGTERM, then SIGKILL)."""
+
+    def __init__(self, folder: Path) -> None:
+        self.folder = folder
+        self.procs: list[subprocess.Popen[bytes]] = []
+
+    def start(self, *args: str, name: str) -> subprocess.Popen[bytes]:
+        with open(self.folder / f"{name}.log", "wb") as log:
+            proc = subprocess.Popen(
+                [sys.executable, "-m", "facesynth", *args],
+                stdout=log,
+                stderr=subprocess.STDOUT,
+                env={**os.environ, "PYTHONUNBUFFERED": "1"},
+            )
+        self.procs.append(proc)
+        return proc
+
+    def log(self, name: str) -> str:
+        return (self.folder / f"{name}.log").read_text(errors="replace")
+
+    def stop(self) -> None:
+        for proc in self.procs:
+            if proc.poll() is None:
+                proc.send_signal(signal.SIGTERM)
+        for proc in self.procs:
+            try:
+                proc.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait()
+
+
+@pytest.fixture
+def processes(tmp_path: Path) -> Iterator[Processes]:
+    """A :class:`Processes` for this test."""
+    spawner = Processes(tmp_path)
+    yield spawner
+    spawner.stop()
