@@ -47,26 +47,6 @@ def uno(firmware_ready: None, tmp_path: Path) -> Iterator[UnoRig]:
     rig.close()
 
 
-def write_profile(path: Path, servos: list[dict[str, object]], name: str = "testface") -> Path:
-    """A profile TOML file: each servo a dict of ServoSpec fields (a points source is added)."""
-    lines = [f'name = "{name}"', "neutral_ramp_s = 0.2", ""]
-    for servo in servos:
-        lines.append("[[servos]]")
-        fields = {"points": [48], "face_min": -0.1, "face_max": 0.1, **servo}
-        for key, value in fields.items():
-            text = (
-                f'"{value}"'
-                if isinstance(value, str)
-                else str(value).lower()
-                if isinstance(value, bool)
-                else str(value)
-            )
-            lines.append(f"{key} = {text}")
-        lines.append("")
-    path.write_text("\n".join(lines))
-    return path
-
-
 class Processes:
     """``python -m facesynth ARGS`` processes, each logging to ``<name>.log``; stopped at the
     end of the test (SIGTERM, then SIGKILL)."""

@@ -13,7 +13,7 @@ import statistics
 from pathlib import Path
 
 import pytest
-from conftest import write_profile
+from profile_files import write_profile
 from uno_rig import UnoRig, near
 
 from facesynth.runtime.profiles import Profile, load_profile
