@@ -14,7 +14,7 @@ import asyncio
 import contextlib
 import logging
 import time
-from collections.abc import Mapping
+from collections.abc import Awaitable, Mapping
 
 from facesynth.runtime import codec
 from facesynth.runtime.bus.base import SubscriptionClosed
@@ -51,7 +51,7 @@ class ControlService:
         """Drive the servos until cancelled."""
         await self.driver.connect()
         try:
-            await self.driver.neutral(self.core.neutral())
+            await self._neutral()
             subscription = ctx.subscribe("servo_commands", self.queue)
             ctx.ready()
             ctx.log.info(
@@ -105,7 +105,7 @@ class ControlService:
                 await _cancel(ramp)
         finally:
             try:
-                await self.driver.neutral(self.core.neutral())
+                await self._neutral()
             finally:
                 await self.driver.close()
 
@@ -120,8 +120,14 @@ class ControlService:
 
     async def _send(self, positions: Mapping[str, float], info: CommandInfo) -> None:
         """Hand positions to the driver; its errors are counted and logged, never raised."""
+        await self._guarded(self.driver.send(positions, info))
+
+    async def _neutral(self) -> None:
+        await self._guarded(self.driver.neutral(self.core.neutral()))
+
+    async def _guarded(self, call: Awaitable[None]) -> None:
         try:
-            await self.driver.send(positions, info)
+            await call
         except Exception as exc:  # a driver error must not stop the face's controller
             self.driver_errors += 1
             if self.driver_errors <= 10 or self.driver_errors % 100 == 0:

@@ -302,6 +302,8 @@ def _has_fileno(instance: serial.SerialBase) -> bool:
 
 def _reason(exc: BaseException) -> str:
     errno = getattr(exc, "errno", None)
+    if "exclusively lock" in str(exc):
+        return "in use by another program (it holds the port's lock)"
     if isinstance(exc, serial.SerialException) and isinstance(errno, int) and errno > 0:
         return f"cannot open it: {os.strerror(errno)}"
     text = str(exc).strip() or type(exc).__name__

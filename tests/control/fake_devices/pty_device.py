@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import asyncio
 import contextlib
 import os
 import select
@@ -147,3 +148,15 @@ class FakeDevice:
             if time.monotonic() > deadline:
                 raise TimeoutError(f"{type(self).__name__}: condition not met in {timeout} s")
             time.sleep(0.01)
+
+    async def until(self, what: Callable[[], bool], timeout: float = 5.0) -> None:
+        """Wait, letting the event loop run, until ``what()`` holds (under the device's lock)."""
+        loop = asyncio.get_running_loop()
+        deadline = loop.time() + timeout
+        while True:
+            with self.lock:
+                if what():
+                    return
+            if loop.time() > deadline:
+                raise TimeoutError(f"{type(self).__name__}: condition not met in {timeout} s")
+            await asyncio.sleep(0.01)
