@@ -1,7 +1,8 @@
 """``facesynth control test|status``: bring-up tools for a servo board, run without the bus.
 
 ``test`` moves one servo (``--servo NAME``) or each in turn (``--all``) slowly from neutral to
-each limit and back, the others held at neutral, printing where it is; ``status`` prints what
+each limit and back (at ``--speed``, never above the servo's ``max_speed``), the others held at
+neutral, printing where it is; ``status`` prints what
 the board reports (the firmware's counters, the Maestro's error register, positions). Both
 take the control node's options (``--driver``, ``--port``, ``--profile``, ``--graph``), open
 the board once (a clear error if it is not there) and leave it at neutral.
@@ -149,14 +150,16 @@ async def run_test(
         await driver.neutral(neutral)
         for name in names:
             spec = profile.servo(name)
+            # Never faster than the profile allows (the firmware would hold it back anyway).
+            pace = min(speed, spec.max_speed) if spec.max_speed > 0 else speed
             out(
                 f"{name} (channel {spec.channel}): {spec.min_us:g} .. {spec.neutral_us:g} .. "
-                f"{spec.max_us:g} us, {speed:g} us/s"
+                f"{spec.max_us:g} us, {pace:g} us/s"
             )
             period = 1 / rate_hz
             start = time.monotonic()
             shown = start
-            for i, step in enumerate(sweep(spec, speed, rate_hz, hold)):
+            for i, step in enumerate(sweep(spec, pace, rate_hz, hold)):
                 await driver.send({**neutral, name: step.position}, info)
                 now = time.monotonic()
                 if step.arrived and not step.leg.startswith("hold"):

@@ -119,7 +119,11 @@ def flash(port: str, hex_file: Path, baud: int = BOOTLOADER_BAUD) -> str:
     )
     output = (result.stdout + result.stderr).strip().splitlines()
     if result.returncode != 0:
-        errors = [line for line in output if "error" in line.lower()]
+        errors = [
+            line
+            for line in output
+            if "error" in line.lower() and "ioctl" not in line  # (modem lines on a pty)
+        ]
         last = errors[-1] if errors else (output[-1] if output else "no output")
         raise FirmwareError(f"avrdude failed (exit {result.returncode}): {last.strip()}")
     return "\n".join(line for line in output if "bytes of flash" in line) or "flashed"
