@@ -5,7 +5,7 @@
 ARG BASE_IMAGE=python:3.11-slim
 FROM ${BASE_IMAGE}
 
-# Which extras to install: "all" (tracker + uvloop) or "" for a servo-board-only image.
+# Which extras to install: "all" (tracker + uvloop + face page and VMC) or "" for a servo-board-only image.
 ARG EXTRAS=all
 ENV PYTHONUNBUFFERED=1 PIP_NO_CACHE_DIR=1 PIP_DISABLE_PIP_VERSION_CHECK=1
 

@@ -4,7 +4,7 @@ VENV ?= .venv
 PYTHON ?= python3
 BIN := $(VENV)/bin
 
-.PHONY: demo test lint bench install clean firmware-test
+.PHONY: demo test test-browser lint bench install clean firmware-test
 
 $(BIN)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -14,13 +14,19 @@ $(BIN)/.installed: pyproject.toml
 
 install: $(BIN)/.installed
 
-## The bundled performer video through S -> P -> F -> T -> C; servo commands in facesynth-commands.jsonl.
+## The bundled performer video through S -> P -> F -> T -> C; servo commands in facesynth-commands.jsonl,
+## then the side-by-side video to watch (performer | virtual face | paper16's servos) in facesynth-demo.mp4.
 demo: $(BIN)/.installed
-	$(BIN)/facesynth run
+	$(BIN)/facesynth run --render facesynth-demo.mp4
 
-## Lint, type-check, schema freshness, and the whole test suite.
+## Lint, type-check, schema freshness, and the whole test suite (the browser group last).
 test: $(BIN)/.installed lint
-	$(BIN)/python -m pytest -q
+	$(BIN)/python -m pytest -q -m "not browser"
+	$(BIN)/python -m pytest -q -m browser
+
+## The live face page in a real headless Chromium (Debian's chromium and chromium-driver).
+test-browser: $(BIN)/.installed
+	$(BIN)/python -m pytest -q -m browser
 
 lint: $(BIN)/.installed
 	$(BIN)/ruff check .
@@ -38,4 +44,4 @@ bench: $(BIN)/.installed
 	$(BIN)/facesynth bench tracker
 
 clean:
-	rm -rf $(VENV) .mypy_cache .ruff_cache .pytest_cache facesynth-commands.jsonl firmware/build
+	rm -rf $(VENV) .mypy_cache .ruff_cache .pytest_cache facesynth-commands.jsonl facesynth-demo.mp4 firmware/build

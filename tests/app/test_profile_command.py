@@ -50,7 +50,7 @@ def test_profile_check_missing_file_and_valid_profiles(
     assert capsys.readouterr().err.splitlines() == [
         f"facesynth profile: error: profile file {tmp_path / 'gone.toml'} does not exist"
     ]
-    for name, count in (("paper16", 16), ("virtual", 14)):
+    for name, count in (("paper16", 16), ("virtual", 17)):
         assert main(["profile", "check", name]) == 0
         assert capsys.readouterr().out == f"{name}: ok ({count} servos)\n"
 

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 import time
 from collections.abc import Mapping
 from pathlib import Path
@@ -14,6 +13,7 @@ from facesynth.runtime.profiles import Profile
 from services.control.core import CommandInfo
 from services.control.drivers.base import DriverError, ServoDriver
 from services.control.drivers.registry import DRIVERS
+from services.control.drivers.servo_map import ProfileLimits
 
 
 class RecordConfig(
@@ -46,7 +46,7 @@ class RecordDriver(ServoDriver):
         self.count = 0
         #: With a profile, positions are checked and clamped like a board's (the safety
         #: contract every driver keeps); without, they are recorded as given.
-        self.specs = {spec.name: spec for spec in profile.servos} if profile else None
+        self.limits = ProfileLimits(profile) if profile else None
 
     async def connect(self) -> None:
         try:
@@ -58,15 +58,14 @@ class RecordDriver(ServoDriver):
     async def send(self, positions: Mapping[str, float], info: CommandInfo) -> None:
         if self._file is None:
             raise DriverError("record driver is not connected")
+        checked = self.limits.clamp(positions) if self.limits else dict(positions)
         line = RecordLine(
             seq=self.count,
             frame=info.frame,
             t_capture_ns=info.t_capture_ns,
             t_sent_ns=time.time_ns(),
             face=info.face,
-            servos={
-                name: round(self._checked(name, value), 3) for name, value in positions.items()
-            },
+            servos={name: round(value, 3) for name, value in checked.items()},
         )
         try:
             self._file.write(self._encoder.encode(line) + b"\n")
@@ -74,16 +73,6 @@ class RecordDriver(ServoDriver):
         except OSError as exc:
             raise DriverError(f"cannot write record file {self.path}: {exc}") from None
         self.count += 1
-
-    def _checked(self, name: str, value: float) -> float:
-        if self.specs is None:
-            return value
-        spec = self.specs.get(name)
-        if spec is None:
-            raise DriverError(f"servo {name!r} is not in the profile")
-        if not math.isfinite(value):
-            raise DriverError(f"position of {name!r} is {value}")
-        return spec.clamp(value)
 
     async def close(self) -> None:
         if self._file is not None:

@@ -110,3 +110,26 @@ class ServoMap:
         """``pose`` restricted to the profile's channels and clamped: the last step before
         encoding, so even a pose built elsewhere cannot leave the limits."""
         return {ch: self.limits[ch].clamp(int(pose[ch])) for ch in self.channels if ch in pose}
+
+
+class ProfileLimits:
+    """The safety check of drivers without board units (files, pages, avatars): positions by
+    servo name, clamped to the profile's limits; unknown servos and non-finite values raise
+    :class:`DriverError`, so nothing is half sent."""
+
+    def __init__(self, profile: Profile) -> None:
+        self.profile_name = profile.name
+        self.specs = {spec.name: spec for spec in profile.servos}
+
+    def clamp(self, positions: Mapping[str, float]) -> dict[str, float]:
+        """``positions`` checked and clamped."""
+        out = {}
+        for name, value in positions.items():
+            spec = self.specs.get(name)
+            if spec is None:
+                raise DriverError(f"servo {name!r} is not in profile {self.profile_name!r}")
+            if not math.isfinite(value):
+                raise DriverError(f"position of {name!r} is {value}")
+            out[name] = spec.clamp(value)
+        return out
+

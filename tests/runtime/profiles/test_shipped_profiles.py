@@ -120,6 +120,9 @@ def test_virtual_profile() -> None:
         "lip_corner_left",
         "lower_lip",
         "jaw",
+        "head_yaw",
+        "head_pitch",
+        "head_roll",
     }
     for spec in profile.servos:
         assert not spec.points
