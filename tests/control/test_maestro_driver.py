@@ -8,6 +8,7 @@ from pathlib import Path
 
 import pytest
 from fake_devices.maestro import PROTOCOL_ERROR, FakeMaestro
+from profile_files import write_profile
 
 from facesynth.runtime.profiles import load_profile
 from services.control.core import CommandInfo
@@ -176,3 +177,19 @@ def test_profile_beyond_the_model_is_a_clear_error() -> None:
         DriverConfigError, match=r"channel 15, but the Micro Maestro 6 has channels 0\.\.5"
     ):
         MaestroDriver(MaestroConfig(port="/dev/null", model="micro6"), load_profile("paper16"))
+
+
+async def test_a_profile_with_twenty_four_servos(maestro: FakeMaestro, tmp_path: Path) -> None:
+    servos = [
+        {"name": f"s{ch}", "channel": ch, "min_us": 900, "neutral_us": 1500, "max_us": 2100}
+        for ch in range(24)
+    ]
+    profile = load_profile(str(write_profile(tmp_path / "big.toml", servos)))
+    driver = MaestroDriver(MaestroConfig(port=str(maestro.link), model="mini24"), profile)
+    await driver.connect()
+    try:
+        await driver.send({f"s{ch}": 1000.0 + 40 * ch for ch in range(24)}, INFO)
+        await maestro.until(lambda: maestro.targets[23] == (1000 + 40 * 23) * 4)
+        assert maestro.positions_us() == {ch: 1000.0 + 40 * ch for ch in range(24)}
+    finally:
+        await driver.close()

@@ -5,9 +5,11 @@ from __future__ import annotations
 
 import asyncio
 import logging
+from pathlib import Path
 
 import pytest
 from fake_devices.ssc32 import FakeSSC32
+from profile_files import write_profile
 
 from facesynth.runtime.profiles import load_profile
 from services.control.core import CommandInfo
@@ -93,4 +95,20 @@ async def test_a_board_that_does_not_answer(
         assert "no answer to Q" in driver.link.state.last_error
     finally:
         ssc32.handle = answer  # type: ignore[method-assign]
+        await driver.close()
+
+
+async def test_a_profile_with_thirty_two_servos(ssc32: FakeSSC32, tmp_path: Path) -> None:
+    servos = [
+        {"name": f"s{ch}", "channel": ch, "min_us": 600, "neutral_us": 1500, "max_us": 2400}
+        for ch in range(32)
+    ]
+    profile = load_profile(str(write_profile(tmp_path / "big.toml", servos)))
+    driver = SSC32Driver(SSC32Config(port=str(ssc32.link)), profile)
+    await driver.connect()
+    try:
+        await driver.send({f"s{ch}": 700.0 + 50 * ch for ch in range(32)}, INFO)
+        await ssc32.until(lambda: ssc32.widths.get(31) == 700 + 50 * 31)
+        assert ssc32.moves[-1].widths == {ch: 700 + 50 * ch for ch in range(32)}
+    finally:
         await driver.close()
