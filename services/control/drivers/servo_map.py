@@ -132,4 +132,3 @@ class ProfileLimits:
                 raise DriverError(f"position of {name!r} is {value}")
             out[name] = spec.clamp(value)
         return out
-

@@ -14,6 +14,7 @@ from __future__ import annotations
 import asyncio
 import collections
 import contextlib
+import functools
 import logging
 from collections.abc import Callable, Coroutine, Mapping
 from typing import Annotated, Any
@@ -79,6 +80,11 @@ def firmware_limits(profile: Profile, servo_map: ServoMap) -> dict[int, proto.Li
             raise DriverConfigError(f"servo {spec.name!r}: {'; '.join(problems)}")
         out[spec.channel] = limits
     return out
+
+
+def limits_frame(seq: int, limits: Mapping[int, proto.Limits]) -> bytes:
+    """SET_LIMITS for up to 16 channels."""
+    return proto.set_limits(seq, limits)
 
 
 def pose_frame(seq: int, pose: Mapping[int, int], channels: int) -> bytes:
@@ -227,7 +233,7 @@ class ArduinoDriver(SerialServoDriver):
         entries = sorted(self.limits.items())
         for i in range(0, len(entries), proto.MAX_CHANNELS):
             chunk = dict(entries[i : i + proto.MAX_CHANNELS])
-            await self._command(lambda seq, c=chunk: proto.set_limits(seq, c), "SET_LIMITS")  # type: ignore[misc]
+            await self._command(functools.partial(limits_frame, limits=chunk), "SET_LIMITS")
         self.configured = True
 
     async def _command(self, frame: Callable[[int], bytes], name: str) -> proto.Ack:
