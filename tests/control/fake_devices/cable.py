@@ -59,7 +59,8 @@ class Cable:
         """Bytes to the device as if the host had sent them."""
         with self.lock:
             view = memoryview(data)
-            while view:
+            deadline = time.monotonic() + 2
+            while view and time.monotonic() < deadline:
                 try:
                     view = view[os.write(self.device_fd, view) :]
                 except BlockingIOError:
@@ -75,7 +76,8 @@ class Cable:
     def _from_host(self, data: bytes) -> bytes:
         with self.lock:
             self.from_host += data
-        self.inject(data)
+        with contextlib.suppress(OSError):  # the board is off (rebooting): the bytes are lost
+            self.inject(data)
         return b""
 
     def _to_host(self) -> None:

@@ -334,6 +334,9 @@ class ArduinoDriver(SerialServoDriver):
                 log.info("%s: the PCA9685 answers again", self.link.port)
         positions = {proto.COMMANDS[n].code for n in ("SET_ALL", "SET_SOME", "NEUTRAL")}
         if self.configured and ack.cmd in positions and not ack.flags & proto.Flags.LIMITS_SET:
+            # Positions wait until the limits are back (and the ACKs of frames already on
+            # their way, which say the same, are not counted again).
+            self.configured = False
             self.board_resets += 1
             log.warning("%s: the board has reset; sending its limits again", self.link.port)
             self._start_repair(self._reconfigure())
@@ -359,7 +362,6 @@ class ArduinoDriver(SerialServoDriver):
             self.link.lost(f"no answer while repairing the link ({exc or 'timeout'})")
 
     async def _reconfigure(self) -> None:
-        self.configured = False
         await self._configure()
         self._write_pose(self.pose)
 
