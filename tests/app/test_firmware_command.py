@@ -54,10 +54,9 @@ def test_the_avrdude_command(capsys: pytest.CaptureFixture[str]) -> None:
         )
         == 0
     )
-    assert (
-        "-P COM3 -b 57600" in capsys.readouterr().out
-        and "build/pins/" in hex_file.parent.parent.as_posix() + "/pins/"
-    )
+    out = capsys.readouterr().out
+    pins = SOURCE / "build" / "pins" / "facesynth_servo.hex"
+    assert "-P COM3 -b 57600" in out and f"flash:w:{pins}:i" in out
 
 
 @pytest.mark.firmware
