@@ -7,6 +7,7 @@ from pathlib import Path
 import pytest
 
 from facesynth.app.cli import build_parser, main
+from facesynth.app.data import sample_openface_csv
 
 COMMANDS = [
     "run",
@@ -46,6 +47,9 @@ def _files(tmp: Path) -> dict[str, Path]:
         "garbage.mp4": "this is not a video",
         "bad.json5": "{ mode: ",
         "track.jsonl": '{"frame": 0, "face": true, "ibug68": [[1, 2]]}\n',
+        "blend.jsonl": '{"frame": 0, "face": true, "ibug68": '
+        + str([[1.0, 2.0]] * 68)
+        + ', "blendshapes": [0.5, 2.0]}\n',
         "graph.toml": '[nodes.control]\nstage = "control"\n[nodes.f]\nstage = "features"\n',
         "nodriver.toml": '[nodes.c]\nstage = "control"\ndriver = { driver = "record" }\n',
         "badgraph.toml": "[nodes.x\n",
@@ -71,6 +75,37 @@ CASES = [
     ("record without out", ["control"], "needs --out"),
     ("not OpenFace", ["points", "--openface-csv", "{garbage.csv}"], "missing columns"),
     ("bad track file", ["points", "--points-jsonl", "{track.jsonl}"], "68 finite"),
+    ("bad track blendshapes", ["points", "--points-jsonl", "{blend.jsonl}"], "52 numbers in 0..1"),
+    ("unknown tracker model", ["points", "--model", "huge"], "unknown tracker model 'huge'"),
+    ("unknown bench model", ["bench", "tracker", "--models", "fast,huge"], "unknown ['huge']"),
+    (
+        "mediapipe without task",
+        ["bench", "tracker", "--mediapipe-python", "python3", "--frames", "2"],
+        "needs --mediapipe-task",
+    ),
+    (
+        "mediapipe task missing",
+        ["bench", "tracker", "--mediapipe-python", "python3", "--mediapipe-task", "/no.task"],
+        "task file not found",
+    ),
+    ("bench repeat", ["bench", "tracker", "--repeat", "0", "--frames", "2"], "--repeat"),
+    ("fidelity model", ["bench", "fidelity", "--models", "slow"], "unknown ['slow']"),
+    (
+        "blendshape profile, fast model",
+        ["run", "--model", "fast", "--profile", "head16_bs", "--listen", "tcp/127.0.0.1:0"],
+        "profile head16_bs is driven by blendshapes (browDownLeft",
+    ),
+    (
+        "blendshape profile, no blendshapes",
+        ["run", "--no-blendshapes", "--profile", "arkit52", "--listen", "tcp/127.0.0.1:0"],
+        "use the tracker with --model full (and blendshapes)",
+    ),
+    (
+        "blendshape profile, openface replay",
+        ["run", "--openface-csv", str(sample_openface_csv()), "--profile", "arkit52"],
+        "profile arkit52 is driven by blendshapes",
+    ),
+    ("fidelity profile", ["bench", "fidelity", "--profiles", "head16,robo9"], "'robo9'"),
     ("not a video", ["sensor", "--video", "{garbage.mp4}"], "cannot open"),
     ("missing video", ["sensor", "--video", "/nonexistent.mp4"], "does not exist"),
     ("two sources", ["sensor", "--video", "{garbage.mp4}", "--ticks", "3"], "choose one"),
@@ -228,6 +263,24 @@ def test_bad_rig_is_named(tmp_path: Path, capsys: pytest.CaptureFixture[str]) ->
         == 2
     )
     assert "invalid rig name 'a/b'" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("command", ["points", "run", "track"])
+def test_model_choices_come_from_the_registry(
+    command: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    with pytest.raises(SystemExit) as exit_info:
+        main([command, "--help"])
+    assert exit_info.value.code == 0
+    out = " ".join(capsys.readouterr().out.split())
+    assert "--model" in out and "Face Landmarker v2" in out and "fast" in out
+
+
+def test_track_refuses_an_unknown_model(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as exit_info:
+        build_parser().parse_args(["track", "v.mp4", "--out", "x", "--model", "huge"])
+    assert exit_info.value.code == 2
+    assert "invalid choice: 'huge'" in capsys.readouterr().err
 
 
 def test_profile_check_and_list(capsys: pytest.CaptureFixture[str]) -> None:

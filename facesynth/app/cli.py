@@ -235,10 +235,11 @@ def build_parser() -> argparse.ArgumentParser:
         "bench",
         commands.cmd_bench,
         "benchmarks: the five-process chain, the tracker, smoothing, recording, the live face "
-        "page, servo drivers on the wire",
+        "page, expression fidelity, servo drivers on the wire",
     )
     p.add_argument(
-        "what", choices=("chain", "tracker", "smoothing", "recording", "face", "drivers")
+        "what",
+        choices=("chain", "tracker", "smoothing", "recording", "face", "fidelity", "drivers"),
     )
     p.add_argument("video", nargs="?", help="video (default: the bundled performer video)")
     p.add_argument(
@@ -276,6 +277,34 @@ def build_parser() -> argparse.ArgumentParser:
         "--backends", default="litert,opencv", help="tracker: inference backends to compare"
     )
     p.add_argument(
+        "--models",
+        default="fast,full",
+        help="tracker, fidelity: tracker models to compare (default fast,full)",
+    )
+    p.add_argument(
+        "--profiles",
+        metavar="A,B",
+        help="fidelity: profiles to measure (default: every shipped one)",
+    )
+    p.add_argument(
+        "--repeat",
+        type=int,
+        default=1,
+        metavar="N",
+        help="tracker: N interleaved runs, medians reported (default 1; shared machines: 5)",
+    )
+    p.add_argument(
+        "--mediapipe-python",
+        metavar="PATH",
+        help="tracker: also time MediaPipe's own trackers with this Python (a venv with "
+        "mediapipe==0.10.21; see facesynth/app/bench/mediapipe_helper.py)",
+    )
+    p.add_argument(
+        "--mediapipe-task",
+        metavar="PATH",
+        help="tracker: the face_landmarker.task bundle for --mediapipe-python",
+    )
+    p.add_argument(
         "--minutes", type=float, default=10.0, help="recording: session length (default 10)"
     )
 
@@ -290,11 +319,31 @@ def build_parser() -> argparse.ArgumentParser:
         default="auto",
         help="inference runtime (default auto: LiteRT when installed)",
     )
+    _model_arguments(p)
 
     from facesynth.app.recording.cli import add_recording_parsers
 
     add_recording_parsers(sub, _zenoh_arguments)
     return parser
+
+
+def _model_arguments(parser: argparse.ArgumentParser) -> None:
+    """``--model`` (choices and help from the tracker-model registry) and ``--no-blendshapes``."""
+    from services.points.tracker.landmarkers import TRACKER_MODELS
+
+    summaries = "; ".join(f"{p.name}: {p.summary.rstrip('.')}" for p in TRACKER_MODELS)
+    parser.add_argument(
+        "--model",
+        choices=TRACKER_MODELS.names(),
+        default="full",
+        help=f"tracker model (default full). {summaries}",
+    )
+    parser.add_argument(
+        "--no-blendshapes",
+        dest="blendshapes",
+        action="store_false",
+        help="with --model full: skip the blendshape model (about 0.4 ms a frame)",
+    )
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -276,7 +276,9 @@ def cmd_profile(args: argparse.Namespace) -> int:
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
-    """``facesynth bench chain|tracker``."""
+    """``facesynth bench chain|tracker|smoothing|recording|face|fidelity|drivers``."""
+    if args.what == "fidelity":
+        return _bench_fidelity(args)
     if args.what == "drivers":
         from facesynth.app.bench.drivers import bench_drivers, format_drivers
 
@@ -316,13 +318,44 @@ def cmd_bench(args: argparse.Namespace) -> int:
         return 0
     from facesynth.app.bench.tracker import bench_tracker, format_bench
     from facesynth.app.data import sample_video
+    from services.points.tracker.landmarkers import model_names
 
     backends = tuple(b for b in args.backends.split(",") if b)
-    print(
-        format_bench(
-            bench_tracker(args.video or str(sample_video()), backends=backends, frames=args.frames)
-        )
+    models = tuple(m for m in args.models.split(",") if m)
+    unknown = [m for m in models if m not in model_names()]
+    if unknown or not models:
+        choices = ", ".join(model_names())
+        raise OptionError(f"--models: unknown {unknown}; choose from {choices}")
+    result = bench_tracker(
+        args.video or str(sample_video()),
+        backends=backends,
+        frames=args.frames,
+        models=models,
+        repeat=args.repeat,
+        mediapipe_python=args.mediapipe_python,
+        mediapipe_task=args.mediapipe_task,
     )
+    print(format_bench(result))
+    return 0
+
+
+def _bench_fidelity(args: argparse.Namespace) -> int:
+    """``facesynth bench fidelity``: synthetic expressions through every profile and model."""
+    from facesynth.app.bench.fidelity import PROFILES, bench_fidelity, format_fidelity
+    from facesynth.app.data import sample_video
+    from facesynth.runtime.profiles import resolve_profile
+    from services.points.tracker.landmarkers import model_names
+
+    models = tuple(m for m in args.models.split(",") if m)
+    unknown = [m for m in models if m not in model_names()]
+    if unknown or not models:
+        choices = ", ".join(model_names())
+        raise OptionError(f"--models: unknown {unknown}; choose from {choices}")
+    profiles = tuple(p for p in (args.profiles or ",".join(PROFILES)).split(",") if p)
+    for profile in profiles:
+        resolve_profile(profile)  # a clear error for an unknown name before any tracking
+    rows = bench_fidelity(args.video or str(sample_video()), models, profiles)
+    print(format_fidelity(rows))
     return 0
 
 
@@ -336,8 +369,11 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
 
 def cmd_track(args: argparse.Namespace) -> int:
     """``facesynth track VIDEO --out FILE``."""
+    from services.points.tracker.landmarkers import model_config
     from services.points.tracker.offline import track_video
 
-    summary = track_video(args.video, args.out, backend=args.inference)
+    options = {"blendshapes": args.blendshapes} if args.model == "full" else {}
+    model = model_config(args.model, **options)
+    summary = track_video(args.video, args.out, backend=args.inference, model=model)
     print(json.dumps(summary))
     return 0
