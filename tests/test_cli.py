@@ -23,6 +23,7 @@ COMMANDS = [
     "track",
     "compose",
     "calibrate",
+    "firmware",
     "render",
 ]
 
@@ -153,6 +154,49 @@ CASES = [
     ),
     ("bad watchdog", ["control", "--out", "x", "--watchdog", "0"], "--watchdog: Expected"),
     ("profile without name", ["profile", "check"], "needs a profile"),
+    (
+        "control test without a servo",
+        ["control", "test", "--driver", "ssc32", "--port", "/nonexistent/tty"],
+        "test needs --servo NAME or --all",
+    ),
+    (
+        "control test of an unknown servo",
+        ["control", "test", "--servo", "nose", "--out", "x"],
+        "profile 'paper16' has no servo 'nose'",
+    ),
+    ("test option without test", ["control", "--servo", "jaw", "--out", "x"], "control test`"),
+    ("status option of test", ["control", "status", "--all", "--out", "x"], "an option of test"),
+    ("control status of record", ["control", "status", "--out", "x"], "has no device to query"),
+    (
+        "control status without a board",
+        ["control", "status", "--driver", "maestro", "--port", "/nonexistent/tty"],
+        "/nonexistent/tty: cannot open it: No such file or directory",
+    ),
+    (
+        "malformed port URL",
+        ["control", "--driver", "ssc32", "--port", "socket://nohost"],
+        "socket://nohost: expected socket://HOST:PORT",
+    ),
+    ("driver without port", ["control", "--driver", "arduino"], "driver arduino needs --port"),
+    (
+        "board too small",
+        ["control", "--driver", "maestro", "--port", "/dev/null", "--maestro-model", "micro6"],
+        "channel 15, but the Micro Maestro 6 has channels 0..5",
+    ),
+    (
+        "board watchdog out of range",
+        ["control", "--driver", "arduino", "--port", "p", "--board-watchdog-ms", "10"],
+        "--board-watchdog-ms: Expected `int` >= 20",
+    ),
+    ("flash without port", ["firmware", "flash"], "flash needs --port"),
+    ("flash options on build", ["firmware", "build", "--port", "p"], "options of flash"),
+    ("flash all variants", ["firmware", "flash", "--port", "p", "--variant", "all"], "one variant"),
+    (
+        "missing hex",
+        ["firmware", "flash", "--port", "p", "--hex", "/nonexistent.hex"],
+        "/nonexistent.hex does not exist",
+    ),
+    ("no firmware sources", ["firmware", "build", "--firmware-dir", "/nonexistent"], "no firmware"),
     ("render to a text file", ["render", "--out", "x.txt"], "use a .mp4, .mov, .mkv, .avi file"),
     (
         "render a missing video",

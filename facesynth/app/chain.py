@@ -214,7 +214,8 @@ class ServoStateWatch:
         while self.last_seq < seq:
             self._progress.clear()
             try:
-                await asyncio.wait_for(self._progress.wait(), timeout)
+                async with asyncio.timeout(timeout):
+                    await self._progress.wait()
             except TimeoutError:
                 log.warning(
                     "the chain stopped before the last frame (%d; last applied %d)",

@@ -15,6 +15,8 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 from facesynth import __version__
+from facesynth.app.control_tools import add_tool_arguments
+from facesynth.app.firmware import add_firmware_arguments, cmd_firmware
 from facesynth.app.recording.attach import add_attach_arguments
 from facesynth.app.stage_args import add_stage_arguments
 from facesynth.runtime import keys
@@ -29,7 +31,8 @@ STAGE_HELP = {
     "points": "P: publish face landmarks on …/points (tracker, or a replayed recording)",
     "features": "F: publish pose-free features on …/features",
     "translator": "T: publish servo positions on …/servo_commands through a profile",
-    "control": "C: drive servos (or record) from …/servo_commands",
+    "control": "C: drive servos (or record) from …/servo_commands; `control test` and "
+    "`control status` are bring-up tools for a servo board",
 }
 
 
@@ -142,6 +145,7 @@ def build_parser() -> argparse.ArgumentParser:
                 action="store_true",
                 help="list the servo drivers and their options, then exit",
             )
+            add_tool_arguments(p)
 
     p = add(
         "render",
@@ -205,6 +209,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", help="output file (default ~/.config/facesynth/calibrations/NAME.json)")
     p.add_argument("--log-level", default="WARNING", choices=("DEBUG", "INFO", "WARNING", "ERROR"))
 
+    p = add(
+        "firmware",
+        cmd_firmware,
+        "the Arduino Uno servo firmware: build it (gcc-avr) or flash it to a board (avrdude)",
+    )
+    add_firmware_arguments(p)
+
     p = add("router", commands.cmd_router, "run a Zenoh router (for hosts without zenohd)")
     _zenoh_arguments(p)
     p.set_defaults(mode="router")
@@ -224,10 +235,11 @@ def build_parser() -> argparse.ArgumentParser:
         "bench",
         commands.cmd_bench,
         "benchmarks: the five-process chain, the tracker, smoothing, recording, the live face "
-        "page, expression fidelity",
+        "page, expression fidelity, servo drivers on the wire",
     )
     p.add_argument(
-        "what", choices=("chain", "tracker", "smoothing", "recording", "face", "fidelity")
+        "what",
+        choices=("chain", "tracker", "smoothing", "recording", "face", "fidelity", "drivers"),
     )
     p.add_argument("video", nargs="?", help="video (default: the bundled performer video)")
     p.add_argument(
@@ -252,7 +264,9 @@ def build_parser() -> argparse.ArgumentParser:
         "--encoding", choices=("jpeg", "raw"), default="jpeg", help="chain: frame encoding"
     )
     p.add_argument("--threads", type=int, default=1, help="chain: tracker inference threads")
-    p.add_argument("--profile", default="paper16", help="smoothing: profile to measure")
+    p.add_argument(
+        "--profile", default="paper16", help="smoothing, drivers: profile to measure"
+    )
     p.add_argument(
         "--track", help="smoothing: a facesynth track file to measure tracking noise from"
     )

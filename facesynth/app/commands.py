@@ -20,6 +20,7 @@ from facesynth.app.chain import (
     run_single,
 )
 from facesynth.app.compose import compose_file
+from facesynth.app.control_tools import TEST_OPTIONS, cmd_control_tool
 from facesynth.app.graph import Graph, load_graph, select_node
 from facesynth.app.nodes import NODE_TYPES, SensorNode, stage_of
 from facesynth.app.plugin_help import describe_plugins
@@ -41,6 +42,10 @@ def cmd_stage(args: argparse.Namespace) -> int:
     if getattr(args, "list_drivers", False):
         print(describe_plugins(DRIVERS))
         return 0
+    if stage == "control" and (
+        args.action or any(getattr(args, name) not in (None, False) for name in TEST_OPTIONS)
+    ):
+        return cmd_control_tool(args)
     if args.graph:
         graph = load_graph(args.graph, plugins=False)
         name = args.node
@@ -190,7 +195,8 @@ def cmd_status(args: argparse.Namespace) -> int:
             deadline = time.monotonic() + args.timeout
             while (remaining := deadline - time.monotonic()) > 0:
                 try:
-                    sample = await asyncio.wait_for(subscription.receive(), remaining)
+                    async with asyncio.timeout(remaining):
+                        sample = await subscription.receive()
                 except TimeoutError:
                     break
                 try:
@@ -211,7 +217,7 @@ def format_status(alive: list[str], stats: dict[str, Any]) -> str:
     by_instance = {keys.parse_service_key(k): s for k, s in stats.items()}
     header = (
         f"{'rig':<12} {'service':<11} {'instance':<28} {'rate Hz':>8} {'p50 ms':>8} "
-        f"{'p99 ms':>8} {'recv':>7} {'sent':>7} {'drop':>5} {'rej':>5} {'RSS MB':>7}"
+        f"{'p99 ms':>8} {'recv':>7} {'sent':>7} {'drop':>5} {'rej':>5} {'RSS MB':>7}  state"
     )
     lines = [header]
     for key in alive:
@@ -227,6 +233,7 @@ def format_status(alive: list[str], stats: dict[str, Any]) -> str:
         lines.append(
             f"{parsed[0]:<12} {parsed[1]:<11} {parsed[2]:<28} {s.rate_hz:>8.1f} {p50:>8} {p99:>8} "
             f"{s.received:>7} {s.published:>7} {s.dropped:>5} {s.rejected:>5} {s.rss_mb:>7.1f}"
+            + (f"  {s.note}" if s.note else "")
         )
     if len(lines) == 1:
         lines.append("(no live services)")
@@ -270,9 +277,14 @@ def cmd_profile(args: argparse.Namespace) -> int:
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
-    """``facesynth bench chain|tracker|smoothing|fidelity``."""
+    """``facesynth bench chain|tracker|smoothing|recording|face|fidelity|drivers``."""
     if args.what == "fidelity":
         return _bench_fidelity(args)
+    if args.what == "drivers":
+        from facesynth.app.bench.drivers import bench_drivers, format_drivers
+
+        print(format_drivers(*bench_drivers(args.profile)))
+        return 0
     if args.what == "smoothing":
         from facesynth.app.bench.smoothing import bench_smoothing, format_smoothing
 

@@ -46,6 +46,8 @@ class StageStats:
         self.published = 0
         self.rejected = 0
         self.dropped = 0
+        #: A line on the service's state, published with its stats (e.g. a servo board's link).
+        self.note = ""
         self.latencies_ms: collections.deque[float] = collections.deque(maxlen=window)
         self._published_at: collections.deque[int] = collections.deque()
 
@@ -91,5 +93,5 @@ class StageStats:
             rss_mb=rss,
             peak_rss_mb=peak,
             window=len(self.latencies_ms),
-            note=note,
+            note=note or self.note,
         )

@@ -13,6 +13,8 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import logging
+from collections.abc import Awaitable, Mapping
 
 from facesynth.runtime import codec
 from facesynth.runtime.bus.base import SubscriptionClosed
@@ -26,6 +28,8 @@ from services.control.drivers.base import ServoDriver
 
 #: Steps per second of a return to neutral.
 RAMP_RATE_HZ = 25
+
+log = logging.getLogger("facesynth.control")
 
 
 class ControlService:
@@ -41,6 +45,8 @@ class ControlService:
         self.last_frame = -1
         #: Seconds to return to neutral when commands stop (the profile's ``neutral_ramp_s``).
         self.ramp_s = max(0.0, profile.neutral_ramp_s)
+        #: Sends the driver failed (logged, never raised: the service keeps running).
+        self.driver_errors = 0
 
     async def serve(self, ctx: ServiceContext) -> None:
         """Drive the servos until cancelled."""
@@ -48,10 +54,10 @@ class ControlService:
         self.driver.observe(RigView(ctx.bus, ctx.rig))
         async with self.driver:
             try:
-                await self.driver.neutral(self.core.neutral())
+                await self._neutral()
                 await self._serve_commands(ctx, clock)
             finally:
-                await self.driver.neutral(self.core.neutral())
+                await self._neutral()
 
     async def _serve_commands(self, ctx: ServiceContext, clock: Clock) -> None:
         subscription = ctx.subscribe("servo_commands", self.queue)
@@ -66,6 +72,7 @@ class ControlService:
         ramp: asyncio.Task[None] | None = None
         try:
             while True:
+                ctx.stats.note = self.driver.state()
                 try:
                     sample = await clock.wait_for(subscription.receive(), tick)
                 except TimeoutError:
@@ -89,7 +96,7 @@ class ControlService:
                 await _cancel(ramp)  # commands are back: they take over
                 ramp = None
                 info = CommandInfo(commands.seq, commands.t_capture_ns, commands.face)
-                await self.driver.send(positions, info)
+                await self._send(positions, info)
                 self.watchdog.feed(clock.monotonic_ns())
                 applied = ServoCommands(
                     seq=commands.seq,
@@ -117,10 +124,23 @@ class ControlService:
             if ramp_ns > 0:
                 due_ns = start_ns + ramp_ns * step // steps
                 await clock.sleep((due_ns - clock.monotonic_ns()) / 1e9)
-            await self.driver.send(
-                positions, CommandInfo(frame=None, t_capture_ns=None, face=False)
-            )
+            await self._send(positions, CommandInfo(frame=None, t_capture_ns=None, face=False))
             self.core.mark_sent(positions)
+
+    async def _send(self, positions: Mapping[str, float], info: CommandInfo) -> None:
+        """Hand positions to the driver; its errors are counted and logged, never raised."""
+        await self._guarded(self.driver.send(positions, info))
+
+    async def _neutral(self) -> None:
+        await self._guarded(self.driver.neutral(self.core.neutral()))
+
+    async def _guarded(self, call: Awaitable[None]) -> None:
+        try:
+            await call
+        except Exception as exc:  # a driver error must not stop the face's controller
+            self.driver_errors += 1
+            if self.driver_errors <= 10 or self.driver_errors % 100 == 0:
+                log.warning("driver error (%d so far): %s", self.driver_errors, exc)
 
 
 async def _cancel(task: asyncio.Task[None] | None) -> None:

@@ -1,0 +1,32 @@
+"""``facesynth status``: the table of live services, with each service's state note."""
+
+from __future__ import annotations
+
+from facesynth.app.commands import format_status
+from schemas.messages import ServiceStats
+
+
+def stats(note: str) -> ServiceStats:
+    return ServiceStats(
+        service="control",
+        instance="host-1",
+        rig="r1",
+        t_ns=1,
+        uptime_s=3.0,
+        received=10,
+        published=10,
+        dropped=0,
+        rejected=0,
+        rate_hz=30.0,
+        note=note,
+    )
+
+
+def test_the_state_note_ends_its_line() -> None:
+    key = "facesynth/r1/stats/control/host-1"
+    alive = ["facesynth/r1/health/control/host-1"]
+    table = format_status(alive, {key: stats("disconnected from /dev/ttyACM0 (3 attempts)")})
+    header, line = table.splitlines()
+    assert header.endswith("RSS MB  state")
+    assert line.startswith("r1") and line.endswith("  disconnected from /dev/ttyACM0 (3 attempts)")
+    assert format_status(alive, {key: stats("")}).splitlines()[1].endswith("0.0")
