@@ -134,11 +134,14 @@ class ServoCommands(msgspec.Struct, tag="servo_commands", tag_field=TAG_FIELD, k
     not newer than one it applied from the same sender, or older than the profile's
     ``max_command_age_s``, measured against that host's clock offset as the controller sees it.
 
-    On ``…/servo_state`` the control interface also reports moves of its own (start-up,
-    catching up with a target within the servos' speed limits, the return to neutral when
-    commands stop, shutdown, and an idle report): ``command`` is then false, and ``seq``,
-    ``t_capture_ns`` and ``t_media_ns`` are those of the last command it applied (0 before
-    any), so flow control and drain checks count only ``command`` states.
+    On ``…/servo_state`` the control interface reports every position it sends, and ``move``
+    says why: ``"command"`` (a command applied; the default, and the only value on
+    ``…/servo_commands``) or one of its own moves: ``"start"`` (neutral at start-up),
+    ``"catch-up"`` (a step toward the last command's targets within the servos' speed limits),
+    ``"return"`` (back to neutral after commands stopped), ``"stop"`` (back to neutral on
+    shutdown) or ``"report"`` (nothing moved: where the servos are, while idle). For its own
+    moves ``seq``, ``t_capture_ns`` and ``t_media_ns`` are those of the last command it applied
+    (0 before any): flow control and drain checks count ``"command"`` states only.
     """
 
     seq: int
@@ -151,7 +154,7 @@ class ServoCommands(msgspec.Struct, tag="servo_commands", tag_field=TAG_FIELD, k
     sender_seq: int = 0
     sent_ns: int = 0
     sender_host: str = ""
-    command: bool = True
+    move: str = "command"
 
 
 class ServiceStats(msgspec.Struct, tag="service_stats", tag_field=TAG_FIELD, kw_only=True):

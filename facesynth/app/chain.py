@@ -203,9 +203,12 @@ class ServoStateWatch:
     async def _follow(self) -> None:
         async for sample in self._subscription:
             try:
-                seq = codec.decode(sample.payload, ServoCommands).seq
+                state = codec.decode(sample.payload, ServoCommands)
             except ValueError:
                 continue
+            if state.move != "command":  # the controller's own move: no frame applied
+                continue
+            seq = state.seq
             self.last_seq = max(self.last_seq, seq)
             self._progress.set()
 

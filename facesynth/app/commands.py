@@ -64,7 +64,7 @@ def cmd_stage(args: argparse.Namespace) -> int:
             others = {stage_of(n) for n in graph.nodes.values() if stage_of(n) != "sensor"}
             node.wait_for = sorted(others)
         replay_frames = replay_frames_of(graph)
-    parts = build_node(name, node, graph, config, replay_frames=replay_frames)
+    parts = build_node(name, node, graph, config, replay_frames=replay_frames, standalone=True)
     options = wiring.zenoh_options(args)
     rig = args.rig or graph.rig
     instance = None if name == stage else f"{default_instance()}-{name}"

@@ -86,6 +86,31 @@ class FeaturesNode(_Node, tag="features"):
         | None
     ) = None
     queue: Annotated[int, Meta(ge=1, description="input queue length; 1 = latest only")] = 8
+    performer: Annotated[
+        str,
+        Meta(
+            description="without a calibration: whose learned neutral and ranges are kept "
+            "(one file per rig and performer)"
+        ),
+    ] = "default"
+    keep_state: Annotated[
+        bool | None,
+        Meta(
+            description="without a calibration: keep the learned neutral and ranges on disk so "
+            "a restarted F picks up where it was (default: on for a service of its own, off in "
+            "`run` and `replay`, whose input starts afresh)"
+        ),
+    ] = None
+    state_dir: Annotated[
+        str | None,
+        Meta(
+            description="where learned state is kept (default $FACESYNTH_STATE, else "
+            "~/.config/facesynth/state)"
+        ),
+    ] = None
+    relearn: Annotated[
+        bool, Meta(description="ignore the kept neutral and ranges: learn afresh, then keep them")
+    ] = False
 
 
 class TranslatorNode(_Node, tag="translator"):
@@ -119,6 +144,15 @@ class ControlNode(_Node, tag="control"):
         Meta(gt=0, description="seconds without commands before the face returns to neutral"),
     ] = 0.5
     queue: Annotated[int, Meta(ge=1, description="input queue length; 1 = latest only")] = 8
+    motion_time: Annotated[
+        Literal["real", "media"] | None,
+        Meta(
+            description="what the servos' speed limits are measured on: real time, or the "
+            "commands' media time (a --fast replay to a file or a virtual face, deterministic; "
+            "refused for drivers that move hardware). Default: media when the graph's sensor "
+            "is --fast and the driver moves no hardware, else real"
+        ),
+    ] = None
 
 
 Node = Union[SensorNode, PointsNode, FeaturesNode, TranslatorNode, ControlNode]  # noqa: UP007

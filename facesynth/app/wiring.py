@@ -31,7 +31,9 @@ from facesynth.runtime.service import ServiceContext
 from services.control.drivers.registry import DRIVERS
 from services.control.service import ControlService
 from services.features.core import FeatureProcessor
-from services.features.service import serve_features
+from services.features.service import StateKeeping, serve_features
+from services.features.state import StateError
+from services.features.state import check_name as check_state_name
 from services.points.backends.base import PointsBackend, Replay
 from services.points.backends.registry import BACKENDS
 from services.points.service import serve_points
@@ -116,16 +118,42 @@ def build_processor(node: FeaturesNode, default_neutral_s: float = 1.0) -> Featu
     return FeatureProcessor(neutral_seconds=seconds, auto_range=node.auto_range)
 
 
+def state_keeping(node: FeaturesNode, standalone: bool) -> StateKeeping | None:
+    """Whether and where F keeps its learned neutral: not with a calibration; by default only
+    for a service of its own (a one-process ``run`` or ``replay`` starts its input afresh)."""
+    keep = node.keep_state if node.keep_state is not None else standalone
+    if not keep or node.calibration:
+        return None
+    try:
+        check_state_name(node.performer, "performer")
+    except StateError as exc:
+        raise OptionError(str(exc)) from None
+    return StateKeeping(node.performer, node.state_dir, node.relearn)
+
+
 def build_translator(node: TranslatorNode) -> Translator:
     """The translator of a node: its profile and calibration."""
     return Translator(build_profile(node.profile, node.mirror), build_calibration(node.calibration))
 
 
-def build_control(node: ControlNode, driver: msgspec.Struct) -> ControlService:
-    """The control interface of a node, with its driver."""
+def build_control(node: ControlNode, driver: msgspec.Struct, fast: bool = False) -> ControlService:
+    """The control interface of a node, with its driver.
+
+    Speed limits are measured on media time only for a ``--fast`` chain (``fast``) or when
+    asked, and never for a driver that moves hardware.
+    """
     profile = build_profile(node.profile, node.mirror)
+    output = DRIVERS.build(driver, profile)
+    motion_time = node.motion_time
+    if motion_time == "media" and output.moves_hardware:
+        raise OptionError(
+            f"--motion-time media measures speed limits on the commands' media time, which "
+            f"is not for the {driver.__struct_config__.tag} driver: it moves a real head"
+        )
+    if motion_time is None:
+        motion_time = "media" if fast and not output.moves_hardware else "real"
     return ControlService(
-        profile, DRIVERS.build(driver, profile), watchdog_s=node.watchdog, queue=node.queue
+        profile, output, watchdog_s=node.watchdog, queue=node.queue, motion_time=motion_time
     )
 
 
@@ -159,11 +187,15 @@ def build_node(
     config: msgspec.Struct | None = None,
     *,
     replay_frames: int | None = None,
+    fast: bool | None = None,
+    standalone: bool = False,
 ) -> StageParts:
     """The running form of ``graph.nodes[name]`` (``node``, perhaps overridden).
 
     ``config`` is the node's plugin config if already validated (else read from the node);
-    ``replay_frames`` the length of a replayed point stream in the chain, if any.
+    ``replay_frames`` the length of a replayed point stream in the chain, if any; ``fast``
+    whether the chain's input comes faster than real time (default: the graph's sensor says);
+    ``standalone`` whether the node runs as a service of its own (``facesynth STAGE``).
     """
     stage = stage_of(node)
     config = config or plugin_config(node, f"node {name}")
@@ -178,8 +210,12 @@ def build_node(
         return StageParts(name, stage, lambda ctx: serve_points(ctx, backend, node.queue), backend)
     if isinstance(node, FeaturesNode):
         processor = build_processor(node, _profile_neutral_seconds(graph, node))
+        keeping = state_keeping(node, standalone)
         return StageParts(
-            name, stage, lambda ctx: serve_features(ctx, processor, node.queue), processor
+            name,
+            stage,
+            lambda ctx: serve_features(ctx, processor, node.queue, keeping),
+            processor,
         )
     if isinstance(node, TranslatorNode):
         translator = build_translator(node)
@@ -188,7 +224,9 @@ def build_node(
         )
     if isinstance(node, ControlNode):
         assert config is not None
-        control = build_control(node, config)
+        if fast is None:
+            fast = any(sensor.fast for sensor in graph.of_stage("sensor").values())
+        control = build_control(node, config, fast)
         return StageParts(name, stage, control.serve, control)
     raise OptionError(f"node {name}: unknown stage {stage!r}")
 

@@ -1,8 +1,11 @@
 """Encode and decode facesynth messages, with the checks a type system cannot make.
 
-Every service decodes what it receives through :func:`decode`; anything malformed (not msgpack,
-wrong tag, wrong field types, NaN/inf, wrong coordinate counts, a raw frame of the wrong size)
-raises :class:`MessageError` with a precise reason, which the services count, log and drop.
+Every service decodes what it receives through :func:`decode`; anything malformed (over its
+size limit, not msgpack, wrong tag, wrong field types, NaN/inf, wrong coordinate counts, too
+many entries, a raw frame of the wrong size, a JPEG whose header disagrees with the frame's
+size) raises :class:`MessageError` with a precise reason, which the services count, log and
+drop. The size limit (:mod:`facesynth.runtime.limits`) is checked on the bytes before msgspec
+builds anything, and a JPEG's dimensions are read from its header before anyone decodes it.
 """
 
 from __future__ import annotations
@@ -13,7 +16,8 @@ from typing import Any, TypeVar
 import msgspec
 import numpy as np
 
-from facesynth.runtime import blendshapes
+from facesynth.runtime import blendshapes, limits
+from facesynth.runtime.jpeg import JpegHeaderError, jpeg_size
 from schemas.messages import Features, Frame, Points, ServiceStats, ServoCommands
 
 M = TypeVar("M", Frame, Points, Features, ServoCommands, ServiceStats)
@@ -25,7 +29,30 @@ _DECODERS: dict[type[Any], msgspec.msgpack.Decoder[Any]] = {
 }
 
 #: Largest frame dimension accepted (pixels); larger values are treated as corrupt.
-MAX_FRAME_SIDE = 16384
+MAX_FRAME_SIDE = limits.MAX_FRAME_SIDE
+#: Most pixels a frame may have (width x height).
+MAX_FRAME_PIXELS = limits.MAX_FRAME_PIXELS
+#: Payload limit of each message type (bytes), checked before decoding.
+MAX_BYTES: dict[type[Any], int] = {
+    Frame: limits.STAGE_LIMITS["input"],
+    Points: limits.STAGE_LIMITS["points"],
+    Features: limits.STAGE_LIMITS["features"],
+    ServoCommands: limits.STAGE_LIMITS["servo_commands"],
+    ServiceStats: limits.STATS_LIMIT,
+}
+#: Point schemes and their number of points (a set has at most that many).
+SCHEME_POINTS = {"ibug68": 68, "mesh468": 468, "mesh478": 478, "iris10": 10}
+#: Points a set of another scheme may hold, sets and score sets a message may hold.
+MAX_POINTS = 1024
+MAX_SETS = 8
+MAX_SCORES = 256
+#: Distances (ibug68) and named values a Features message may hold.
+MAX_DISTANCES = 68
+MAX_NAMED = 256
+#: Positions a ServoCommands message may hold (a profile's own count is checked by C).
+MAX_POSITIONS = 256
+#: Longest sender, host or move name.
+MAX_NAME = 256
 #: Largest magnitude of a pixel coordinate accepted.
 MAX_COORD = 1e6
 #: Largest servo pulse width accepted on the wire (µs); anything larger is corrupt.
@@ -42,7 +69,16 @@ def encode(message: msgspec.Struct) -> bytes:
 
 
 def decode(payload: bytes | bytearray | memoryview, cls: type[M]) -> M:
-    """Decode and validate one message of type ``cls``, or raise :class:`MessageError`."""
+    """Decode and validate one message of type ``cls``, or raise :class:`MessageError`.
+
+    A payload over the type's size limit is refused before it is decoded.
+    """
+    limit = MAX_BYTES[cls]
+    if len(payload) > limit:
+        raise MessageError(
+            f"a {cls.__name__} message of {len(payload)} bytes is over its limit of "
+            f"{limit} bytes: refused undecoded"
+        )
     try:
         message = _DECODERS[cls].decode(payload)
     except (msgspec.DecodeError, msgspec.ValidationError) as exc:
@@ -74,18 +110,32 @@ def _common(seq: int, t_capture_ns: int, t_media_ns: int) -> None:
 
 
 def validate_frame(frame: Frame) -> None:
-    """Check frame size, encoding and payload length."""
+    """Check frame size, encoding and payload length, and a JPEG's size from its header."""
     _common(frame.seq, frame.t_capture_ns, frame.t_media_ns)
     if not (0 < frame.width <= MAX_FRAME_SIDE and 0 < frame.height <= MAX_FRAME_SIDE):
         raise MessageError(f"frame size {frame.width}x{frame.height} is out of range")
+    if frame.width * frame.height > MAX_FRAME_PIXELS:
+        raise MessageError(
+            f"frame size {frame.width}x{frame.height} is over {MAX_FRAME_PIXELS} pixels"
+        )
     _finite(frame.fps, "fps", 10_000)
     if frame.encoding == "raw" and len(frame.data) != frame.width * frame.height * 3:
         raise MessageError(
             f"raw frame {frame.width}x{frame.height} needs {frame.width * frame.height * 3} "
             f"bytes, got {len(frame.data)}"
         )
-    if frame.encoding == "jpeg" and not frame.data.startswith(b"\xff\xd8"):
-        raise MessageError("jpeg frame does not start with a JPEG marker")
+    if frame.encoding == "jpeg":
+        if not frame.data.startswith(b"\xff\xd8"):
+            raise MessageError("jpeg frame does not start with a JPEG marker")
+        try:
+            width, height = jpeg_size(frame.data)
+        except JpegHeaderError as exc:
+            raise MessageError(f"jpeg frame: {exc}") from None
+        if (width, height) != (frame.width, frame.height):
+            raise MessageError(
+                f"jpeg frame is {width}x{height} by its header, but the frame says "
+                f"{frame.width}x{frame.height}"
+            )
 
 
 def validate_points(points: Points) -> None:
@@ -96,6 +146,11 @@ def validate_points(points: Points) -> None:
         raise MessageError(f"image size {points.image_width}x{points.image_height} is out of range")
     if not points.face and (points.sets or points.scores):
         raise MessageError("a 'no face' message must not carry points or scores")
+    if len(points.sets) > MAX_SETS or len(points.scores) > MAX_SETS:
+        raise MessageError(
+            f"{len(points.sets)} point sets and {len(points.scores)} score sets: "
+            f"at most {MAX_SETS} of each"
+        )
     seen: set[str] = set()
     for point_set in points.sets:
         if point_set.scheme in seen:
@@ -108,6 +163,10 @@ def validate_points(points: Points) -> None:
                 f"point set {point_set.scheme!r} has {len(point_set.coords)} values, "
                 f"not a positive multiple of {point_set.dims}"
             )
+        count = len(point_set.coords) // point_set.dims
+        most = SCHEME_POINTS.get(point_set.scheme, MAX_POINTS)
+        if count > most:
+            raise MessageError(f"point set {point_set.scheme!r} has {count} points: at most {most}")
         _all_finite(point_set.coords, f"a coordinate of {point_set.scheme!r}", MAX_COORD)
     validate_scores(points)
 
@@ -121,6 +180,11 @@ def validate_scores(points: Points) -> None:
         seen.add(score_set.scheme)
         if not score_set.values:
             raise MessageError(f"score set {score_set.scheme!r} is empty")
+        if len(score_set.values) > MAX_SCORES:
+            raise MessageError(
+                f"score set {score_set.scheme!r} has {len(score_set.values)} values: "
+                f"at most {MAX_SCORES}"
+            )
         _all_finite(score_set.values, f"a score of {score_set.scheme!r}", MAX_COORD)
         if score_set.scheme == blendshapes.BLENDSHAPES52:
             if len(score_set.values) != blendshapes.COUNT:
@@ -140,6 +204,16 @@ def validate_scores(points: Points) -> None:
 def validate_features(features: Features) -> None:
     """Check that every feature value is finite and the vectors agree in length."""
     _common(features.seq, features.t_capture_ns, features.t_media_ns)
+    if len(features.distances) > MAX_DISTANCES or len(features.displacements) > 2 * MAX_DISTANCES:
+        raise MessageError(
+            f"{len(features.distances)} distances and {len(features.displacements)} "
+            f"displacement values: at most {MAX_DISTANCES} and {2 * MAX_DISTANCES}"
+        )
+    if len(features.named) > MAX_NAMED or len(features.raw) > MAX_NAMED:
+        raise MessageError(
+            f"{len(features.named)} named and {len(features.raw)} raw features: "
+            f"at most {MAX_NAMED} each"
+        )
     if features.deltas and len(features.deltas) != len(features.distances):
         raise MessageError(f"{len(features.deltas)} deltas for {len(features.distances)} distances")
     if not features.face and (
@@ -161,6 +235,15 @@ def validate_servo_commands(commands: ServoCommands) -> None:
     _common(commands.seq, commands.t_capture_ns, commands.t_media_ns)
     if not commands.profile:
         raise MessageError("servo commands name no profile")
+    if len(commands.positions) > MAX_POSITIONS:
+        raise MessageError(
+            f"{len(commands.positions)} positions: at most {MAX_POSITIONS} (any profile)"
+        )
+    if commands.sender_seq < 0 or commands.sent_ns < 0:
+        raise MessageError("sender_seq and sent_ns must be >= 0")
+    for name in ("profile", "sender", "sender_host", "move"):
+        if len(getattr(commands, name)) > MAX_NAME:
+            raise MessageError(f"{name} is longer than {MAX_NAME} characters")
     for name, value in commands.positions.items():
         _finite(value, f"position of {name!r}", MAX_PULSE_US)
         if value < 0:

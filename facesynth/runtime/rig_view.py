@@ -9,7 +9,7 @@ spells a key (the layout stays in :mod:`facesynth.runtime.keys`).
 
 from __future__ import annotations
 
-from facesynth.runtime import keys
+from facesynth.runtime import keys, limits
 from facesynth.runtime.bus.base import Bus, Subscription
 
 
@@ -21,9 +21,14 @@ class RigView:
         self.rig = keys.check_name(rig)
 
     def latest(self, stage: keys.Stage) -> Subscription:
-        """The newest message of a stage only (older ones are dropped while the reader is busy)."""
-        return self._bus.subscribe_latest(keys.stage_key(self.rig, stage))
+        """The newest message of a stage only (older ones are dropped while the reader is busy);
+        payloads over the stage's size limit are refused undecoded."""
+        subscription = self._bus.subscribe_latest(keys.stage_key(self.rig, stage))
+        subscription.limit(limits.stage_limit(stage))
+        return subscription
 
     def stats(self, maxsize: int = 64) -> Subscription:
         """Every service's periodic :class:`~schemas.messages.ServiceStats` on this rig."""
-        return self._bus.subscribe_queued(keys.stats_pattern(self.rig), maxsize)
+        subscription = self._bus.subscribe_queued(keys.stats_pattern(self.rig), maxsize)
+        subscription.limit(limits.STATS_LIMIT)
+        return subscription

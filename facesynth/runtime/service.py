@@ -23,7 +23,7 @@ from typing import Any, TypeVar
 
 import msgspec
 
-from facesynth.runtime import codec, keys
+from facesynth.runtime import codec, keys, limits
 from facesynth.runtime.bus.base import Bus, Subscription, Token
 from facesynth.runtime.clock import Clock, SystemClock
 from facesynth.runtime.stats import StageStats
@@ -80,12 +80,26 @@ class ServiceContext:
         return keys.stage_key(self.rig, stage)
 
     def subscribe(self, stage: keys.Stage, maxsize: int) -> Subscription:
-        """Subscribe to a stage: latest-only when ``maxsize`` is 1, else queued."""
+        """Subscribe to a stage: latest-only when ``maxsize`` is 1, else queued.
+
+        Payloads over the stage's size limit (:mod:`facesynth.runtime.limits`) are refused on
+        arrival, undecoded, and counted as rejected.
+        """
         key = self.key(stage)
         if maxsize <= 1:
             subscription = self.bus.subscribe_latest(key)
         else:
             subscription = self.bus.subscribe_queued(key, maxsize)
+        limit = limits.stage_limit(stage)
+
+        def refused(count: int, largest: int) -> None:
+            self.stats.rejected += count - 1  # reject() counts one
+            self.reject(
+                f"{key}: {count} message(s) over the {limit}-byte limit (largest {largest} "
+                "bytes) refused undecoded"
+            )
+
+        subscription.limit(limit, refused)
         self.subscriptions.append(subscription)
         return subscription
 

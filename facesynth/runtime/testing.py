@@ -30,7 +30,7 @@ import msgspec
 from facesynth.runtime import codec, keys
 from facesynth.runtime.bus.base import Subscription
 from facesynth.runtime.bus.memory import MemoryNetwork
-from facesynth.runtime.clock import FakeClock
+from facesynth.runtime.clock import FakeClock, IdleTimeout
 from facesynth.runtime.service import Body, ServiceContext, run_service
 from schemas.messages import Features, Frame, Points, ServiceStats, ServoCommands
 
@@ -45,6 +45,8 @@ TOPIC_TYPES: dict[str, type[Frame | Points | Features | ServoCommands | ServiceS
 }
 #: More publications than any unit test makes; the recorder never drops one below this.
 RECORD_LIMIT = 1_000_000
+#: Virtual seconds a stage may take to shut down in :meth:`StageRun.stop`.
+STOP_LIMIT_S = 60.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -111,12 +113,16 @@ class StageRun:
     async def stop(self) -> Any:
         """Cancel the body if it still runs (as on SIGTERM); return its result if it ended.
 
-        An exception the body raised is raised here.
+        What the body does on its way out on the clock (a control interface returning the face
+        to neutral) runs in virtual time, up to ``STOP_LIMIT_S``. An exception the body raised
+        is raised here.
         """
         result = None
         if self.task is not None:
             if not self.task.done():
                 self.task.cancel()
+                with contextlib.suppress(IdleTimeout):
+                    await self.clock.run_until(self.task.done, STOP_LIMIT_S)
             with contextlib.suppress(asyncio.CancelledError):
                 result = await self.task
         self._drain()

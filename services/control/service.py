@@ -1,20 +1,21 @@
 """Control interface C, service shell: ``…/servo_commands`` → a servo driver.
 
-What was applied (after the checks and clamping) is published on ``…/servo_state``.
-
-The face starts at neutral, every command is checked and clamped by :class:`ControlCore`, and
-when commands stop for ``watchdog_s`` seconds the face returns to neutral, ramped over the
-profile's ``neutral_ramp_s`` (new commands interrupt the ramp): neutral is reached exactly
-``watchdog_s + neutral_ramp_s`` after the last command. On shutdown the face is put back to
-neutral before the driver closes. Time comes from the context's clock (``ctx.clock``).
+:class:`~services.control.core.ControlCore` decides everything (checks, freshness, speed limits,
+the watchdog's return to neutral, catching up, reports); this shell feeds it commands and the
+clock's readings (``ctx.clock``), hands its moves to the driver and publishes each on
+``…/servo_state`` (a command's as a counted publication; the controller's own moves with
+``move`` naming which). The face starts at neutral; on shutdown it returns to neutral within the
+servos' limits before the driver closes (at once, step by step, when motion is measured on
+media time: a ``--fast`` replay to a file or a virtual face).
 """
 
 from __future__ import annotations
 
-import asyncio
 import contextlib
+import itertools
 import logging
-from collections.abc import Awaitable, Mapping
+import socket
+from collections.abc import Awaitable
 
 from facesynth.runtime import codec
 from facesynth.runtime.bus.base import SubscriptionClosed
@@ -23,116 +24,134 @@ from facesynth.runtime.profiles import Profile
 from facesynth.runtime.rig_view import RigView
 from facesynth.runtime.service import ServiceContext
 from schemas.messages import ServoCommands
-from services.control.core import CommandInfo, ControlCore, Watchdog
+from services.control.core import RAMP_RATE_HZ, Arrival, ControlCore, MotionTime, Move
 from services.control.drivers.base import ServoDriver
 
-#: Steps per second of a return to neutral.
-RAMP_RATE_HZ = 25
+__all__ = ["RAMP_RATE_HZ", "ControlService"]
 
 log = logging.getLogger("facesynth.control")
 
 
 class ControlService:
-    """The C service: one profile, one driver, a watchdog; ``last_frame`` was applied last."""
+    """The C service: one profile, one driver; ``last_frame`` was applied last."""
 
     def __init__(
-        self, profile: Profile, driver: ServoDriver, *, watchdog_s: float = 0.5, queue: int = 8
+        self,
+        profile: Profile,
+        driver: ServoDriver,
+        *,
+        watchdog_s: float = 0.5,
+        queue: int = 8,
+        motion_time: MotionTime = "real",
     ) -> None:
-        self.core = ControlCore(profile)
+        self.host = socket.gethostname()
+        self.core = ControlCore(
+            profile, watchdog_s=watchdog_s, motion_time=motion_time, own_host=self.host
+        )
         self.driver = driver
-        self.watchdog = Watchdog(watchdog_s)
         self.queue = queue
         self.last_frame = -1
-        #: Seconds to return to neutral when commands stop (the profile's ``neutral_ramp_s``).
-        self.ramp_s = max(0.0, profile.neutral_ramp_s)
         #: Sends the driver failed (logged, never raised: the service keeps running).
         self.driver_errors = 0
+        self._states = itertools.count(1)
 
     async def serve(self, ctx: ServiceContext) -> None:
         """Drive the servos until cancelled."""
         clock = ctx.clock
         self.driver.observe(RigView(ctx.bus, ctx.rig))
         async with self.driver:
+            await self._apply(ctx, self.core.start(clock.monotonic_ns()))
             try:
-                await self._neutral()
                 await self._serve_commands(ctx, clock)
             finally:
-                await self._neutral()
+                await self._stop(ctx, clock)
 
     async def _serve_commands(self, ctx: ServiceContext, clock: Clock) -> None:
         subscription = ctx.subscribe("servo_commands", self.queue)
         ctx.ready()
         ctx.log.info(
-            "control interface on %s (profile %s, %s)",
+            "control interface on %s (profile %s, %s, speed limits on %s time)",
             ctx.key("servo_commands"),
             self.core.profile.name,
             type(self.driver).__name__,
+            self.core.motion_time,
         )
-        tick = min(0.1, self.watchdog.timeout_ns / 4e9)
-        ramp: asyncio.Task[None] | None = None
-        try:
-            while True:
-                ctx.stats.note = self.driver.state()
-                try:
-                    sample = await clock.wait_for(subscription.receive(), tick)
-                except TimeoutError:
-                    if self.watchdog.expired(clock.monotonic_ns()):
-                        ctx.log.info(
-                            "no commands for %.2f s: face to neutral over %.2f s",
-                            self.watchdog.timeout_ns / 1e9,
-                            self.ramp_s,
-                        )
-                        ramp = asyncio.create_task(self._ramp_to_neutral(clock))
-                    continue
-                except SubscriptionClosed:
-                    return
-                ctx.stats.received += 1
-                try:
-                    commands = codec.decode(sample.payload, ServoCommands)
-                    positions = self.core.accept(commands)
-                except ValueError as exc:
-                    ctx.reject(f"{sample.key}: {exc}")
-                    continue
-                await _cancel(ramp)  # commands are back: they take over
-                ramp = None
-                info = CommandInfo(commands.seq, commands.t_capture_ns, commands.face)
-                await self._send(positions, info)
-                self.watchdog.feed(clock.monotonic_ns())
-                applied = ServoCommands(
-                    seq=commands.seq,
-                    t_capture_ns=commands.t_capture_ns,
-                    t_media_ns=commands.t_media_ns,
-                    face=commands.face,
-                    profile=commands.profile,
-                    positions=positions,
-                )
-                ctx.publish("servo_state", applied)
-                self.last_frame = max(self.last_frame, commands.seq)
-        finally:
-            await _cancel(ramp)
+        while True:
+            ctx.stats.note = self.driver.state()
+            now = clock.monotonic_ns()
+            due = self.core.due_ns()
+            if now >= due:  # before any input: a flood never holds up the watchdog
+                move = self.core.tick(now)
+                if move is not None:
+                    await self._apply(ctx, move)
+                continue
+            try:
+                sample = await clock.wait_for(subscription.receive(), (due - now) / 1e9)
+            except TimeoutError:
+                continue
+            except SubscriptionClosed:
+                return
+            ctx.stats.received += 1
+            try:
+                commands = codec.decode(sample.payload, ServoCommands)
+                arrival = Arrival(sample.t_received_ns, clock.monotonic_ns())
+                move, verdict = self.core.command(commands, arrival)
+            except ValueError as exc:
+                ctx.reject(f"{sample.key}: {exc}")
+                continue
+            if verdict.note:
+                ctx.log.warning("%s", verdict.note)
+            await self._apply(ctx, move)
+            self.last_frame = max(self.last_frame, commands.seq)
 
-    async def _ramp_to_neutral(self, clock: Clock) -> None:
-        """Move to neutral in ``steps`` even steps, step ``i`` at ``i * ramp_s / steps``.
+    async def _stop(self, ctx: ServiceContext, clock: Clock) -> None:
+        """Return to neutral within the limits (bounded in time), then let the driver close."""
+        core = self.core
+        now = clock.monotonic_ns()
+        core.stop(now)
+        deadline = now + round(core.stop_budget_s() * 1e9)
+        virtual = core.motion_time == "media"  # nothing physical waits for the steps
+        while not core.stopped and now <= deadline:
+            due = core.due_ns()
+            if virtual:
+                now = max(now, due)
+            else:
+                await clock.sleep((due - now) / 1e9)
+                now = clock.monotonic_ns()
+            move = core.tick(now)
+            if move is not None:
+                with contextlib.suppress(Exception):  # the bus may be closing: moves go on
+                    await self._apply(ctx, move)
+        if not core.stopped:
+            budget = core.stop_budget_s()
+            log.warning("shutdown: the face did not reach neutral within %.2f s", budget)
 
-        Neutral is reached exactly ``ramp_s`` after the start (at once when it is 0); steps are
-        timed from the start, so late wake-ups do not add up.
-        """
-        steps = max(1, round(self.ramp_s * RAMP_RATE_HZ))
-        start_ns = clock.monotonic_ns()
-        ramp_ns = round(self.ramp_s * 1e9)
-        for step, positions in enumerate(self.core.ramp_to_neutral(steps), start=1):
-            if ramp_ns > 0:
-                due_ns = start_ns + ramp_ns * step // steps
-                await clock.sleep((due_ns - clock.monotonic_ns()) / 1e9)
-            await self._send(positions, CommandInfo(frame=None, t_capture_ns=None, face=False))
-            self.core.mark_sent(positions)
-
-    async def _send(self, positions: Mapping[str, float], info: CommandInfo) -> None:
-        """Hand positions to the driver; its errors are counted and logged, never raised."""
-        await self._guarded(self.driver.send(positions, info))
-
-    async def _neutral(self) -> None:
-        await self._guarded(self.driver.neutral(self.core.neutral()))
+    async def _apply(self, ctx: ServiceContext, move: Move) -> None:
+        """Send a move to the driver and report it on ``…/servo_state``."""
+        if move.send:
+            at_neutral = move.positions == self.core.neutral_positions
+            if move.kind == "start" or (move.kind == "stop" and at_neutral):
+                await self._guarded(self.driver.neutral(move.positions))
+            else:
+                await self._guarded(self.driver.send(move.positions, move.info))
+        last = self.core.last_command
+        state = ServoCommands(
+            seq=last.seq if last is not None else 0,
+            t_capture_ns=last.t_capture_ns if last is not None else 0,
+            t_media_ns=last.t_media_ns if last is not None else 0,
+            face=move.info.face,
+            profile=self.core.profile.name,
+            positions=move.positions,
+            sender=ctx.instance,
+            sender_seq=next(self._states),
+            sent_ns=ctx.clock.time_ns(),
+            sender_host=self.host,
+            move=move.kind,
+        )
+        if move.command:
+            ctx.publish("servo_state", state)
+        else:  # the controller's own move: not a command applied, so not counted as one
+            ctx.bus.publish(ctx.key("servo_state"), codec.encode(state))
 
     async def _guarded(self, call: Awaitable[None]) -> None:
         try:
@@ -141,11 +160,3 @@ class ControlService:
             self.driver_errors += 1
             if self.driver_errors <= 10 or self.driver_errors % 100 == 0:
                 log.warning("driver error (%d so far): %s", self.driver_errors, exc)
-
-
-async def _cancel(task: asyncio.Task[None] | None) -> None:
-    """Cancel a return to neutral that is still running."""
-    if task is not None and not task.done():
-        task.cancel()
-        with contextlib.suppress(asyncio.CancelledError):
-            await task

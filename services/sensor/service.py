@@ -12,7 +12,7 @@ import asyncio
 import contextlib
 from dataclasses import dataclass, field
 
-from facesynth.runtime import codec, keys
+from facesynth.runtime import codec, keys, limits
 from facesynth.runtime.service import ServiceContext
 from schemas.messages import Frame, ServoCommands
 from services.sensor.core import FlowWindow, Pacer
@@ -71,12 +71,16 @@ class SensorService:
     async def _watch_acks(self, ctx: ServiceContext, stage: keys.Stage) -> None:
         # Only the newest ack matters: overwritten ones are not data loss, so not in the stats.
         subscription = ctx.bus.subscribe_latest(ctx.key(stage))
+        subscription.limit(limits.stage_limit(stage))
         try:
             async for sample in subscription:
                 try:
-                    seq = codec.decode(sample.payload, ServoCommands).seq
+                    state = codec.decode(sample.payload, ServoCommands)
                 except ValueError:
                     continue
+                if state.move != "command":  # the controller moving on its own acknowledges nothing
+                    continue
+                seq = state.seq
                 self.flow.ack(seq)
                 self._acked.set()
         finally:

@@ -34,7 +34,9 @@ Per frame, per servo:
 
 The first frame after construction or :meth:`Translator.reset` initialises every filter and
 limiter (no history to smooth or limit against). In a chain this is a neutral frame: F needs a
-second of face before its neutral is ready.
+second of face before its neutral is ready. :meth:`Translator.resume` starts the limiters where
+the control interface says the servos are instead (the service does so when it starts, when
+its input resumes after a gap, and when the controller moved on its own).
 """
 
 from __future__ import annotations
@@ -193,6 +195,40 @@ class Translator:
     def neutral(self) -> dict[str, float]:
         """Every servo at neutral."""
         return self.profile.neutral_positions()
+
+    def is_at(self, positions: Mapping[str, float], tolerance_us: float = 1e-6) -> bool:
+        """Whether every servo's limiter already stands, still, at ``positions`` (missing
+        names: neutral), so resuming from there would change nothing but the filters."""
+        for servo in self._servos:
+            limiter, spec = servo.limiter, servo.spec
+            wanted = positions.get(spec.name, spec.neutral_us)
+            if limiter.position is None or limiter.velocity != 0.0:
+                return False
+            if abs(limiter.position - wanted) > tolerance_us:
+                return False
+        return True
+
+    def resume(self, positions: Mapping[str, float]) -> None:
+        """The servos are at ``positions`` now (where the control interface reports them):
+        the next frame starts from there instead of from wherever this translator left off.
+
+        Filters restart; each limiter starts at its servo's position (clamped; neutral for a
+        servo not named), still; servos without ``max_speed`` catch up at their full travel
+        per ``neutral_ramp_s``, as when the face comes back.
+        """
+        for flt in self._filters.values():
+            if flt is not None:
+                flt.reset()
+        ramp_s = self.profile.neutral_ramp_s
+        for servo in self._servos:
+            spec = servo.spec
+            position = positions.get(spec.name, spec.neutral_us)
+            if not math.isfinite(position):
+                position = spec.neutral_us
+            servo.limiter.reset(spec.clamp(position))
+            catch_up = spec.max_speed <= 0 and ramp_s > 0
+            servo.ramp = (spec.max_us - spec.min_us) / ramp_s if catch_up else None
+        self._tracking = None
 
     # --- sources --------------------------------------------------------------------------
 

@@ -9,10 +9,10 @@ output. Both keep their state between calls and have ``reset()``.
   through. A sample at the same time as the previous one (a repeated frame) returns the previous
   output; a sample earlier than the previous one (a looped replay) or after a gap longer than
   ``max_gap_s`` restarts the filter (passes through).
-* :class:`RateLimiter` (with :func:`facesynth.runtime.motion.limit_step`): moves a position toward a target no faster than
-  ``max_speed`` and with a speed that changes no faster than ``max_accel``, braking so it stops
-  at the target (0 = unlimited). A step longer than ``max_dt_s`` counts as ``max_dt_s``: after a
-  gap in the input the servo still moves gradually.
+* :class:`RateLimiter` (with :func:`facesynth.runtime.motion.limit_step`): moves a position
+  toward a target no faster than ``max_speed`` and with a speed that changes no faster than
+  ``max_accel``, braking so it stops at the target (0 = unlimited). A step longer than
+  ``max_dt_s`` counts as ``max_dt_s``: after a gap in the input the servo still moves gradually.
 """
 
 from __future__ import annotations

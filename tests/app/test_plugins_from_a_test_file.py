@@ -38,6 +38,8 @@ class MemoConfig(
 class MemoDriver(ServoDriver):
     """Keeps every command in memory (a driver known only to this test file)."""
 
+    moves_hardware = False  # so a --fast chain limits its speeds on media time
+
     def __init__(self, config: MemoConfig, profile: Profile) -> None:
         self.label = config.label
         self.profile = profile

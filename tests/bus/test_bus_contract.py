@@ -214,3 +214,29 @@ async def _wait_received(subscription: object, count: int) -> None:
             return
         await asyncio.sleep(0.01)
     raise AssertionError(f"only {subscription.received} of {count} samples arrived")
+
+
+async def test_oversized_payloads_are_refused_on_arrival_and_reported_in_batches(
+    make_bus: Factory, key_prefix: str
+) -> None:
+    sender, receiver = make_bus(), make_bus()
+    subscription = receiver.subscribe_queued(f"{key_prefix}/big", 64)
+    reports: list[tuple[int, int]] = []
+    subscription.limit(1000, lambda count, largest: reports.append((count, largest)))
+    await settle(receiver)
+    for i in range(20):
+        sender.publish(f"{key_prefix}/big", b"x" * (1001 + i) if i % 2 else b"ok")
+    sender.publish(f"{key_prefix}/big", b"x" * 1000)  # exactly the limit passes
+    got = [
+        (await asyncio.wait_for(subscription.receive(), DELIVERY_TIMEOUT)).payload
+        for _ in range(11)
+    ]
+    assert got == [b"ok"] * 10 + [b"x" * 1000]
+    for _ in range(100):
+        if sum(count for count, _ in reports) == 10:
+            break
+        await asyncio.sleep(0.02)
+    assert subscription.refused == 10 and subscription.received == 11
+    assert sum(count for count, _ in reports) == 10
+    assert max(largest for _, largest in reports) == 1001 + 19
+    assert len(reports) <= 10  # batched: at most one report pending at a time

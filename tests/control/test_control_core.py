@@ -1,15 +1,18 @@
-"""services.control.core: what reaches the servos, and the watchdog that returns them to neutral."""
+"""services.control.core: which commands reach the servos (checks), and the watchdog that
+returns them to neutral. Motion, freshness and the core's own moves: test_control_motion.py,
+test_control_freshness.py, test_control_moves.py."""
 
 from __future__ import annotations
 
 import math
 from typing import Any
 
+import msgspec
 import pytest
 
 from facesynth.runtime.profiles import Profile, ServoSpec
 from schemas.messages import ServoCommands
-from services.control.core import CommandError, CommandInfo, ControlCore, Watchdog
+from services.control.core import Arrival, CommandError, CommandInfo, ControlCore, Watchdog
 
 PROFILE = Profile(
     name="rig",
@@ -58,8 +61,21 @@ def _commands(positions: dict[str, float], **kw: Any) -> ServoCommands:
     return ServoCommands(**fields)
 
 
+INSTANT = msgspec.structs.replace(PROFILE, neutral_ramp_s=0.0)  # no limits, no catch-up
+MS = 1_000_000
+
+
+def _apply(core: ControlCore, commands: ServoCommands, t_ms: int = 0) -> dict[str, float]:
+    move, _ = core.command(commands, Arrival(wall_ns=t_ms * MS, mono_ns=t_ms * MS))
+    assert move.kind == "command"
+    return move.positions
+
+
 def test_starts_at_neutral() -> None:
-    assert ControlCore(PROFILE).last == NEUTRAL
+    core = ControlCore(PROFILE)
+    move = core.start(0)
+    assert (move.kind, move.positions, move.send) == ("start", NEUTRAL, True)
+    assert core.positions == NEUTRAL
 
 
 @pytest.mark.parametrize(
@@ -87,21 +103,25 @@ def test_starts_at_neutral() -> None:
         "empty",
     ],
 )
-def test_accept_clamps_and_fills_in(positions: dict[str, float], expected: dict[str, float]):
-    core = ControlCore(PROFILE)
-    assert core.accept(_commands(positions)) == expected
-    assert core.last == expected
+def test_commands_are_clamped_and_filled_in(
+    positions: dict[str, float], expected: dict[str, float]
+) -> None:
+    core = ControlCore(INSTANT)  # no speed limits: the positions arrive at once
+    core.start(0)
+    assert _apply(core, _commands(positions), 20) == expected
+    assert core.positions == expected
 
 
 def test_missing_servos_keep_their_last_value() -> None:
-    core = ControlCore(PROFILE)
-    core.accept(_commands({"jaw": 1900.0, "brow": 1000.0, "lip": 1200.0}))
-    assert core.accept(_commands({"brow": 2000.0})) == {
+    core = ControlCore(INSTANT)
+    core.start(0)
+    _apply(core, _commands({"jaw": 1900.0, "brow": 1000.0, "lip": 1200.0}), 20)
+    assert _apply(core, _commands({"brow": 2000.0}, seq=2), 40) == {
         "jaw": 1900.0,
         "brow": 2000.0,
         "lip": 1200.0,
     }
-    assert core.accept(_commands({})) == {"jaw": 1900.0, "brow": 2000.0, "lip": 1200.0}
+    assert _apply(core, _commands({}, seq=3), 60) == {"jaw": 1900.0, "brow": 2000.0, "lip": 1200.0}
 
 
 @pytest.mark.parametrize(
@@ -116,35 +136,37 @@ def test_missing_servos_keep_their_last_value() -> None:
             _commands({"zeta": 1.0, "alpha": 2.0}),
             "unknown servos for profile 'rig': ['alpha', 'zeta']",
         ),
+        (
+            _commands({f"s{i}": 1500.0 for i in range(4)}),
+            "4 positions for a profile of 3 servos",
+        ),
+        (
+            _commands({f"s{i}": 1500.0 for i in range(1_000)}),
+            "1000 positions for a profile of 3 servos",
+        ),
     ],
-    ids=["other-profile", "one-unknown-servo", "unknown-servos-sorted"],
+    ids=["other-profile", "one-unknown-servo", "unknown-servos-sorted", "one-too-many", "a-flood"],
 )
 def test_refused_commands_change_nothing(commands: ServoCommands, detail: str) -> None:
-    core = ControlCore(PROFILE)
-    before = core.accept(_commands({"jaw": 1800.0, "brow": 950.0}))
+    core = ControlCore(INSTANT)
+    core.start(0)
+    before = _apply(core, _commands({"jaw": 1800.0, "brow": 950.0}), 20)
     with pytest.raises(CommandError) as info:
-        core.accept(commands)
+        core.command(commands, Arrival(40 * MS, 40 * MS))
     assert str(info.value) == detail
-    assert core.last == before  # refused whole, not half applied
+    assert core.positions == before  # refused whole, not half applied
 
 
 @pytest.mark.parametrize("bad", [math.nan, -math.nan], ids=["nan", "minus-nan"])
 def test_non_finite_position_never_reaches_a_servo(bad: float) -> None:
     # codec.decode refuses NaN on the wire, but the core promises "every position is clamped to
     # its servo's limits, whatever T computed": a NaN must not pass through clamp() unchanged.
-    core = ControlCore(PROFILE)
-    before = core.accept(_commands({"jaw": 1800.0}))
+    core = ControlCore(INSTANT)
+    core.start(0)
+    before = _apply(core, _commands({"jaw": 1800.0}), 20)
     with pytest.raises(CommandError, match="jaw"):
-        core.accept(_commands({"jaw": bad, "brow": 1000.0}))
-    assert core.last == before
-
-
-def test_neutral_resets_the_last_positions() -> None:
-    core = ControlCore(PROFILE)
-    core.accept(_commands({"jaw": 1900.0, "lip": 1111.0}))
-    assert core.neutral() == NEUTRAL
-    assert core.last == NEUTRAL
-    assert core.accept(_commands({"brow": 1000.0})) == {**NEUTRAL, "brow": 1000.0}
+        core.command(_commands({"jaw": bad, "brow": 1000.0}), Arrival(40 * MS, 40 * MS))
+    assert core.positions == before
 
 
 def test_command_info_is_frozen() -> None:
@@ -154,8 +176,6 @@ def test_command_info_is_frozen() -> None:
 
 
 # --- Watchdog ---------------------------------------------------------------------------------
-
-MS = 1_000_000
 
 
 def test_watchdog_is_quiet_before_the_first_command() -> None:

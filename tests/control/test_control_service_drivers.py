@@ -8,6 +8,7 @@ import contextlib
 from collections.abc import Mapping
 from typing import Any
 
+import msgspec
 from fake_devices.ssc32 import FakeSSC32
 
 from facesynth.runtime import codec, keys
@@ -43,6 +44,17 @@ class FlakyDriver(ServoDriver):
         pass
 
 
+#: paper16 without speed limits or catch-up, so each command applies at once.
+UNLIMITED = msgspec.structs.replace(
+    load_profile("paper16"),
+    neutral_ramp_s=0.0,
+    servos=[
+        msgspec.structs.replace(spec, max_speed=0.0, max_accel=0.0)
+        for spec in load_profile("paper16").servos
+    ],
+)
+
+
 def commands(seq: int, **positions: float) -> bytes:
     return codec.encode(
         ServoCommands(
@@ -63,7 +75,7 @@ async def test_driver_errors_are_counted_and_the_service_goes_on() -> None:
     network = MemoryNetwork()
     bus = network.bus()
     driver = FlakyDriver()
-    control = ControlService(load_profile("paper16"), driver, watchdog_s=5)
+    control = ControlService(UNLIMITED, driver, watchdog_s=5)  # commands apply at once
     ctx = ServiceContext(bus, RIG, "control")
     task = asyncio.create_task(run_service(ctx, control.serve))
     try:

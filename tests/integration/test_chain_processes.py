@@ -46,6 +46,8 @@ def start_downstream(
             "record",
             "--out",
             str(out),
+            "--motion-time",  # the sensor is --fast: speed limits on the commands' media time
+            "media",
             *common,
             name="control",
         ),

@@ -118,7 +118,18 @@ def test_tracker_chain_in_processes_matches_run(
 ) -> None:
     record = tmp_path / "processes.jsonl"
     common = ["--connect", zenoh_router, "--rig", rig]
-    spawn("control", "--driver", "record", "--out", str(record), *common, name="control")
+    # The sensor is --fast: speed limits on the commands' media time, as `run --fast` does.
+    spawn(
+        "control",
+        "--driver",
+        "record",
+        "--out",
+        str(record),
+        "--motion-time",
+        "media",
+        *common,
+        name="control",
+    )
     spawn("translator", *common, name="translator")
     spawn("features", *common, name="features")
     spawn("points", *common, name="points")

@@ -22,6 +22,8 @@ from schemas.messages import (
 
 NAN = math.nan
 INF = math.inf
+#: The start of a 4x2 JPEG: start of image, then a baseline frame header (what the codec reads).
+TINY_JPEG_HEADER = b"\xff\xd8\xff\xc0\x00\x0b\x08\x00\x02\x00\x04\x01\x01\x11\x00rest"
 
 
 def _frame(**kw: Any) -> Frame:
@@ -116,7 +118,7 @@ def _roundtrip(message: msgspec.Struct) -> Any:
     "message",
     [
         _frame(),
-        _frame(encoding="jpeg", data=b"\xff\xd8\xff\xe0rest"),
+        _frame(encoding="jpeg", data=TINY_JPEG_HEADER),
         _frame(encoding="none", data=b""),
         _points(),
         _points(face=False, sets=[]),
@@ -319,7 +321,7 @@ def _set(coords: list[float], scheme: str = "ibug68", dims: int = 2) -> PointSet
         (_points(confidence=NAN), "confidence is nan"),
         (_points(confidence=-INF), "confidence is -inf"),
         (_points(image_width=0), "image size 0x360 is out of range"),
-        (_points(image_height=codec.MAX_FRAME_SIDE + 1), "image size 640x16385 is out of range"),
+        (_points(image_height=codec.MAX_FRAME_SIDE + 1), "image size 640x8193 is out of range"),
         (_points(face=False), "a 'no face' message must not carry points"),
         (_points(sets=[_set([1.0, 2.0]), _set([3.0, 4.0])]), "'ibug68' appears twice"),
         (_points(sets=[_set([1.0] * 4, dims=4)]), "'ibug68' has dims 4"),
@@ -498,3 +500,161 @@ def test_stats_latency_must_be_finite(field: str, value: float) -> None:
 def test_stats_counts_must_not_be_negative(field: str) -> None:
     with pytest.raises(MessageError, match=field):
         _roundtrip(_stats(**{field: -1}))
+
+
+# --- bounded input: sizes checked before decoding, counts after -------------------------------
+
+
+def _huge_commands(entries: int) -> bytes:
+    """A ServoCommands payload with a positions map of ``entries`` entries (18 MB at 1e6)."""
+    positions = {f"servo{i:07d}": 1500.0 for i in range(entries)}
+    return codec.encode(_commands(positions=positions))
+
+
+def test_a_million_entry_map_is_refused_before_it_is_built() -> None:
+    import time
+
+    payload = _huge_commands(1_000_000)
+    assert len(payload) > 18_000_000
+    start = time.perf_counter()
+    with pytest.raises(MessageError, match="over its limit of 65536 bytes: refused undecoded"):
+        codec.decode(payload, ServoCommands)
+    assert time.perf_counter() - start < 0.01  # decoding it takes seconds
+
+
+@pytest.mark.parametrize(
+    ("cls", "limit"),
+    [
+        (Frame, 40 * 1024 * 1024),
+        (Points, 256 * 1024),
+        (Features, 64 * 1024),
+        (ServoCommands, 64 * 1024),
+        (ServiceStats, 16 * 1024),
+    ],
+)
+def test_each_message_type_has_a_payload_limit(cls: type, limit: int) -> None:
+    assert codec.MAX_BYTES[cls] == limit
+    with pytest.raises(MessageError, match=f"of {limit + 1} bytes is over its limit of {limit}"):
+        codec.decode(b"\x00" * (limit + 1), cls)
+
+
+def _jpeg_frame(width: int, height: int, **kw: Any) -> Frame:
+    import cv2
+    import numpy as np
+
+    ok, data = cv2.imencode(".jpg", np.zeros((height, width, 3), np.uint8))
+    assert ok
+    return _frame(encoding="jpeg", data=data.tobytes(), width=width, height=height, **kw)
+
+
+def test_a_jpeg_whose_header_matches_the_frame_passes() -> None:
+    assert _roundtrip(_jpeg_frame(64, 48)).width == 64
+
+
+@pytest.mark.parametrize(
+    ("frame", "detail"),
+    [
+        (
+            msgspec.structs.replace(_jpeg_frame(64, 48), width=640),
+            "jpeg frame is 64x48 by its header, but the frame says 640x48",
+        ),
+        (
+            _frame(encoding="jpeg", data=b"\xff\xd8\xff\xe0\x00\x10", width=4, height=2),
+            "jpeg frame: JPEG header cut short",
+        ),
+        (
+            _frame(width=8192, height=8192, encoding="none", data=b""),
+            "frame size 8192x8192 is over 12582912 pixels",
+        ),
+        (
+            _frame(width=16000, height=16000, encoding="none", data=b""),
+            "frame size 16000x16000 is out of range",
+        ),
+    ],
+    ids=["jpeg-size-lie", "jpeg-header-cut", "too-many-pixels", "side-too-long"],
+)
+def test_frames_declaring_the_wrong_or_a_huge_size_are_refused_undecoded(
+    frame: Frame, detail: str
+) -> None:
+    with pytest.raises(MessageError) as info:
+        _roundtrip(frame)
+    assert detail in str(info.value)
+
+
+def test_a_16000_pixel_jpeg_claim_is_refused_from_its_header() -> None:
+    import struct
+
+    sof = b"\xff\xc0" + struct.pack(">HBHHB", 11, 8, 16000, 16000, 1) + b"\x01\x11\x00"
+    data = b"\xff\xd8" + sof + b"\x00" * 4_000_000
+    frame = _frame(encoding="jpeg", data=data, width=4000, height=3000)
+    with pytest.raises(MessageError, match="is 16000x16000 by its header"):
+        _roundtrip(frame)
+
+
+@pytest.mark.parametrize(
+    ("message", "cls", "detail"),
+    [
+        (
+            _points(sets=[_set([1.0, 2.0] * 69)]),
+            Points,
+            "point set 'ibug68' has 69 points: at most 68",
+        ),
+        (
+            _points(sets=[_set([1.0, 2.0, 3.0] * 479, scheme="mesh478", dims=3)]),
+            Points,
+            "point set 'mesh478' has 479 points: at most 478",
+        ),
+        (
+            _points(sets=[_set([1.0, 2.0] * 1025, scheme="other")]),
+            Points,
+            "point set 'other' has 1025 points: at most 1024",
+        ),
+        (
+            _points(sets=[_set([1.0, 2.0], scheme=f"s{i}") for i in range(9)]),
+            Points,
+            "9 point sets and 0 score sets: at most 8 of each",
+        ),
+        (
+            _points(scores=[ScoreSet(scheme="other", values=[0.5] * 257)]),
+            Points,
+            "score set 'other' has 257 values: at most 256",
+        ),
+        (
+            _features(distances=[0.5] * 69, deltas=[]),
+            Features,
+            "69 distances and 0 displacement values: at most 68 and 136",
+        ),
+        (
+            _features(named={f"f{i}": 0.0 for i in range(257)}),
+            Features,
+            "257 named and 0 raw features: at most 256 each",
+        ),
+        (
+            _commands(positions={f"s{i}": 1500.0 for i in range(257)}),
+            ServoCommands,
+            "257 positions: at most 256 (any profile)",
+        ),
+        (_commands(sender="x" * 257), ServoCommands, "sender is longer than 256 characters"),
+        (_commands(move="y" * 257), ServoCommands, "move is longer than 256 characters"),
+        (_commands(sender_seq=-1), ServoCommands, "sender_seq and sent_ns must be >= 0"),
+        (_commands(sent_ns=-5), ServoCommands, "sender_seq and sent_ns must be >= 0"),
+    ],
+    ids=[
+        "ibug68-too-many",
+        "mesh478-too-many",
+        "other-scheme-too-many",
+        "too-many-sets",
+        "too-many-scores",
+        "too-many-distances",
+        "too-many-named",
+        "too-many-positions",
+        "long-sender",
+        "long-move",
+        "negative-sender-seq",
+        "negative-sent",
+    ],
+)
+def test_counts_are_bounded_by_the_schemes(message: Any, cls: type, detail: str) -> None:
+    with pytest.raises(MessageError) as info:
+        codec.decode(codec.encode(message), cls)
+    assert detail in str(info.value)

@@ -150,7 +150,7 @@ GOLDEN: dict[str, tuple[type[msgspec.Struct], dict[str, Any]]] = {
             "sender_seq": 44,
             "sent_ns": 1_717_000_000_171_250_000,
             "sender_host": "tracker-host",
-            "command": True,
+            "move": "command",
         },
     ),
     # ... and a control interface's own move on …/servo_state (returning to neutral).
@@ -167,7 +167,7 @@ GOLDEN: dict[str, tuple[type[msgspec.Struct], dict[str, Any]]] = {
             "sender_seq": 12,
             "sent_ns": 1_717_000_000_800_000_000,
             "sender_host": "board",
-            "command": False,
+            "move": "return",
         },
     ),
     "service_stats": (

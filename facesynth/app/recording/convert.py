@@ -124,8 +124,13 @@ def _export_source(recording: Recording, stage: str | None) -> str:
 
 
 def _messages(recording: Recording, stage: str) -> Iterator[tuple[Any, int]]:
+    """The stage's messages; on ``servo_state`` only the commands applied (a controller's own
+    moves, ``move`` other than ``"command"``, are in the recording, not in an export by frame).
+    """
     sources = [key for key in recording.bus_keys() if key.endswith("/" + stage)]
     for _, message, log_time in recording.messages(sources):
+        if isinstance(message, ServoCommands) and message.move != "command":
+            continue
         yield message, log_time
 
 

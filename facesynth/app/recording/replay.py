@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import socket
 import time
 from dataclasses import dataclass, field
 
@@ -102,15 +103,19 @@ class Replayer:
         self.last_seq = -1
         self.flow = FlowWindow(options.window)
         self._acked = asyncio.Event()
+        self._sent = 0
 
     async def _watch_acks(self, ctx: ServiceContext, stage: keys.Stage) -> None:
         subscription = ctx.bus.subscribe_latest(ctx.key(stage))
         try:
             async for sample in subscription:
                 try:
-                    seq = codec.decode(sample.payload, ServoCommands).seq
+                    state = codec.decode(sample.payload, ServoCommands)
                 except ValueError:
                     continue
+                if state.move != "command":  # the controller moving on its own acknowledges nothing
+                    continue
+                seq = state.seq
                 self.flow.ack(seq)
                 self._acked.set()
         finally:
@@ -151,6 +156,24 @@ class Replayer:
             return payload
         return codec.encode(msgspec.structs.replace(message, t_capture_ns=time.time_ns()))
 
+    def _send_as_sender(self, payload: bytes, ctx: ServiceContext) -> bytes:
+        """A replayed servo command, stamped as sent now by this replay (the controller drops
+        commands older than its profile allows, and a recorded one is as old as the recording)."""
+        try:
+            message = msgspec.msgpack.decode(payload, type=ServoCommands)
+        except (msgspec.DecodeError, msgspec.ValidationError):
+            return payload
+        self._sent += 1
+        return codec.encode(
+            msgspec.structs.replace(
+                message,
+                sender=f"{ctx.instance}/replay",
+                sender_seq=self._sent,
+                sent_ns=time.time_ns(),
+                sender_host=socket.gethostname(),
+            )
+        )
+
     async def serve(self, ctx: ServiceContext) -> int:
         """Publish the stage's messages; return how many were published."""
         options = self.options
@@ -184,6 +207,8 @@ class Replayer:
                     if delay:
                         await asyncio.sleep(delay / 1e9)
                 payload = self._restamp(item.payload) if options.restamp else item.payload
+                if self.stage == "servo_commands":
+                    payload = self._send_as_sender(payload, ctx)
                 ctx.stats.received += 1
                 ctx.bus.publish(target, payload)
                 ctx.stats.record_published(0)

@@ -46,7 +46,7 @@ def graph_parts(replayer: Replayer, args: argparse.Namespace) -> tuple[list[Stag
             continue
         node, configs[name] = apply_arguments(name, node, args)
         graph.nodes[name] = node
-        parts.append(build_node(name, node, graph, configs[name]))
+        parts.append(build_node(name, node, graph, configs[name], fast=replayer.options.fast))
     if not parts:
         raise OptionError(
             f"the graph has no {', '.join(wanted)} node to replay {replayer.stage} into"

@@ -37,7 +37,7 @@ from facesynth.app.render.draw import (
 )
 from facesynth.runtime.frames import encode_frame
 from schemas.messages import Points
-from services.control.core import ControlCore
+from services.control.core import Arrival, ControlCore
 from services.control.drivers.virtual.geometry import FACE_HEIGHT, FACE_WIDTH, face_geometry
 from services.features.core import FeatureError, FeatureProcessor, ibug_points
 from services.points.backends.base import PointsBackend
@@ -54,7 +54,8 @@ class RenderError(ValueError):
 
 @dataclass
 class RenderChain:
-    """The stages a frame goes through: points backend, F, T (+ C's clamping) per profile."""
+    """The stages a frame goes through: points backend, F, T (+ C's checks, clamping and speed
+    limits, on media time as a ``--fast`` run to a virtual face or a file) per profile."""
 
     backend: PointsBackend
     processor: FeatureProcessor
@@ -64,8 +65,10 @@ class RenderChain:
     quality: int = 90
 
     def __post_init__(self) -> None:
-        self._face_control = ControlCore(self.face.profile)
-        self._bars_control = ControlCore(self.bars.profile) if self.bars is not None else None
+        self._face_control = ControlCore(self.face.profile, motion_time="media")
+        self._bars_control = (
+            ControlCore(self.bars.profile, motion_time="media") if self.bars is not None else None
+        )
 
     def step(
         self, image: np.ndarray, seq: int, t_media_ns: int, fps: float
@@ -82,11 +85,13 @@ class RenderChain:
         )
         points = self.backend.process(frame)
         features = self.processor.process(points)
-        face = self._face_control.accept(self.face.translate(features))
+        arrival = Arrival(t_media_ns, t_media_ns)  # unstamped commands: not aged
+        move, _ = self._face_control.command(self.face.translate(features), arrival)
         bars = None
         if self.bars is not None and self._bars_control is not None:
-            bars = self._bars_control.accept(self.bars.translate(features))
-        return points, face, bars
+            bars_move, _ = self._bars_control.command(self.bars.translate(features), arrival)
+            bars = bars_move.positions
+        return points, move.positions, bars
 
 
 @dataclass

@@ -17,7 +17,7 @@ import asyncio
 import collections
 import contextlib
 import time
-from collections.abc import AsyncIterator
+from collections.abc import AsyncIterator, Callable
 from dataclasses import dataclass
 from types import TracebackType
 from typing import Self
@@ -50,15 +50,52 @@ class Subscription:
         self._waiter: asyncio.Future[None] | None = None
         self._closed = False
         self._loop = asyncio.get_running_loop()
+        #: Payloads over this many bytes are refused before they are copied or queued.
+        self.max_bytes: int | None = None
+        #: Payloads refused for their size.
+        self.refused = 0
+        self._on_refused: Callable[[int, int], None] | None = None
+        self._refusals = 0  # refused since the last report to ``on_refused``
+        self._largest = 0
+        self._report_pending = False
 
     @property
     def closed(self) -> bool:
         """Whether :meth:`close` was called (pending samples can no longer be received)."""
         return self._closed
 
+    def limit(self, max_bytes: int, on_refused: Callable[[int, int], None] | None = None) -> None:
+        """Refuse payloads over ``max_bytes`` on arrival, before they are copied or queued.
+
+        ``on_refused(count, largest)`` is called on the event loop with how many were refused
+        since its last call and the largest size: at most one call is pending at a time, so a
+        flood of oversized messages costs the loop nothing per message.
+        """
+        self.max_bytes = max_bytes
+        self._on_refused = on_refused
+
+    def too_big(self, size: int) -> bool:
+        """Whether a payload of ``size`` bytes is refused (and count it); any thread."""
+        if self.max_bytes is None or size <= self.max_bytes:
+            return False
+        self.refused += 1
+        self._refusals += 1
+        self._largest = max(self._largest, size)
+        if self._on_refused is not None and not self._report_pending:
+            self._report_pending = True
+            with contextlib.suppress(RuntimeError):  # the loop is closed: nobody to tell
+                self._loop.call_soon_threadsafe(self._report_refusals)
+        return True
+
+    def _report_refusals(self) -> None:
+        count, largest = self._refusals, self._largest
+        self._refusals, self._largest, self._report_pending = 0, 0, False
+        if count and self._on_refused is not None:
+            self._on_refused(count, largest)
+
     def deliver(self, sample: Sample) -> None:
         """Add a sample; call on the subscription's event loop thread only."""
-        if self._closed:
+        if self._closed or self.too_big(len(sample.payload)):
             return
         self.received += 1
         if len(self._items) >= self.maxsize:
@@ -71,6 +108,8 @@ class Subscription:
 
     def deliver_threadsafe(self, key: str, payload: bytes) -> None:
         """Hand a sample over from any thread without blocking it."""
+        if self.too_big(len(payload)):
+            return
         sample = Sample(key, payload, time.time_ns())
         # A closed loop means the service is shutting down: the sample is not needed.
         with contextlib.suppress(RuntimeError):

@@ -106,7 +106,10 @@ class _ZenohSubscription(Subscription):
         deliver = self.deliver_threadsafe
 
         def on_sample(sample: zenoh.Sample) -> None:
-            deliver(str(sample.key_expr), sample.payload.to_bytes())
+            payload = sample.payload
+            if self.too_big(len(payload)):  # refused before it is copied out of Zenoh
+                return
+            deliver(str(sample.key_expr), payload.to_bytes())
 
         self._subscriber: Any = session.declare_subscriber(key_expr, on_sample)
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import abc
 from collections.abc import Mapping
 from types import TracebackType
-from typing import Any, Self
+from typing import Any, ClassVar, Self
 
 from facesynth.runtime.rig_view import RigView
 from services.control.core import CommandInfo
@@ -33,6 +33,11 @@ class ServoDriver(abc.ABC):
     the way out, whatever happened. It does not move the face on exit: returning to neutral is
     the control interface's decision, made before the driver closes.
     """
+
+    #: Whether the driver moves something physical (a servo board): the control interface then
+    #: always measures speed limits in real time, even in a ``--fast`` replay. Drivers whose
+    #: output is a file or a picture (``record``, ``virtual``, ``vmc``) say False.
+    moves_hardware: ClassVar[bool] = True
 
     async def __aenter__(self) -> Self:
         await self.connect()

@@ -39,6 +39,8 @@ class RecordLine(msgspec.Struct, kw_only=True):
 class RecordDriver(ServoDriver):
     """Record every command as a JSON line (seq, frame, times, face, servos), flushed."""
 
+    moves_hardware = False
+
     def __init__(self, config: RecordConfig, profile: Profile | None = None) -> None:
         self.path = Path(config.out)
         self._file: IO[bytes] | None = None

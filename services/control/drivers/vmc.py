@@ -229,6 +229,8 @@ class AvatarMapping:
 class VmcDriver(ServoDriver):
     """Send blendshapes and head pose to avatar software (VMC protocol over OSC/UDP)."""
 
+    moves_hardware = False
+
     def __init__(self, config: VmcConfig, profile: Profile | None = None) -> None:
         require("pythonosc", plugin="vmc driver", package="python-osc", extra="face")
         if profile is None:

@@ -94,7 +94,14 @@ async def live_run(
     bus = await open_bus()
     try:
         recording = await _start_recorder(bus, rig, session) if session else None
-        control = ControlService(load_profile(profile), RecordDriver(RecordConfig(out=str(out))))
+        # Replays faster than real time into a file: speed limits on the commands' media time;
+        # a watchdog that a loaded machine's stall does not fire (its return changes commands).
+        control = ControlService(
+            load_profile(profile),
+            RecordDriver(RecordConfig(out=str(out))),
+            motion_time="media",
+            watchdog_s=5.0,
+        )
         sensor = SensorService(
             source, SensorOptions(fast=True, wait_timeout=10.0, max_frames=max_frames)
         )
@@ -132,7 +139,14 @@ async def replay_run(
     bus = await open_bus()
     tasks: list[asyncio.Task[Any]] = []
     try:
-        control = ControlService(load_profile(profile), RecordDriver(RecordConfig(out=str(out))))
+        # Replays faster than real time into a file: speed limits on the commands' media time;
+        # a watchdog that a loaded machine's stall does not fire (its return changes commands).
+        control = ControlService(
+            load_profile(profile),
+            RecordDriver(RecordConfig(out=str(out))),
+            motion_time="media",
+            watchdog_s=5.0,
+        )
         bodies = {"control": control.serve, **stage_bodies(stage, profile, backend)}
         for name, body in bodies.items():
             ctx = ServiceContext(bus, rig, name, stats_interval=0.5)

@@ -78,6 +78,8 @@ def parse_address(text: str) -> tuple[str, int]:
 class VirtualDriver(ServoDriver):
     """Draw the virtual face live on a web page (servo bars for any profile)."""
 
+    moves_hardware = False
+
     def __init__(self, config: VirtualConfig, profile: Profile | None = None) -> None:
         require("aiohttp", plugin="virtual driver", package="aiohttp", extra="face")
         self.config = config

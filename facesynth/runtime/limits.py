@@ -1,0 +1,68 @@
+"""How big each message may be, checked on its bytes before anything decodes it.
+
+One 18 MB servo command (a million-entry positions map) used to freeze a control interface for
+2 s while msgspec built the map, and its memory stayed. Each key now has a payload limit, well
+above what a valid message of its kind can weigh, applied twice:
+
+* by the subscription (:meth:`facesynth.runtime.bus.base.Subscription.limit`), on the
+  transport's thread, before the payload is even copied: an oversized message never reaches the
+  service's event loop (the refusal is counted as rejected and logged);
+* by :func:`facesynth.runtime.codec.decode`, for bytes from anywhere else (a recording, a test).
+
+The sizes inside a message are bounded by what the limit leaves room for, then checked against
+the profile (no more positions than servos) and the point schemes (:mod:`.codec`).
+
+================  ============  =================================================================
+key               limit         largest valid message
+================  ============  =================================================================
+``input``         40 MiB        a raw BGR frame of ``MAX_FRAME_PIXELS`` (37.7 MB); JPEGs are far
+                                smaller, and their dimensions are read from their header before
+                                anything decodes the pixels
+``points``        256 KiB       478 3D points, 68 2D points, irises, 52 scores: about 25 KB
+``features``      64 KiB        68 distances and deltas, 136 displacements, ~120 named: ~8 KB
+``servo_*``       64 KiB        a profile's positions with the sender stamps: 16 servos ~0.6 KB
+``stats``         16 KiB        one :class:`~schemas.messages.ServiceStats`: ~0.3 KB
+================  ============  =================================================================
+"""
+
+from __future__ import annotations
+
+from typing import Final
+
+from facesynth.runtime import keys
+
+KIB: Final = 1024
+MIB: Final = 1024 * KIB
+
+#: The most pixels a frame may declare (a 4096 x 3072 sensor: 12.6 megapixels).
+MAX_FRAME_PIXELS: Final = 4096 * 3072
+#: The longest side a frame may declare (pixels).
+MAX_FRAME_SIDE: Final = 8192
+
+#: Payload limit (bytes) of each stage's key.
+STAGE_LIMITS: Final[dict[str, int]] = {
+    "input": 40 * MIB,
+    "points": 256 * KIB,
+    "features": 64 * KIB,
+    "servo_commands": 64 * KIB,
+    "servo_state": 64 * KIB,
+}
+#: Payload limit (bytes) of a service's stats message.
+STATS_LIMIT: Final = 16 * KIB
+
+
+def stage_limit(stage: keys.Stage) -> int:
+    """The payload limit of ``stage``'s key, in bytes."""
+    return STAGE_LIMITS[stage]
+
+
+class PayloadTooLarge(ValueError):
+    """A payload over its key's limit, refused before it was decoded."""
+
+
+def check_size(size: int, limit: int, what: str) -> None:
+    """Raise :class:`PayloadTooLarge` when ``size`` bytes of ``what`` exceed ``limit``."""
+    if size > limit:
+        raise PayloadTooLarge(
+            f"a {what} of {size} bytes is over its limit of {limit} bytes: refused undecoded"
+        )
