@@ -24,6 +24,15 @@ def zenoh_router() -> Iterator[str]:
         session.close()
 
 
+@pytest.fixture(autouse=True)
+def own_state_dir(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> Path:
+    """Each test keeps F's learned state (``$FACESYNTH_STATE``, inherited by the processes it
+    starts) in a folder of its own, so no test picks up a neutral another one learned."""
+    folder = tmp_path / "facesynth-state"
+    monkeypatch.setenv("FACESYNTH_STATE", str(folder))
+    return folder
+
+
 @pytest.fixture
 def key_prefix() -> str:
     """A key prefix no other test uses."""

@@ -112,13 +112,13 @@ class RecordRig(DriverRig):
         return {"driver": "record", "out": str(self.folder / "commands.jsonl")}
 
     async def after_connect(self, driver: ServoDriver, count: int) -> None:
-        self.before = count  # connecting starts a new file
+        self.before = count  # connecting starts a new session in the same file
 
     def expected(self, positions: Mapping[str, float]) -> Any:
         return {name: pytest.approx(value, abs=5e-4) for name, value in positions.items()}
 
     async def observed(self, count: int) -> Any:
-        lines = read_record(self.folder / "commands.jsonl")
+        lines = read_record(self.folder / "commands.jsonl", session=-1)
         assert len(lines) == count - self.before
         return lines[-1].servos  # rounded to 0.001 µs
 

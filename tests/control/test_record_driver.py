@@ -10,24 +10,35 @@ from pathlib import Path
 import pytest
 
 from facesynth.runtime.plugins import PluginError
+from facesynth.runtime.profiles import load_profile
 from services.control.core import CommandInfo
 from services.control.drivers.base import DriverError
-from services.control.drivers.record import RecordConfig, RecordDriver, RecordLine, read_record
+from services.control.drivers.record import (
+    RecordConfig,
+    RecordDriver,
+    RecordError,
+    RecordLine,
+    read_record,
+    read_sessions,
+)
 from services.control.drivers.registry import DRIVERS
 
 KEYS = {"seq", "frame", "t_capture_ns", "t_sent_ns", "face", "servos"}
+SESSION_KEYS = {"started_ns", "profile", "host", "pid"}
 
 
 async def test_lines_have_exactly_the_documented_keys(tmp_path: Path) -> None:
     out = tmp_path / "deep" / "dir" / "commands.jsonl"
     driver = RecordDriver(RecordConfig(out=str(out)))
-    await driver.connect()
     before = time.time_ns()
+    await driver.connect()
     await driver.send({"jaw": 1500.0, "brow": 1234.56789}, CommandInfo(7, 1111, True))
     await driver.neutral({"jaw": 1500.0, "brow": 1200.0})
     after = time.time_ns()
     await driver.close()
-    lines = [json.loads(line) for line in out.read_text().splitlines()]
+    marker, *lines = [json.loads(line) for line in out.read_text().splitlines()]
+    assert set(marker) == {"session"} and set(marker["session"]) == SESSION_KEYS
+    assert before <= marker["session"]["started_ns"] <= after
     assert len(lines) == 2
     assert all(set(line) == KEYS for line in lines)
     first, second = lines
@@ -57,14 +68,76 @@ async def test_every_line_is_flushed_while_open(tmp_path: Path) -> None:
         await driver.close()
 
 
-async def test_connect_truncates_an_old_record(tmp_path: Path) -> None:
+async def _session(out: Path, *jaws: float) -> None:
+    driver = RecordDriver(RecordConfig(out=str(out)), load_profile("paper16"))
+    async with driver:
+        for i, jaw in enumerate(jaws):
+            await driver.send({"jaw": jaw}, CommandInfo(i, 1, True))
+
+
+async def test_a_restart_on_the_same_file_appends_a_session_and_keeps_the_earlier_ones(
+    tmp_path: Path,
+) -> None:
     out = tmp_path / "commands.jsonl"
-    out.write_text("old content\n" * 5)
-    driver = RecordDriver(RecordConfig(out=str(out)))
-    await driver.connect()
-    await driver.send({"jaw": 1600.0}, CommandInfo(0, 1, True))
-    await driver.close()
-    assert len(read_record(out)) == 1
+    await _session(out, 1600.0, 1610.0)
+    await _session(out, 1700.0)
+    sessions = read_sessions(out)
+    assert [[line.servos["jaw"] for line in s.lines] for s in sessions] == [
+        [1600.0, 1610.0],
+        [1700.0],
+    ]
+    assert [line.seq for line in sessions[1].lines] == [0]  # seq counts per session
+    assert all(s.info is not None and s.info.profile == "paper16" for s in sessions)
+    assert sessions[0].info.started_ns < sessions[1].info.started_ns  # type: ignore[union-attr]
+    assert [line.servos["jaw"] for line in read_record(out)] == [1600.0, 1610.0, 1700.0]
+    assert [line.servos["jaw"] for line in read_record(out, session=-1)] == [1700.0]
+    with pytest.raises(RecordError, match="has 2 sessions, not 5"):
+        read_record(out, session=5)
+
+
+async def test_a_line_torn_by_a_kill_is_closed_and_skipped_when_the_next_session_starts(
+    tmp_path: Path,
+) -> None:
+    out = tmp_path / "commands.jsonl"
+    await _session(out, 1600.0)
+    with open(out, "ab") as handle:  # killed halfway through a line
+        handle.write(b'{"seq": 1, "frame": 1, "t_capt')
+    await _session(out, 1700.0)
+    sessions = read_sessions(out)
+    assert [s.torn for s in sessions] == [1, 0]
+    assert [line.servos["jaw"] for line in read_record(out)] == [1600.0, 1700.0]
+
+
+async def test_a_record_from_before_session_markers_is_kept_as_its_first_session(
+    tmp_path: Path,
+) -> None:
+    out = tmp_path / "commands.jsonl"
+    old = {"seq": 0, "frame": 0, "t_capture_ns": 1, "t_sent_ns": 2, "face": True, "servos": {}}
+    out.write_text(json.dumps(old) + "\n")
+    await _session(out, 1700.0)
+    sessions = read_sessions(out)
+    assert sessions[0].info is None and len(sessions[0].lines) == 1
+    assert sessions[1].info is not None and len(sessions[1].lines) == 1
+
+
+@pytest.mark.parametrize(
+    "bad",
+    [b"old content\n", b'{"seq": "x"}\n', b"\xff\xfe\n", b'{"session": {}}\n'],
+    ids=["text", "wrong-type", "binary", "marker-without-time"],
+)
+def test_a_broken_line_inside_a_session_is_an_error_naming_it(tmp_path: Path, bad: bytes) -> None:
+    out = tmp_path / "commands.jsonl"
+    good = (
+        b'{"seq": 0, "frame": 0, "t_capture_ns": 1, "t_sent_ns": 2, "face": true, "servos": {}}\n'
+    )
+    out.write_bytes(good + bad + good)
+    with pytest.raises(RecordError, match=r"line 2 is neither a command nor a session marker"):
+        read_record(out)
+
+
+def test_reading_a_missing_record_is_an_error(tmp_path: Path) -> None:
+    with pytest.raises(RecordError, match="cannot read record file"):
+        read_record(tmp_path / "gone.jsonl")
 
 
 def test_read_record_ignores_a_torn_last_line(tmp_path: Path) -> None:

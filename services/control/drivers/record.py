@@ -1,9 +1,20 @@
-"""The ``record`` driver: one JSON line per command, flushed, so a kill loses at most one line."""
+"""The ``record`` driver: one JSON line per command, flushed, so a kill loses at most one line.
+
+A record file is never truncated: each time the driver connects it appends a *session marker*
+line (``{"session": {...}}``: when, which profile, which process) and then its command lines,
+so a control interface restarted on the same ``--out`` (as ``docker-compose.yml`` does) keeps
+every earlier session. A line torn by a kill is closed with a newline before the next session
+starts. :func:`read_record` reads every session's lines, :func:`read_sessions` them session by
+session; both skip torn lines and refuse any other broken line with :class:`RecordError`.
+"""
 
 from __future__ import annotations
 
+import os
+import socket
 import time
 from collections.abc import Mapping
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Annotated
 
@@ -35,6 +46,25 @@ class RecordLine(msgspec.Struct, kw_only=True):
     servos: dict[str, float]
 
 
+class SessionInfo(msgspec.Struct, kw_only=True):
+    """What a session marker says about the session that follows it."""
+
+    started_ns: int
+    profile: str = ""
+    host: str = ""
+    pid: int = 0
+
+
+class SessionMarker(msgspec.Struct, kw_only=True, forbid_unknown_fields=True):
+    """The line that starts a session: ``{"session": {...}}``."""
+
+    session: SessionInfo
+
+
+class RecordError(ValueError):
+    """A record file that cannot be read back; the message names the file and the line."""
+
+
 @DRIVERS.register(RecordConfig)
 class RecordDriver(ServoDriver):
     """Record every command as a JSON line (seq, frame, times, face, servos), flushed."""
@@ -46,16 +76,31 @@ class RecordDriver(ServoDriver):
         self._file: IO[bytes] | None = None
         self._encoder = msgspec.json.Encoder()
         self.count = 0
+        self.profile = profile.name if profile else ""
         #: With a profile, positions are checked and clamped like a board's (the safety
         #: contract every driver keeps); without, they are recorded as given.
         self.limits = ProfileLimits(profile) if profile else None
 
     async def connect(self) -> None:
+        marker = SessionMarker(
+            session=SessionInfo(
+                started_ns=time.time_ns(),
+                profile=self.profile,
+                host=socket.gethostname(),
+                pid=os.getpid(),
+            )
+        )
         try:
             self.path.parent.mkdir(parents=True, exist_ok=True)
-            self._file = open(self.path, "wb")  # noqa: SIM115 - kept open for the run
+            self._file = open(self.path, "ab")  # noqa: SIM115 - kept open for the run
+            if self._file.tell() > 0 and not _ends_with_newline(self.path):
+                self._file.write(b"\n")  # close a line a kill tore: it stays unreadable
+            self._file.write(self._encoder.encode(marker) + b"\n")
+            self._file.flush()
         except OSError as exc:
+            self._file = None
             raise DriverError(f"cannot open record file {self.path}: {exc}") from None
+        self.count = 0
 
     async def send(self, positions: Mapping[str, float], info: CommandInfo) -> None:
         if self._file is None:
@@ -82,13 +127,87 @@ class RecordDriver(ServoDriver):
             self._file = None
 
 
-def read_record(path: str | Path) -> list[RecordLine]:
-    """Read a record file back (a torn last line from a kill is ignored)."""
-    decoder = msgspec.json.Decoder(RecordLine)
-    lines = []
+def _ends_with_newline(path: Path) -> bool:
     with open(path, "rb") as handle:
-        for raw in handle:
-            if not raw.endswith(b"\n"):
-                break
-            lines.append(decoder.decode(raw))
-    return lines
+        handle.seek(-1, os.SEEK_END)
+        return handle.read(1) == b"\n"
+
+
+@dataclass
+class Session:
+    """One session of a record file: its marker (``None`` for lines written before markers
+    existed) and its command lines."""
+
+    info: SessionInfo | None
+    lines: list[RecordLine] = field(default_factory=list)
+    #: Lines a kill tore (skipped).
+    torn: int = 0
+
+
+def read_sessions(path: str | Path) -> list[Session]:
+    """Every session of a record file, in order.
+
+    A line a kill tore (the last line of the file without a newline, or an unreadable line
+    right before a session marker) is skipped and counted; any other line that is neither a
+    command nor a marker raises :class:`RecordError`.
+    """
+    lines = _decoded_lines(Path(path))
+    sessions: list[Session] = []
+    for number, item in enumerate(lines, start=1):
+        if isinstance(item, SessionMarker):
+            sessions.append(Session(item.session))
+            continue
+        if not sessions:
+            sessions.append(Session(None))  # a file from before markers
+        if isinstance(item, RecordLine):
+            sessions[-1].lines.append(item)
+            continue
+        follows = lines[number] if number < len(lines) else None
+        if item is _TORN_AT_END or isinstance(follows, SessionMarker):
+            sessions[-1].torn += 1
+            continue
+        raise RecordError(f"{path}: line {number} is neither a command nor a session marker")
+    return sessions
+
+
+def read_record(path: str | Path, session: int | None = None) -> list[RecordLine]:
+    """The command lines of every session of a record file (or of ``session`` only: 0 the
+    first, -1 the last), torn lines skipped (see :func:`read_sessions`)."""
+    sessions = read_sessions(path)
+    if session is not None:
+        try:
+            return sessions[session].lines
+        except IndexError:
+            raise RecordError(f"{path} has {len(sessions)} sessions, not {session}") from None
+    return [line for item in sessions for line in item.lines]
+
+
+_TORN_AT_END = object()
+_UNREADABLE = object()
+
+
+def _decoded_lines(path: Path) -> list[object]:
+    lines = Decoder()
+    try:
+        with open(path, "rb") as handle:
+            return [lines.decode(raw) for raw in handle]
+    except OSError as exc:
+        raise RecordError(f"cannot read record file {path}: {exc}") from None
+
+
+class Decoder:
+    """One record file line: a :class:`RecordLine`, a :class:`SessionMarker`, or unreadable."""
+
+    def __init__(self) -> None:
+        self._line = msgspec.json.Decoder(RecordLine)
+        self._marker = msgspec.json.Decoder(SessionMarker)
+
+    def decode(self, raw: bytes) -> object:
+        if not raw.endswith(b"\n"):
+            return _TORN_AT_END
+        for decoder in (self._line, self._marker):
+            try:
+                return decoder.decode(raw)
+            except (msgspec.DecodeError, msgspec.ValidationError):
+                continue
+        return _UNREADABLE

@@ -17,6 +17,7 @@ from facesynth.app.recording.reader import Recording
 from facesynth.runtime import codec, keys
 from facesynth.runtime.bus.zenoh_bus import ZenohBus, ZenohOptions
 from schemas.messages import ServoCommands
+from services.control.drivers.record import read_record
 
 
 def _command(seq: int) -> bytes:
@@ -154,8 +155,8 @@ def test_record_replay_and_convert_on_the_command_line(
     assert exported.returncode == 0, exported.stderr
 
     def frames(name: str) -> list[tuple[int, dict[str, float]]]:
-        lines = [json.loads(line) for line in (tmp_path / name).read_text().splitlines()]
-        return [(line["frame"], line["servos"]) for line in lines if line["frame"] is not None]
+        lines = read_record(tmp_path / name)  # every session's command lines
+        return [(line.frame, line.servos) for line in lines if line.frame is not None]
 
     assert len(frames("live.jsonl")) == 100
     assert frames("replayed.jsonl") == frames("live.jsonl") == frames("state.jsonl")
@@ -216,8 +217,8 @@ def test_run_records_and_replay_drives_another_profile_through_a_graph(tmp_path:
     assert (summary["stage"], summary["published"], summary["commands"]) == ("features", 100, 100)
 
     def frames(name: str) -> list[tuple[int, dict[str, float]]]:
-        lines = [json.loads(line) for line in (tmp_path / name).read_text().splitlines()]
-        return [(line["frame"], line["servos"]) for line in lines if line["frame"] is not None]
+        lines = read_record(tmp_path / name)  # every session's command lines
+        return [(line.frame, line.servos) for line in lines if line.frame is not None]
 
     assert len(frames("head16-live.jsonl")) == 100
     assert frames("head16-replay.jsonl") == frames("head16-live.jsonl")
