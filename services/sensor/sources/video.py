@@ -57,22 +57,36 @@ class VideoSource(FrameSource):
         self.info = SourceInfo(str(self.path), rate, count or None, live=False)
 
     def frames(self) -> Iterator[tuple[np.ndarray | None, int]]:
+        """Every frame, timed by its index; a file that stops decoding before the frame count
+        its container announces (truncated or corrupt) raises :class:`SourceError` saying how
+        many frames were read, once they have been yielded."""
         cv2 = opencv()
         period_ns = 1e9 / self.info.fps
         index = 0
+        in_pass = 0
         while True:
             ok, image = self._capture.read()
             if not ok:
                 if index == 0:
                     raise SourceError(f"{self.path}: no frame could be decoded")
+                self._check_complete(in_pass)
                 if not self.loop:
                     return
                 self._capture.set(cv2.CAP_PROP_POS_FRAMES, 0)
+                in_pass = 0
                 ok, image = self._capture.read()
                 if not ok:
                     return
             yield image, round(index * period_ns)
             index += 1
+            in_pass += 1
+
+    def _check_complete(self, read: int) -> None:
+        expected = self.info.frames
+        if expected is not None and read < expected:
+            raise SourceError(
+                f"video truncated or corrupt: decoded {read} of {expected} frames from {self.path}"
+            )
 
     def close(self) -> None:
         self._capture.release()
