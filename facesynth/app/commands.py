@@ -84,7 +84,7 @@ def cmd_run(args: argparse.Namespace) -> int:
 
     async def main() -> ChainResult:
         session, locators = await asyncio.to_thread(open_embedded, listen, options)
-        bus = ZenohBus(session)
+        bus = ZenohBus(session, mode="router")
         log.info("embedded Zenoh router on %s (rig %s)", ", ".join(locators), rig)
         freeze_startup_objects()
         try:
@@ -187,7 +187,7 @@ def format_status(alive: list[str], stats: dict[str, Any]) -> str:
     by_instance = {keys.parse_service_key(k): s for k, s in stats.items()}
     header = (
         f"{'rig':<12} {'service':<11} {'instance':<28} {'rate Hz':>8} {'p50 ms':>8} "
-        f"{'p99 ms':>8} {'recv':>7} {'sent':>7} {'drop':>5} {'rej':>5} {'RSS MB':>7}"
+        f"{'p99 ms':>8} {'recv':>7} {'sent':>7} {'drop':>5} {'rej':>5} {'RSS MB':>7}  router"
     )
     lines = [header]
     for key in alive:
@@ -202,11 +202,24 @@ def format_status(alive: list[str], stats: dict[str, Any]) -> str:
         p99 = f"{s.latency_p99_ms:.2f}" if s.latency_p99_ms is not None else "-"
         lines.append(
             f"{parsed[0]:<12} {parsed[1]:<11} {parsed[2]:<28} {s.rate_hz:>8.1f} {p50:>8} {p99:>8} "
-            f"{s.received:>7} {s.published:>7} {s.dropped:>5} {s.rejected:>5} {s.rss_mb:>7.1f}"
+            f"{s.received:>7} {s.published:>7} {s.dropped:>5} {s.rejected:>5} {s.rss_mb:>7.1f}  "
+            f"{describe_link(s)}"
         )
     if len(lines) == 1:
         lines.append("(no live services)")
     return "\n".join(lines)
+
+
+def describe_link(stats: Any) -> str:
+    """A service's link to its router, from its stats: up, down, and how often it was lost."""
+    connected = getattr(stats, "router_connected", None)
+    if connected is None:
+        return "-"
+    state = "up" if connected else "down"
+    if stats.router_losses:
+        times = "time" if stats.router_losses == 1 else "times"
+        state += f" (lost {stats.router_losses} {times}, {stats.router_offline_s:.1f} s offline)"
+    return state
 
 
 def cmd_profile(args: argparse.Namespace) -> int:

@@ -103,7 +103,7 @@ class ServiceContext:
     def publish_stats(self, note: str = "") -> None:
         """Publish the current figures on this instance's stats key."""
         self.stats.dropped = self.dropped()
-        snapshot = self.stats.snapshot(note=note)
+        snapshot = self.stats.snapshot(note=note, link=self.bus.link())
         key = keys.stats_key(self.rig, self.service, self.instance)
         self.bus.publish(key, codec.encode(snapshot))
 

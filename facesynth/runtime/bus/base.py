@@ -20,6 +20,8 @@ import time
 from collections.abc import AsyncIterator
 from dataclasses import dataclass
 
+from facesynth.runtime.bus.link import LinkFigures
+
 
 @dataclass(frozen=True, slots=True)
 class Sample:
@@ -153,6 +155,11 @@ class Bus(abc.ABC):
     @abc.abstractmethod
     async def alive(self, key_expr: str, timeout: float = 1.0) -> list[str]:
         """Keys of the liveliness tokens currently matching ``key_expr``."""
+
+    def link(self, now_ns: int | None = None) -> LinkFigures | None:
+        """How the link to the router has fared (at ``now_ns``, monotonic, default now), or
+        ``None`` where there is no router to lose (an in-memory bus, a router's own session)."""
+        return None
 
     @abc.abstractmethod
     async def close(self) -> None:

@@ -10,7 +10,9 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import json
+import logging
 import os
+import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -18,10 +20,13 @@ from typing import Any
 import zenoh
 
 from facesynth.runtime.bus.base import Bus, Subscription, Token
+from facesynth.runtime.bus.link import LinkFigures, RouterLink, short_id
 
 #: Where services look for a router when given no --connect (``facesynth router``'s default).
 DEFAULT_ROUTER = "tcp/127.0.0.1:7447"
 MODES = ("peer", "client", "router")
+
+log = logging.getLogger("facesynth.link")
 
 
 class ZenohConfigError(ValueError):
@@ -48,6 +53,13 @@ class ZenohOptions:
     def config_file_path(self) -> str | None:
         """The config file in force: ``config_file``, else ``$ZENOH_CONFIG``, else none."""
         return self.config_file or os.environ.get("ZENOH_CONFIG") or None
+
+    def effective_mode(self) -> str:
+        """The session mode these options give (``mode``, else the config file's, else peer)."""
+        try:
+            return str(json.loads(self.build().get_json("mode")) or "peer")
+        except (ZenohConfigError, ValueError, TypeError):
+            return self.mode or "peer"
 
     def build(self) -> zenoh.Config:
         """The ``zenoh.Config`` these options describe."""
@@ -127,21 +139,76 @@ class _ZenohToken(Token):
                 token.undeclare()
 
 
-class ZenohBus(Bus):
-    """A bus over one Zenoh session; several buses may share a session (``owns_session``)."""
+class _TransportWatch:
+    """Logs the session's transports opening and closing, and follows its link to routers.
 
-    def __init__(self, session: zenoh.Session, *, owns_session: bool = True) -> None:
+    Zenoh reports transport events on its own thread; the handler only updates a
+    :class:`RouterLink` and logs. A router's own session logs the sessions it serves instead.
+    """
+
+    def __init__(self, session: zenoh.Session, *, is_router: bool) -> None:
+        self.link = RouterLink()
+        self.is_router = is_router
+        self._listener: Any = None
+        try:
+            self._listener = session.info.declare_transport_events_listener(
+                self._on_event, history=True
+            )
+        except Exception as exc:  # pragma: no cover - a Zenoh without transport events
+            log.debug("transport events unavailable: %s", exc)
+
+    def _on_event(self, event: Any) -> None:
+        now = time.monotonic_ns()
+        transport = event.transport
+        zid = str(transport.zid)
+        whatami = str(transport.whatami).rsplit(".", 1)[-1].lower()
+        opened = event.kind == zenoh.SampleKind.PUT
+        if self.is_router:
+            state = "connected" if opened else "disconnected"
+            log.info("%s %s %s", whatami, short_id(zid), state)
+            return
+        if whatami != "router":
+            log.debug("%s %s %s", whatami, short_id(zid), "opened" if opened else "closed")
+            return
+        line = self.link.opened(zid, now) if opened else self.link.closed(zid, now)
+        if line:
+            log.log(logging.INFO if opened else logging.WARNING, "%s", line)
+
+    def close(self) -> None:
+        listener, self._listener = self._listener, None
+        if listener is not None:
+            with contextlib.suppress(Exception):  # the session is already closed
+                listener.undeclare()
+
+
+class ZenohBus(Bus):
+    """A bus over one Zenoh session; several buses may share a session (``owns_session``).
+
+    It logs losing and regaining the router (``facesynth.link``) and reports it in
+    :meth:`link`, which services publish in their stats.
+    """
+
+    def __init__(
+        self, session: zenoh.Session, *, owns_session: bool = True, mode: str | None = None
+    ) -> None:
         self.session = session
         self._owns_session = owns_session
         self._publishers: dict[str, Any] = {}
         self._subscriptions: list[Subscription] = []
         self._tokens: list[Token] = []
         self._closed = False
+        self._watch = _TransportWatch(session, is_router=mode == "router")
+
+    def link(self, now_ns: int | None = None) -> LinkFigures | None:
+        """The link to the router (``None`` for a router's own session); monotonic time."""
+        if self._watch.is_router:
+            return None
+        return self._watch.link.figures(time.monotonic_ns() if now_ns is None else now_ns)
 
     @classmethod
     def open(cls, options: ZenohOptions) -> ZenohBus:
         """Open a session from ``options`` and wrap it."""
-        return cls(open_session(options))
+        return cls(open_session(options), mode=options.effective_mode())
 
     def publish(self, key: str, payload: bytes) -> None:
         publisher = self._publishers.get(key)
@@ -181,6 +248,7 @@ class ZenohBus(Bus):
             with contextlib.suppress(Exception):  # the session is already closed
                 publisher.undeclare()
         self._publishers.clear()
+        self._watch.close()
         if self._owns_session:
             await asyncio.to_thread(self.session.close)
 
