@@ -22,6 +22,8 @@ COMMANDS = [
     "track",
     "compose",
     "calibrate",
+    "certs",
+    "health",
 ]
 
 

@@ -147,6 +147,60 @@ def build_parser() -> argparse.ArgumentParser:
     )
 
     p = add(
+        "certs",
+        commands.cmd_certs,
+        "make a rig's CA, a certificate per service and the Zenoh configs of a secured rig "
+        "(mutual TLS, access control)",
+    )
+    p.add_argument("rig", metavar="RIG", help="rig name (the configs' access control is for it)")
+    p.add_argument("--out", default="certs", help="folder to write to (default ./certs)")
+    p.add_argument(
+        "--router-host",
+        action="append",
+        default=[],
+        metavar="NAME",
+        help="a host name or IP address clients reach the router by, put in its certificate "
+        "(repeatable; 'router', 'localhost' and 127.0.0.1 are always in)",
+    )
+    p.add_argument(
+        "--connect",
+        action="append",
+        metavar="ENDPOINT",
+        help="the router endpoint written into the service configs (repeatable; default "
+        "tls/localhost:7447)",
+    )
+    p.add_argument(
+        "--listen",
+        action="append",
+        metavar="ENDPOINT",
+        help="the endpoint written into the router config (default tls/0.0.0.0:7447)",
+    )
+    p.add_argument(
+        "--cert-dir",
+        metavar="PATH",
+        help="where the hosts will keep these files, as the configs name them "
+        "(default: --out, absolute)",
+    )
+    p.add_argument(
+        "--identity",
+        action="append",
+        metavar="NAME",
+        help="issue only these identities (repeatable; default all: sensor, points, features, "
+        "translator, control, observer, router)",
+    )
+    p.add_argument(
+        "--days", type=int, default=825, help="validity of the certificates (default 825 days)"
+    )
+    p.add_argument(
+        "--force", action="store_true", help="reissue certificates that exist (the CA is kept)"
+    )
+    p.add_argument(
+        "--configs-only",
+        action="store_true",
+        help="write only the Zenoh configs (no keys or certificates)",
+    )
+
+    p = add(
         "calibrate",
         commands.cmd_calibrate,
         "record a performer's neutral face and expression ranges (guided, or from a video)",
@@ -179,6 +233,25 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--all-rigs", action="store_true", help="every rig, not just --rig")
     p.add_argument(
         "--timeout", type=float, default=2.5, help="seconds to listen for stats (default 2.5)"
+    )
+
+    p = add(
+        "health",
+        commands.cmd_health,
+        "exit 0 if a service of this host holds its liveliness token on the router (or, with "
+        "--router, if the router accepts sessions); 1 if not: a container health check",
+    )
+    _zenoh_arguments(p)
+    p.add_argument(
+        "--router", action="store_true", help="check that the router accepts a session instead"
+    )
+    p.add_argument(
+        "--host",
+        help="whose services to look for: instance ids start with this host name "
+        "(default: this host's)",
+    )
+    p.add_argument(
+        "--timeout", type=float, default=3.0, help="seconds to wait for answers (default 3)"
     )
 
     p = add("profile", commands.cmd_profile, "list or check robot profiles")

@@ -120,9 +120,41 @@ def cmd_compose(args: argparse.Namespace) -> int:
     """``facesynth compose GRAPH``: the docker-compose file for a graph."""
     text = compose_file(load_graph(args.graph), args.graph, graph_path=args.graph_path)
     if args.out:
-        write_atomic(Path(args.out), text.encode())
+        write_atomic(Path(args.out), text.encode(), mode=0o644)
     else:
         print(text, end="")
+    return 0
+
+
+def cmd_certs(args: argparse.Namespace) -> int:
+    """``facesynth certs RIG``: a rig's CA, certificates and secured Zenoh configs."""
+    from facesynth.app.certs import CertRequest, describe, make_certs
+    from facesynth.app.secure import CertPaths, rig_configs
+
+    out = Path(args.out)
+    connect = endpoints(args.connect) or ["tls/localhost:7447"]
+    listen = endpoints(args.listen) or ["tls/0.0.0.0:7447"]
+    if args.configs_only:
+        paths = CertPaths(args.cert_dir or str(out.resolve()))
+        written = [
+            write_atomic(out / name, text, mode=0o644)
+            for name, text in rig_configs(args.rig, paths, connect=connect, listen=listen).items()
+        ]
+    else:
+        request = CertRequest(
+            rig=args.rig,
+            out=out,
+            router_names=args.router_host,
+            days=args.days,
+            force=args.force,
+            connect=connect,
+            listen=listen,
+            cert_dir=args.cert_dir,
+        )
+        if args.identity:
+            request.identities = args.identity
+        written = make_certs(request)
+    print(describe(written, out))
     return 0
 
 
@@ -208,6 +240,50 @@ def format_status(alive: list[str], stats: dict[str, Any]) -> str:
     if len(lines) == 1:
         lines.append("(no live services)")
     return "\n".join(lines)
+
+
+def cmd_health(args: argparse.Namespace) -> int:
+    """``facesynth health``: 0 when this host's service is live on the rig's router, else 1.
+
+    Unhealthy is exit status 1 whatever the reason (no router, no token), as container health
+    checks expect; the reason is printed.
+    """
+    from facesynth.runtime.bus.zenoh_bus import ZenohConfigError
+    from facesynth.runtime.service import host_id
+
+    options = wiring.zenoh_options(args)
+    # Give up on an absent router within the timeout, whatever the config file says.
+    options.overrides.update(
+        {"connect/timeout_ms": round(args.timeout * 1000), "connect/exit_on_failure": True}
+    )
+    host = args.host or host_id()
+
+    async def main() -> tuple[bool, str]:
+        try:
+            bus = await asyncio.to_thread(ZenohBus.open, options)
+        except ZenohConfigError as exc:
+            return False, str(exc)
+        try:
+            if args.router:
+                routers = [str(z) for z in bus.session.info.routers_zid()]
+                if routers:
+                    return True, f"router {routers[0][:8]} accepts sessions"
+                return False, "no router answered"
+            alive = await bus.alive(keys.health_pattern(args.rig), timeout=args.timeout)
+            mine = [
+                key
+                for key in alive
+                if (parsed := keys.parse_service_key(key)) and parsed[2].startswith(f"{host}-")
+            ]
+            if mine:
+                return True, " ".join(mine)
+            return False, f"no live service of host {host!r} on the router"
+        finally:
+            await bus.close()
+
+    healthy, reason = run_async(main())
+    print(f"{'healthy' if healthy else 'unhealthy'}: {reason}")
+    return 0 if healthy else 1
 
 
 def describe_link(stats: Any) -> str:

@@ -31,10 +31,15 @@ Body = Callable[["ServiceContext"], Awaitable[Any]]
 log = logging.getLogger("facesynth")
 
 
+def host_id() -> str:
+    """This host's name as it starts every instance id made here (see :func:`default_instance`)."""
+    host = "".join(c if c.isalnum() or c in "-_." else "-" for c in socket.gethostname())[:40]
+    return host or "host"
+
+
 def default_instance() -> str:
     """An instance id unique on this network: host name and process id."""
-    host = "".join(c if c.isalnum() or c in "-_." else "-" for c in socket.gethostname())[:40]
-    return f"{host or 'host'}-{os.getpid()}"
+    return f"{host_id()}-{os.getpid()}"
 
 
 @dataclass

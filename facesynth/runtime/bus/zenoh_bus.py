@@ -49,6 +49,8 @@ class ZenohOptions:
     listen: list[str] = field(default_factory=list)
     config_file: str | None = None
     scouting: bool = False
+    #: Further settings by config path, e.g. ``{"connect/timeout_ms": 3000}``; applied last.
+    overrides: dict[str, Any] = field(default_factory=dict)
 
     def config_file_path(self) -> str | None:
         """The config file in force: ``config_file``, else ``$ZENOH_CONFIG``, else none."""
@@ -80,6 +82,8 @@ class ZenohOptions:
             if not self.scouting:
                 config.insert_json5("scouting/multicast/enabled", "false")
             config.insert_json5("adminspace/enabled", "true")
+            for path, value in self.overrides.items():
+                config.insert_json5(path, json.dumps(value))
         except Exception as exc:
             raise ZenohConfigError(f"invalid Zenoh option: {exc}") from None
         return config
