@@ -142,8 +142,19 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", metavar="FILE", help="write here (default: print it)")
     p.add_argument(
         "--graph-path",
-        default="/etc/facesynth/graph.toml",
-        help="where the graph is mounted in the containers (default /etc/facesynth/graph.toml)",
+        help="where the graph is seen in the containers (default: its place under deploy/, "
+        "mounted at /etc/facesynth, e.g. /etc/facesynth/graph.toml)",
+    )
+    p.add_argument(
+        "--secure",
+        action="store_true",
+        help="write the override that secures every link (mutual TLS, access control)",
+    )
+    p.add_argument(
+        "--override",
+        action="store_true",
+        help="write an override that runs this graph's nodes in place of the same-named "
+        "services (e.g. a control node with another driver)",
     )
 
     p = add(

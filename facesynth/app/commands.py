@@ -19,7 +19,7 @@ from facesynth.app.chain import (
     run_chain,
     run_single,
 )
-from facesynth.app.compose import compose_file
+from facesynth.app.compose import compose_file, override_file, secure_file
 from facesynth.app.graph import Graph, load_graph, select_node
 from facesynth.app.nodes import NODE_TYPES, SensorNode, stage_of
 from facesynth.app.plugin_help import describe_plugins
@@ -118,7 +118,15 @@ def cmd_run(args: argparse.Namespace) -> int:
 
 def cmd_compose(args: argparse.Namespace) -> int:
     """``facesynth compose GRAPH``: the docker-compose file for a graph."""
-    text = compose_file(load_graph(args.graph), args.graph, graph_path=args.graph_path)
+    graph = load_graph(args.graph)
+    if args.secure and args.override:
+        raise OptionError("choose one of --secure and --override")
+    if args.secure:
+        text = secure_file(graph, args.graph)
+    elif args.override:
+        text = override_file(graph, args.graph, graph_path=args.graph_path)
+    else:
+        text = compose_file(graph, args.graph, graph_path=args.graph_path)
     if args.out:
         write_atomic(Path(args.out), text.encode(), mode=0o644)
     else:
