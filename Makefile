@@ -4,7 +4,7 @@ VENV ?= .venv
 PYTHON ?= python3
 BIN := $(VENV)/bin
 
-.PHONY: demo test lint bench install clean
+.PHONY: demo test lint bench install clean test-deploy test-containers test-netns test-board
 
 $(BIN)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -21,6 +21,19 @@ demo: $(BIN)/.installed
 ## Lint, type-check, schema freshness, and the whole test suite.
 test: $(BIN)/.installed lint
 	$(BIN)/python -m pytest -q
+
+## The deployment groups (root; .ci/run installs what they need): docker-compose on Podman,
+## services on separate hosts in network namespaces, the servo-board install.
+test-deploy: test-board test-netns test-containers
+
+test-containers: $(BIN)/.installed
+	$(BIN)/python -m pytest -q -s -m containers tests/containers
+
+test-netns: $(BIN)/.installed
+	$(BIN)/python -m pytest -q -s -m netns tests/netns
+
+test-board: $(BIN)/.installed
+	$(BIN)/python -m pytest -q -s -m board tests/board
 
 lint: $(BIN)/.installed
 	$(BIN)/ruff check .
