@@ -146,7 +146,8 @@ def _service(name: str, node: Any, graph_path: str, *, anchor: bool) -> list[str
     lines.append(f"    command: [{', '.join(_quote(part) for part in command)}]")
     volumes, devices = _mounts(node, name)
     if volumes:
-        lines += ["    volumes:", f"      - ./deploy:{MOUNT}:ro", *(f"      - {v}" for v in volumes)]
+        lines += ["    volumes:", f"      - ./deploy:{MOUNT}:ro"]
+        lines += [f"      - {volume}" for volume in volumes]
     if devices:
         lines += ["    devices:", *(f"      - {d}" for d in devices)]
         # The device keeps its group on the host (dialout: 20 on Debian).

@@ -187,6 +187,7 @@ def test_compose_files_validate_offline(engine: Engine, project: Path, tmp_path:
         ["docker-compose.yml"],
         ["docker-compose.yml", "docker-compose.secure.yml"],
         ["docker-compose.yml", "docker-compose.replay.yml"],
+        ["docker-compose.yml", "deploy/zenohd/compose.yml"],
     ):
         args = [arg for file in files for arg in ("-f", file)]
         merged = engine.run("docker-compose", *args, "config", cwd=project).stdout
