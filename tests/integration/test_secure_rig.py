@@ -246,6 +246,7 @@ def test_only_the_translator_moves_a_servo(
     for n, identity in enumerate(intruders):
         session = _open(certs["lab"], identity, router)
         try:
+            time.sleep(0.3)  # as long as the translator below is given
             for i in range(10):  # each intruder asks for its own jaw position
                 session.put(key, _command(1000 + 10 * n + i, 1100.0 + n))
                 time.sleep(0.01)
@@ -254,6 +255,7 @@ def test_only_the_translator_moves_a_servo(
             session.close()
     translator = _open(certs["lab"], "translator", router)
     try:
+        time.sleep(0.3)
         for i in range(5):
             translator.put(key, _command(i, 1900.0))
             time.sleep(0.02)
@@ -288,11 +290,11 @@ def test_only_controllers_hear_servo_commands(certs: dict[str, Path], router: st
         time.sleep(0.5)
         translator = _open(certs["lab"], "translator", router)
         sessions.append(translator)
-        for i in range(5):
-            translator.put(keys.stage_key("lab", "servo_commands"), _command(i, 1600.0))
-            time.sleep(0.02)
-        deadline = time.monotonic() + 5
+        deadline = time.monotonic() + 10
+        seq = 0
         while time.monotonic() < deadline and len(heard["control"]) < 5:
+            translator.put(keys.stage_key("lab", "servo_commands"), _command(seq, 1600.0))
+            seq += 1
             time.sleep(0.05)
         time.sleep(0.3)
     finally:
