@@ -2,7 +2,8 @@
 # facesynth services image. The base image is a build argument, so the image builds from a public
 # Python image or from a locally made one where no registry is reachable (deploy/base-image.sh):
 #   docker build --build-arg BASE_IMAGE=python:3.11-slim -t facesynth .
-# The base must provide python3 (>= 3.11) with venv. EXTRAS="" builds the servo-board image
+# The base must provide python3 (>= 3.11) with venv. EXTRAS="all" (tracker, uvloop, face page,
+# VMC, recording, certs); EXTRAS="fast" (or "") builds the servo-board image
 # (control, translator, features, router, status: no OpenCV, no inference runtime).
 # Behind a TLS-intercepting proxy, give pip the proxy's CA, which never enters the image: as a build
 # secret (docker build --secret id=pip_ca,src=/etc/ssl/certs/ca-certificates.crt .), or, for

@@ -4,7 +4,8 @@ VENV ?= .venv
 PYTHON ?= python3
 BIN := $(VENV)/bin
 
-.PHONY: demo test lint bench install clean test-deploy test-containers test-netns test-board
+.PHONY: demo test test-browser lint bench install clean firmware-test test-deploy test-containers \
+	test-netns test-board
 
 $(BIN)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -14,13 +15,19 @@ $(BIN)/.installed: pyproject.toml
 
 install: $(BIN)/.installed
 
-## The bundled performer video through S -> P -> F -> T -> C; servo commands in facesynth-commands.jsonl.
+## The bundled performer video through S -> P -> F -> T -> C; servo commands in facesynth-commands.jsonl,
+## then the side-by-side video to watch (performer | virtual face | paper16's servos) in facesynth-demo.mp4.
 demo: $(BIN)/.installed
-	$(BIN)/facesynth run
+	$(BIN)/facesynth run --render facesynth-demo.mp4
 
-## Lint, type-check, schema freshness, and the whole test suite.
+## Lint, type-check, schema freshness, and the whole test suite (the browser group last).
 test: $(BIN)/.installed lint
-	$(BIN)/python -m pytest -q
+	$(BIN)/python -m pytest -q -m "not browser and not containers and not netns and not board"
+	$(BIN)/python -m pytest -q -m browser
+
+## The live face page in a real headless Chromium (Debian's chromium and chromium-driver).
+test-browser: $(BIN)/.installed
+	$(BIN)/python -m pytest -q -m browser
 
 ## The deployment groups (root; .ci/run installs what they need): docker-compose on Podman,
 ## services on separate hosts in network namespaces, the servo-board install.
@@ -41,9 +48,14 @@ lint: $(BIN)/.installed
 	$(BIN)/lint-imports --no-cache
 	$(BIN)/python -m schemas.export --check
 
+## The servo firmware: host unit tests, Uno build with size report, simavr harness, tests/firmware.
+firmware-test: $(BIN)/.installed
+	$(MAKE) -C firmware host-test build emulator
+	$(BIN)/python -m pytest -q tests/firmware
+
 bench: $(BIN)/.installed
 	$(BIN)/facesynth bench chain
 	$(BIN)/facesynth bench tracker
 
 clean:
-	rm -rf $(VENV) .mypy_cache .ruff_cache .pytest_cache facesynth-commands.jsonl
+	rm -rf $(VENV) .mypy_cache .ruff_cache .pytest_cache facesynth-commands.jsonl facesynth-demo.mp4 firmware/build

@@ -9,6 +9,7 @@ from __future__ import annotations
 import json
 import sys
 from pathlib import Path
+from typing import Any
 
 import msgspec
 
@@ -27,6 +28,29 @@ def render_schema() -> str:
         "$defs": components,
     }
     return json.dumps(document, indent=2, sort_keys=True) + "\n"
+
+
+def message_schema(cls: type[msgspec.Struct]) -> dict[str, Any]:
+    """The self-contained JSON Schema of one message (every ``$ref`` inlined).
+
+    Viewers that take one schema per channel (MCAP channels, Foxglove's WebSocket protocol) get
+    this: the same definitions as ``facesynth.schema.json``, with no references to resolve.
+    """
+    _, components = msgspec.json.schema_components((cls,))
+
+    def inline(node: Any) -> Any:
+        if isinstance(node, dict):
+            ref = node.get("$ref")
+            if isinstance(ref, str) and ref.startswith("#/$defs/"):
+                return inline(components[ref.removeprefix("#/$defs/")])
+            return {key: inline(value) for key, value in node.items()}
+        if isinstance(node, list):
+            return [inline(item) for item in node]
+        return node
+
+    document: dict[str, Any] = {"$schema": "https://json-schema.org/draft/2020-12/schema"}
+    document.update(inline(components[cls.__name__]))
+    return document
 
 
 def main() -> int:

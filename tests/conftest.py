@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import uuid
 from collections.abc import Iterator
+from pathlib import Path
 
 import pytest
 import zenoh
@@ -33,6 +34,18 @@ def key_prefix() -> str:
 def rig() -> str:
     """A rig name no other test uses."""
     return f"t{uuid.uuid4().hex[:10]}"
+
+
+@pytest.fixture
+def isolated_home(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> Path:
+    """An empty ``tmp_path/home`` as HOME and no ``$FACESYNTH_PROFILES`` or
+    ``$FACESYNTH_CALIBRATIONS``: only the shipped profiles and the test's own files are found."""
+    home = tmp_path / "home"
+    home.mkdir()
+    monkeypatch.setenv("HOME", str(home))
+    monkeypatch.delenv("FACESYNTH_PROFILES", raising=False)
+    monkeypatch.delenv("FACESYNTH_CALIBRATIONS", raising=False)
+    return home
 
 
 def client_options(locator: str, mode: str = "peer") -> ZenohOptions:

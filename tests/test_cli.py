@@ -22,6 +22,7 @@ COMMANDS = [
     "track",
     "compose",
     "calibrate",
+    "render",
     "certs",
     "health",
 ]
@@ -50,6 +51,10 @@ def _files(tmp: Path) -> dict[str, Path]:
         "nodriver.toml": '[nodes.c]\nstage = "control"\ndriver = { driver = "record" }\n',
         "badgraph.toml": "[nodes.x\n",
         "features.toml": '[nodes.f]\nstage = "features"\n',
+        "noavatar.toml": (
+            'name = "noavatar"\n[[servos]]\nname = "tail"\nchannel = 0\nfeature = "jaw_open"\n'
+            "min_us = 1000\nneutral_us = 1500\nmax_us = 2000\n"
+        ),
     }
     for name, text in files.items():
         (tmp / name).write_text(text)
@@ -115,6 +120,38 @@ CASES = [
     ),
     ("bad watchdog", ["control", "--out", "x", "--watchdog", "0"], "--watchdog: Expected"),
     ("profile without name", ["profile", "check"], "needs a profile"),
+    ("render to a text file", ["render", "--out", "x.txt"], "use a .mp4, .mov, .mkv, .avi file"),
+    (
+        "render a missing video",
+        ["render", "--video", "/nonexistent.mp4", "--out", "o.mp4"],
+        "does not exist",
+    ),
+    ("render a camera", ["render", "--camera", "0", "--out", "o.mp4"], "needs a video file"),
+    ("render a loop", ["render", "--loop", "--out", "o.mp4"], "never ends"),
+    ("render ticks", ["render", "--ticks", "5", "--out", "o.mp4"], "needs a video file"),
+    ("render bars of no profile", ["render", "--bars", "nope", "--out", "o.mp4"], "available:"),
+    (
+        "render with a bad track file",
+        ["render", "--points-jsonl", "{track.jsonl}", "--out", "o.mp4"],
+        "68 finite",
+    ),
+    (
+        "virtual page address",
+        ["control", "--profile", "virtual", "--driver", "virtual", "--http", "8080"],
+        "--http: expected HOST:PORT",
+    ),
+    ("vmc port", ["control", "--driver", "vmc", "--vmc-port", "0"], "--vmc-port"),
+    (
+        "vmc host",
+        ["control", "--driver", "vmc", "--profile", "virtual", "--vmc-host", "no.such.invalid"],
+        "--vmc-host: cannot resolve",
+    ),
+    ("vmc head position", ["control", "--driver", "vmc", "--head-position", "1,2"], "length"),
+    (
+        "vmc profile without avatar controls",
+        ["control", "--driver", "vmc", "--profile", "{noavatar.toml}"],
+        "has no control the vmc driver can send",
+    ),
 ]
 
 
@@ -161,3 +198,19 @@ def test_profile_check_and_list(capsys: pytest.CaptureFixture[str]) -> None:
 def test_rig_defaults_from_environment(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv("FACESYNTH_RIG", "lab2")
     assert build_parser().parse_args(["features"]).rig == "lab2"
+
+
+def test_a_taken_page_port_is_one_error_line(capsys: pytest.CaptureFixture[str]) -> None:
+    import socket
+
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        address = f"127.0.0.1:{taken.getsockname()[1]}"
+        argv = ["run", "--profile", "virtual", "--driver", "virtual", "--http", address,
+                "--ticks", "3", "--openface-csv", "facesynth/app/data/OpenFace_Test.csv",
+                "--listen", "tcp/127.0.0.1:0"]
+        assert main(argv) == 1
+    err = capsys.readouterr().err
+    assert f"facesynth run: error: cannot serve the live face page on {address}" in err
+    assert "Traceback" not in err

@@ -15,8 +15,11 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 from facesynth import __version__
+from facesynth.app.recording.attach import add_attach_arguments
 from facesynth.app.stage_args import add_stage_arguments
 from facesynth.runtime import keys
+from services.control.drivers.base import DriverError
+from services.points.tracker.runtimes import backend_choices
 
 Handler = Callable[[argparse.Namespace], int]
 
@@ -112,12 +115,19 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("graph", nargs="?", metavar="GRAPH", help="graph file (default: the demo graph)")
     add_stage_arguments(p, keys.SERVICES)
+    add_attach_arguments(p)
     _zenoh_arguments(p)
     p.add_argument(
         "--drain-timeout",
         type=float,
         default=3.0,
         help="seconds to wait for the last command after the input ends",
+    )
+    p.add_argument(
+        "--render",
+        metavar="OUT.mp4",
+        help="when the input ends, also write the side-by-side video of it (performer with "
+        "landmarks | virtual face | servo bars of the translator's profile); see render",
     )
 
     for stage, help_text in STAGE_HELP.items():
@@ -132,6 +142,29 @@ def build_parser() -> argparse.ArgumentParser:
                 action="store_true",
                 help="list the servo drivers and their options, then exit",
             )
+
+    p = add(
+        "render",
+        commands.cmd_render,
+        "write the side-by-side video of a chain's input video: performer with landmarks | "
+        "virtual face | servo bars, one output frame per input frame",
+    )
+    p.add_argument("graph", nargs="?", metavar="GRAPH", help="graph file (default: the demo graph)")
+    p.add_argument("--out", required=True, metavar="OUT.mp4", help="video file (.mp4, .avi, …)")
+    p.add_argument(
+        "--bars",
+        metavar="PROFILE",
+        help="servo bars of this profile (default: the translator's profile unless it is "
+        "virtual; none: no bars)",
+    )
+    p.add_argument(
+        "--same-size",
+        action="store_true",
+        help="scale each side-by-side frame into the input's own size (default: the "
+        "performer keeps its size and the panels are added beside it)",
+    )
+    add_stage_arguments(p, ["sensor", "points", "features", "translator"])
+    p.add_argument("--log-level", default="WARNING", choices=("DEBUG", "INFO", "WARNING", "ERROR"))
 
     p = add(
         "compose",
@@ -269,14 +302,24 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("action", choices=("list", "check", "show"))
     p.add_argument("name", nargs="?", help="profile name or TOML path (check, show)")
 
-    p = add("bench", commands.cmd_bench, "benchmarks: the five-process chain, or the tracker")
-    p.add_argument("what", choices=("chain", "tracker", "smoothing"))
+    p = add(
+        "bench",
+        commands.cmd_bench,
+        "benchmarks: the five-process chain, the tracker, smoothing, recording, the live face page",
+    )
+    p.add_argument("what", choices=("chain", "tracker", "smoothing", "recording", "face"))
     p.add_argument("video", nargs="?", help="video (default: the bundled performer video)")
     p.add_argument(
-        "--seconds", type=float, default=15.0, help="chain: seconds of real-time input (default 15)"
+        "--seconds",
+        type=float,
+        default=None,
+        help="chain: seconds of real-time input (default 15); face: seconds per row (default 3)",
     )
     p.add_argument(
-        "--fps", type=float, default=30.0, help="chain: frame rate of the input (default 30)"
+        "--rate", type=float, default=100.0, help="face: commands per second (default 100)"
+    )
+    p.add_argument(
+        "--fps", type=float, default=30.0, help="chain, recording: frame rate (default 30)"
     )
     p.add_argument(
         "--openface-csv", metavar="PATH", help="chain: replay these landmarks instead of tracking"
@@ -298,6 +341,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--backends", default="litert,opencv", help="tracker: inference backends to compare"
     )
+    p.add_argument(
+        "--minutes", type=float, default=10.0, help="recording: session length (default 10)"
+    )
 
     p = add(
         "track", commands.cmd_track, "track a video offline: one JSON line of landmarks per frame"
@@ -306,10 +352,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True, help="output JSON-lines file")
     p.add_argument(
         "--inference",
-        choices=("auto", "litert", "opencv"),
+        choices=backend_choices(),
         default="auto",
         help="inference runtime (default auto: LiteRT when installed)",
     )
+
+    from facesynth.app.recording.cli import add_recording_parsers
+
+    add_recording_parsers(sub, _zenoh_arguments)
     return parser
 
 
@@ -328,6 +378,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except ValueError as exc:  # every facesynth error about options, files and messages
         print(f"facesynth {args.command}: error: {exc}", file=sys.stderr)
         return 2
+    except DriverError as exc:  # an output that cannot be opened (device, file, port in use)
+        print(f"facesynth {args.command}: error: {exc}", file=sys.stderr)
+        return 1
     except KeyboardInterrupt:
         return 130
     except BrokenPipeError:  # the reader went away (e.g. `| head`): stop quietly

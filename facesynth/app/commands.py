@@ -23,6 +23,7 @@ from facesynth.app.compose import compose_file, override_file, secure_file
 from facesynth.app.graph import Graph, load_graph, select_node
 from facesynth.app.nodes import NODE_TYPES, SensorNode, stage_of
 from facesynth.app.plugin_help import describe_plugins
+from facesynth.app.recording.attach import attached
 from facesynth.app.stage_args import apply_arguments
 from facesynth.app.wiring import OptionError, build_node, replay_frames_of
 from facesynth.runtime import keys
@@ -88,13 +89,14 @@ def cmd_run(args: argparse.Namespace) -> int:
         log.info("embedded Zenoh router on %s (rig %s)", ", ".join(locators), rig)
         freeze_startup_objects()
         try:
-            return await run_chain(
-                bus,
-                rig,
-                parts,
-                drain_timeout=args.drain_timeout,
-                stats_interval=args.stats_interval,
-            )
+            async with attached(bus, rig, args):
+                return await run_chain(
+                    bus,
+                    rig,
+                    parts,
+                    drain_timeout=args.drain_timeout,
+                    stats_interval=args.stats_interval,
+                )
         finally:
             await bus.close()
 
@@ -103,7 +105,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         getattr(configs[name], "out", configs[name].__struct_config__.tag)
         for name in graph.of_stage("control")
     ]
-    summary = {
+    summary: dict[str, Any] = {
         "frames": result.frames,
         "commands": result.commands,
         "last_frame_executed": result.last_frame,
@@ -112,8 +114,28 @@ def cmd_run(args: argparse.Namespace) -> int:
         "dropped": result.dropped,
         "out": outs[0] if len(outs) == 1 else outs,
     }
+    if args.render and not result.interrupted:
+        from facesynth.app.render import render_graph
+
+        summary["render"] = render_graph(graph, configs, args.render)
     print(json.dumps(summary))
     return 130 if result.interrupted else 0
+
+
+def cmd_render(args: argparse.Namespace) -> int:
+    """``facesynth render [GRAPH] --out OUT.mp4``: the side-by-side video of a graph's input."""
+    from facesynth.app.render import render_graph
+
+    graph = load_graph(args.graph, plugins=False)
+    configs = {}
+    for name, node in list(graph.nodes.items()):
+        if stage_of(node) == "control":
+            del graph.nodes[name]
+            continue
+        graph.nodes[name], configs[name] = apply_arguments(name, node, args)
+    summary = render_graph(graph, configs, args.out, bars=args.bars, same_size=args.same_size)
+    print(json.dumps(summary))
+    return 0
 
 
 def cmd_compose(args: argparse.Namespace) -> int:
@@ -349,6 +371,16 @@ def cmd_bench(args: argparse.Namespace) -> int:
 
         print(format_smoothing(bench_smoothing(args.profile, track=args.track)))
         return 0
+    if args.what == "recording":
+        from facesynth.app.bench.recording import bench_recording, format_recording_bench
+
+        print(format_recording_bench(bench_recording(minutes=args.minutes, fps=args.fps)))
+        return 0
+    if args.what == "face":
+        from facesynth.app.bench.face import bench_face, format_face
+
+        print(format_face(bench_face(seconds=args.seconds or 3.0, rate=args.rate)))
+        return 0
     if args.what == "chain":
         from facesynth.app.bench.chain import bench_chain, format_chain_bench
 
@@ -356,7 +388,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
             format_chain_bench(
                 bench_chain(
                     video=args.video,
-                    seconds=args.seconds,
+                    seconds=args.seconds or 15.0,
                     fps=args.fps,
                     openface_csv=args.openface_csv,
                     encoding=args.encoding,

@@ -23,8 +23,6 @@ from facesynth.runtime.feature_names import NAMES
 from facesynth.runtime.landmarks import N_IBUG
 from facesynth.runtime.named_files import NamedFiles
 
-FORMAT = "facesynth.runtime.calibration"
-
 
 class CalibrationError(ValueError):
     """A calibration that cannot be used; the message names the file and what is wrong."""
@@ -52,11 +50,6 @@ class Calibration(msgspec.Struct, forbid_unknown_fields=True, kw_only=True):
 
 
 CALIBRATIONS = NamedFiles("calibration", ".json", "FACESYNTH_CALIBRATIONS")
-
-
-def search_dirs() -> list[Path]:
-    """Folders searched for ``<name>.json``, first match wins."""
-    return CALIBRATIONS.search_dirs()
 
 
 def resolve_calibration(name_or_path: str) -> Path:

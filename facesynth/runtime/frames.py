@@ -4,21 +4,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from facesynth.runtime.opencv import import_cv2
 from schemas.messages import Frame
 
 
 class FrameError(ValueError):
     """A frame whose pixels cannot be encoded or decoded."""
-
-
-def _cv2():  # type: ignore[no-untyped-def]
-    try:
-        import cv2
-    except ImportError:  # pragma: no cover - depends on the install
-        raise FrameError(
-            "OpenCV is not installed: install facesynth[tracker] on hosts that handle images"
-        ) from None
-    return cv2
 
 
 def encode_frame(
@@ -37,7 +28,8 @@ def encode_frame(
         raise FrameError(f"need an HxWx3 uint8 BGR image, got {image.shape} {image.dtype}")
     height, width = image.shape[:2]
     if encoding == "jpeg":
-        ok, buffer = _cv2().imencode(".jpg", image, [1, int(quality)])  # IMWRITE_JPEG_QUALITY
+        cv2 = import_cv2(FrameError)
+        ok, buffer = cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, int(quality)])
         if not ok:
             raise FrameError("JPEG encoding failed")
         data = buffer.tobytes()
@@ -66,7 +58,7 @@ def decode_frame(frame: Frame) -> np.ndarray:
             raise FrameError(f"raw frame needs {expected} bytes, got {len(frame.data)}")
         return np.frombuffer(frame.data, dtype=np.uint8).reshape(frame.height, frame.width, 3)
     if frame.encoding == "jpeg":
-        cv2 = _cv2()
+        cv2 = import_cv2(FrameError)
         if not frame.data:
             raise FrameError(f"frame {frame.seq}: JPEG data cannot be decoded")
         image = cv2.imdecode(np.frombuffer(frame.data, dtype=np.uint8), cv2.IMREAD_COLOR)

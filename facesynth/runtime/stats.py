@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import collections
+import math
 import resource
 import sys
 import time
@@ -15,13 +16,20 @@ from schemas.messages import ServiceStats
 RATE_WINDOW_NS = 5_000_000_000
 
 
-def memory_mb() -> tuple[float, float]:
-    """Current and peak resident memory of this process, in MB (peak only where /proc is absent)."""
+def memory_mb(pid: int | None = None) -> tuple[float, float]:
+    """Current and peak resident memory of a process (default: this one), in MB.
+
+    Read from ``/proc/<pid>/status``. Where that cannot be read: for this process, its peak
+    (``getrusage``) for both; for another process, NaN for both.
+    """
+    where = "self" if pid is None else pid
     try:
-        with open("/proc/self/status", encoding="ascii") as handle:
+        with open(f"/proc/{where}/status", encoding="ascii") as handle:
             fields = dict(line.split(":", 1) for line in handle if ":" in line)
         return int(fields["VmRSS"].split()[0]) / 1024, int(fields["VmHWM"].split()[0]) / 1024
     except (OSError, KeyError, ValueError):
+        if pid is not None:
+            return math.nan, math.nan
         peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
         peak_mb = peak / (1024 * 1024) if sys.platform == "darwin" else peak / 1024
         return peak_mb, peak_mb

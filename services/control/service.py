@@ -17,6 +17,7 @@ import time
 from facesynth.runtime import codec
 from facesynth.runtime.bus.base import SubscriptionClosed
 from facesynth.runtime.profiles import Profile
+from facesynth.runtime.rig_view import RigView
 from facesynth.runtime.service import ServiceContext
 from schemas.messages import ServoCommands
 from services.control.core import CommandInfo, ControlCore, Watchdog
@@ -43,6 +44,7 @@ class ControlService:
 
     async def serve(self, ctx: ServiceContext) -> None:
         """Drive the servos until cancelled."""
+        self.driver.observe(RigView(ctx.bus, ctx.rig))
         await self.driver.connect()
         try:
             await self.driver.neutral(self.core.neutral())
@@ -59,7 +61,10 @@ class ControlService:
             try:
                 while True:
                     try:
-                        sample = await asyncio.wait_for(subscription.receive(), tick)
+                        # asyncio.timeout, not wait_for: on Python 3.11 wait_for can swallow a
+                        # cancellation that races with a sample, and the service never stops.
+                        async with asyncio.timeout(tick):
+                            sample = await subscription.receive()
                     except TimeoutError:
                         if self.watchdog.expired(time.time_ns()):
                             ctx.log.info(

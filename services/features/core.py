@@ -109,11 +109,6 @@ class NeutralEstimator:
         self.neutral: np.ndarray | None = None
 
     @property
-    def _samples(self) -> list[np.ndarray]:
-        """The frames collected so far (emptied once the neutral is known)."""
-        return self._window.samples
-
-    @property
     def ready(self) -> bool:
         """Whether the neutral is known."""
         return self.neutral is not None

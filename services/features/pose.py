@@ -114,11 +114,6 @@ def own_frame(mesh: np.ndarray) -> Similarity:
     return 1.0 / iod, axes, -(origin @ axes.T) / iod
 
 
-def to_face_frame(mesh: np.ndarray) -> np.ndarray:
-    """A mesh in its own face frame (IOD units, x toward the performer's left, y up)."""
-    return apply(own_frame(mesh), mesh)
-
-
 def _det3(m: np.ndarray) -> float:
     """Determinant of a 3x3 matrix (cheaper than np.linalg.det for one small matrix)."""
     return float(
@@ -159,16 +154,6 @@ def euler_degrees(rotation: np.ndarray) -> tuple[float, float, float]:
     # Positive rotation about x turns the face down and about z tilts the top toward -x (the
     # performer's right): the contract's pitch and roll are the opposite.
     return math.degrees(yaw), -math.degrees(about_x), -math.degrees(about_z)
-
-
-def rotation_from_euler(yaw: float, pitch: float, roll: float) -> np.ndarray:
-    """The face-frame rotation with these angles in degrees (inverse of :func:`euler_degrees`)."""
-    a, b, g = math.radians(yaw), -math.radians(pitch), -math.radians(roll)
-    ry = np.array([[math.cos(a), 0, math.sin(a)], [0, 1, 0], [-math.sin(a), 0, math.cos(a)]])
-    rx = np.array([[1, 0, 0], [0, math.cos(b), -math.sin(b)], [0, math.sin(b), math.cos(b)]])
-    rz = np.array([[math.cos(g), -math.sin(g), 0], [math.sin(g), math.cos(g), 0], [0, 0, 1]])
-    result: np.ndarray = ry @ rx @ rz
-    return result
 
 
 #: The face frame of a face looking straight at the camera, as rows in mesh coordinates.

@@ -25,6 +25,7 @@ PROJECT_FILES = [
     ".dockerignore",
     "docker-compose.yml",
     "docker-compose.secure.yml",
+    "docker-compose.virtual.yml",
     "pyproject.toml",
     "README.md",
     "LICENSE",

@@ -12,12 +12,15 @@ import os
 import subprocess
 import sys
 import time
+import urllib.request
 from pathlib import Path
 
 import zenoh
 from container_engine import Engine, free_port, project_name, writable_by_services
 
+from facesynth.runtime import codec, keys
 from facesynth.runtime.profiles import load_profile
+from schemas.messages import ServoCommands
 from services.control.drivers.record import RecordLine, read_record
 
 SERVOS = {spec.name: spec for spec in load_profile("paper16").servos}
@@ -160,6 +163,48 @@ def test_secured_compose_runs_the_chain_and_refuses_strangers(
         compose("down", "--timeout", "20", check=False)
 
 
+def test_the_controller_swaps_to_the_virtual_face(engine: Engine, project: Path) -> None:
+    page_port, router_port = free_port(), free_port()
+    engine.env["FACESYNTH_PORT_8080"] = str(page_port)
+    name = project_name()
+    compose = _compose(
+        engine, project, name, router_port, "docker-compose.yml", "docker-compose.virtual.yml"
+    )
+    logs = lambda: compose("logs", "--tail", "30", check=False).stdout  # noqa: E731
+    applied: list[ServoCommands] = []
+    try:
+        compose("up", "-d")
+        deadline = time.monotonic() + 300
+        page = ""
+        while time.monotonic() < deadline and "<html" not in page.lower():
+            try:
+                with urllib.request.urlopen(f"http://127.0.0.1:{page_port}/", timeout=5) as reply:
+                    page = reply.read().decode(errors="replace")
+            except OSError:
+                time.sleep(2)
+        assert "<html" in page.lower(), logs()
+        # What the swapped controller applies, seen from the host through the router's port.
+        config = zenoh.Config()
+        config.insert_json5("mode", '"client"')
+        config.insert_json5("connect/endpoints", f'["tcp/127.0.0.1:{router_port}"]')
+        config.insert_json5("scouting/multicast/enabled", "false")
+        session = zenoh.open(config)
+        try:
+            session.declare_subscriber(
+                keys.stage_key("default", "servo_state"),
+                lambda s: applied.append(codec.decode(s.payload.to_bytes(), ServoCommands)),
+            )
+            deadline = time.monotonic() + 120
+            while time.monotonic() < deadline and len(applied) < 30:
+                time.sleep(0.5)
+        finally:
+            session.close()
+        assert len(applied) >= 30, logs()
+        assert {message.profile for message in applied} == {"virtual"}
+    finally:
+        compose("down", "--timeout", "20", check=False)
+
+
 def test_compose_files_validate_offline(engine: Engine, project: Path, tmp_path: Path) -> None:
     controllers = project / "deploy" / "controllers"
     controllers.mkdir(exist_ok=True)
@@ -188,6 +233,7 @@ def test_compose_files_validate_offline(engine: Engine, project: Path, tmp_path:
         ["docker-compose.yml", "docker-compose.secure.yml"],
         ["docker-compose.yml", "docker-compose.replay.yml"],
         ["docker-compose.yml", "deploy/zenohd/compose.yml"],
+        ["docker-compose.yml", "docker-compose.virtual.yml"],
     ):
         args = [arg for file in files for arg in ("-f", file)]
         merged = engine.run("docker-compose", *args, "config", cwd=project).stdout

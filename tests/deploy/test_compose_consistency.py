@@ -123,7 +123,7 @@ def test_tracker_stages_use_the_full_image_and_the_rest_the_board_image() -> Non
         "control": "facesynth-board:latest",
     }
     extras = {s["image"]: s["build"]["args"]["EXTRAS"] for s in SERVICES.values()}
-    assert extras == {"facesynth:latest": "all", "facesynth-board:latest": "fast"}
+    assert extras == {"facesynth:latest": "all", "facesynth-board:latest": "fast,face"}
     for service in SERVICES.values():
         assert service["user"] == "${FACESYNTH_UID:-10001}:${FACESYNTH_GID:-10001}"
     health = SERVICES["router"]["healthcheck"]["test"]
@@ -189,3 +189,24 @@ def test_a_node_called_router_is_refused() -> None:
     graph.nodes["router"] = graph.nodes.pop("features")
     with pytest.raises(ValueError, match="may not be called 'router'"):
         compose_file(graph, "g.toml")
+
+
+@pytest.mark.parametrize(
+    "graph_file", sorted((ROOT / "deploy" / "controllers").glob("*.toml")), ids=lambda p: p.stem
+)
+def test_controller_overrides_are_generated_from_their_graphs(graph_file: Path) -> None:
+    relative = graph_file.relative_to(ROOT).as_posix()
+    generated = override_file(load_graph(graph_file), relative)
+    target = ROOT / f"docker-compose.{graph_file.stem}.yml"
+    assert target.is_file() and target.read_text() == generated, (
+        f"{target.name} is stale: run facesynth compose {relative} --override --out {target.name}"
+    )
+    for name, service in yaml.safe_load(generated)["services"].items():
+        assert name in SERVICES, "an override replaces services of the main compose file"
+        args = build_parser().parse_args(service["command"])
+        assert args.graph == f"/etc/facesynth/controllers/{graph_file.name}"
+
+
+def test_a_server_on_every_interface_is_published_on_the_hosts_loopback() -> None:
+    virtual = yaml.safe_load((ROOT / "docker-compose.virtual.yml").read_text())["services"]
+    assert virtual["control"]["ports"] == ["127.0.0.1:${FACESYNTH_PORT_8080:-8080}:8080"]

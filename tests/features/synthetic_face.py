@@ -13,14 +13,31 @@ image up); rotations use the contract's yaw/pitch/roll.
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
 
 from schemas.messages import Points, PointSet
-from services.features.pose import own_frame, rotation_from_euler
+from services.features.pose import apply, own_frame
 from services.points.tracker.ibug68 import load_mapping
 from services.points.tracker.iris import EYE_CONTOUR_VERTICES
+
+
+def to_face_frame(mesh: np.ndarray) -> np.ndarray:
+    """A mesh in its own face frame (IOD units, x toward the performer's left, y up)."""
+    return apply(own_frame(mesh), mesh)
+
+
+def rotation_from_euler(yaw: float, pitch: float, roll: float) -> np.ndarray:
+    """The face-frame rotation with these angles in degrees (inverse of ``pose.euler_degrees``)."""
+    a, b, g = math.radians(yaw), -math.radians(pitch), -math.radians(roll)
+    ry = np.array([[math.cos(a), 0, math.sin(a)], [0, 1, 0], [-math.sin(a), 0, math.cos(a)]])
+    rx = np.array([[1, 0, 0], [0, math.cos(b), -math.sin(b)], [0, math.sin(b), math.cos(b)]])
+    rz = np.array([[math.cos(g), -math.sin(g), 0], [math.sin(g), math.cos(g), 0], [0, 0, 1]])
+    result: np.ndarray = ry @ rx @ rz
+    return result
+
 
 FIXTURE = Path(__file__).with_name("face_neutral.npz")
 _DATA = np.load(FIXTURE)
@@ -166,7 +183,7 @@ def make_fixture(path: Path = FIXTURE) -> None:
     from facesynth.app.data import sample_video
     from facesynth.runtime.frames import encode_frame
     from services.features.gaze import IRIS_CENTRE, MESH_EYE_CORNERS, eye_gaze
-    from services.features.pose import median_mesh, to_face_frame
+    from services.features.pose import median_mesh
     from services.points.backends.tracker import TrackerBackend
 
     capture = cv2.VideoCapture(str(sample_video()))

@@ -13,7 +13,7 @@ from collections.abc import Callable
 
 import numpy as np
 import pytest
-from synthetic_face import IRIS, MESH, ibug_of, look, look_3d, move, transform
+from synthetic_face import IRIS, MESH, ibug_of, look, look_3d, move, to_face_frame, transform
 
 from facesynth.runtime.feature_names import BY_NAME, NAMES, SCALED_LIMIT
 from services.features.expressions import (
@@ -33,7 +33,7 @@ from services.features.expressions import (
     scale_value,
 )
 from services.features.frame import FeatureError
-from services.features.pose import MeshReference, to_face_frame
+from services.features.pose import MeshReference
 from services.points.tracker.iris import EYE_CONTOUR_VERTICES
 
 REFERENCE = MeshReference(MESH)

@@ -323,4 +323,4 @@ def test_unusable_points_raise_feature_error() -> None:
     with pytest.raises(FeatureError, match="no face frame"):
         processor.process(_points_message(collapsed))
     assert not processor.estimator.ready  # unusable frames are not neutral samples
-    assert processor.estimator._samples == []
+    assert processor.estimator._window.samples == []

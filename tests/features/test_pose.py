@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 import pytest
-from synthetic_face import IRIS, MESH, ibug_of, transform
+from synthetic_face import IRIS, MESH, ibug_of, rotation_from_euler, to_face_frame, transform
 
 from services.features.frame import FeatureError
 from services.features.pose import (
@@ -18,9 +18,7 @@ from services.features.pose import (
     face_axes,
     median_mesh,
     roll_2d,
-    rotation_from_euler,
     similarity_fit,
-    to_face_frame,
 )
 
 ANGLES = [

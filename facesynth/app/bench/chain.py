@@ -33,6 +33,7 @@ from facesynth.app.nodes import (
 )
 from facesynth.runtime import codec, keys
 from facesynth.runtime.bus.zenoh_bus import ZenohBus, ZenohOptions
+from facesynth.runtime.stats import memory_mb
 from schemas.messages import ServiceStats
 from services.control.drivers.record import read_record
 
@@ -67,15 +68,6 @@ def _facesynth(*args: str, log: Path) -> subprocess.Popen[bytes]:
             stderr=subprocess.STDOUT,
             env={**os.environ, "PYTHONUNBUFFERED": "1"},
         )
-
-
-def _peak_rss_mb(pid: int) -> float:
-    try:
-        text = Path(f"/proc/{pid}/status").read_text()
-    except OSError:
-        return float("nan")
-    match = re.search(r"VmHWM:\s+(\d+) kB", text)
-    return int(match.group(1)) / 1024 if match else float("nan")
 
 
 def _router_locator(log: Path, proc: subprocess.Popen[bytes], timeout: float = 15.0) -> str:
@@ -203,7 +195,7 @@ def bench_chain(
             if procs["sensor"].returncode != 0:
                 raise RuntimeError((folder / "sensor.log").read_text(errors="replace"))
             rss = {
-                name: _peak_rss_mb(proc.pid) for name, proc in procs.items() if proc.poll() is None
+                name: memory_mb(proc.pid)[1] for name, proc in procs.items() if proc.poll() is None
             }
             rss.setdefault(
                 "sensor",

@@ -8,7 +8,6 @@ sets ``cv2.setNumThreads(1)`` and LiteRT uses one thread.
 from __future__ import annotations
 
 import os
-import sys
 import time
 from collections.abc import Iterator, Sequence
 from pathlib import Path
@@ -17,7 +16,8 @@ from typing import Any
 import cv2
 import numpy as np
 
-from services.points.tracker.inference import frame_to_rgba
+from facesynth.runtime.stats import memory_mb
+from services.points.tracker.model_input import frame_to_rgba
 from services.points.tracker.offline import iter_video_frames
 from services.points.tracker.tracker import FaceTracker
 
@@ -39,16 +39,6 @@ def _stats(values: Sequence[float]) -> dict[str, float]:
         "p99": float(np.percentile(a, 99)),
         "mean": float(a.mean()),
     }
-
-
-def peak_rss_mb() -> float:
-    """Peak resident set size of this process in MiB (0.0 where unsupported)."""
-    try:
-        import resource
-    except ImportError:  # Windows
-        return 0.0
-    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-    return peak / (1024.0 * 1024.0) if sys.platform == "darwin" else peak / 1024.0
 
 
 def _chunks(video: Path, frames: int | None) -> Iterator[list[np.ndarray]]:
@@ -153,7 +143,7 @@ def bench_tracker(
         "cv2_threads": cv2.getNumThreads(),
         "redetect_every": redetect_every,
         "backends": results,
-        "peak_rss_mb": peak_rss_mb(),
+        "peak_rss_mb": memory_mb()[1],
         "goal": {"mesh_iris_median_ms": GOAL_MESH_IRIS_MS, "peak_rss_mb": GOAL_PEAK_RSS_MB},
     }
 

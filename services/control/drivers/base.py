@@ -5,6 +5,7 @@ from __future__ import annotations
 import abc
 from collections.abc import Mapping
 
+from facesynth.runtime.rig_view import RigView
 from services.control.core import CommandInfo
 
 
@@ -14,6 +15,13 @@ class DriverError(RuntimeError):
 
 class ServoDriver(abc.ABC):
     """One output of the control interface: a servo board, a virtual face, a recorder."""
+
+    def observe(self, rig: RigView) -> None:  # noqa: B027 - an optional hook
+        """Optional: called once before :meth:`connect` with a read-only view of the rig.
+
+        Drivers that show more than positions (the live face page shows frames, landmarks and
+        stage latencies) subscribe through it; the others ignore it.
+        """
 
     @abc.abstractmethod
     async def connect(self) -> None:

@@ -20,6 +20,7 @@ from services.points.backends.base import (
     point_set,
 )
 from services.points.backends.registry import BACKENDS
+from services.points.track_file import TrackLine
 
 
 class TrackFileConfig(
@@ -41,17 +42,6 @@ class TrackFileConfig(
             extra={"flag": "--loop-replay"},
         ),
     ] = False
-
-
-class TrackLine(msgspec.Struct, kw_only=True):
-    """One line of a ``facesynth track`` file."""
-
-    frame: int
-    face: bool
-    mesh: list[list[float]] | None = None
-    iris: list[list[float]] | None = None
-    ibug68: list[list[float]] | None = None
-    presence: float = 1.0
 
 
 _SHAPES = ((IBUG68, "ibug68", N_IBUG), (MESH468, "mesh", 468), (IRIS10, "iris", 10))

@@ -22,6 +22,7 @@ from services.points.backends.base import (
     point_set,
 )
 from services.points.backends.registry import BACKENDS
+from services.points.tracker.runtimes import backend_choices, check_backend_name
 
 
 class TrackerConfig(
@@ -30,8 +31,11 @@ class TrackerConfig(
     """Track the face in the frames' pixels (MediaPipe models)."""
 
     inference: Annotated[
-        Literal["auto", "litert", "opencv"],
-        msgspec.Meta(description="tracker inference runtime (default auto: LiteRT when installed)"),
+        str,
+        msgspec.Meta(
+            description=f"tracker inference runtime: {', '.join(backend_choices())} "
+            "(default auto: LiteRT when installed)"
+        ),
     ] = "auto"
     threads: Annotated[
         int, msgspec.Meta(ge=1, le=64, description="tracker inference threads (default 1)")
@@ -51,6 +55,9 @@ class TrackerConfig(
             "(default 30)",
         ),
     ] = 30
+
+    def __post_init__(self) -> None:
+        check_backend_name(self.inference)  # the runtimes registered, installed here or not
 
 
 @BACKENDS.register(TrackerConfig)

@@ -16,7 +16,8 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from .inference import Model, fill_input, frame_to_rgba
+from .model_input import fill_input, frame_to_rgba
+from .runtimes import Model
 
 __all__ = [
     "NUM_ANCHORS",
@@ -159,7 +160,7 @@ class FaceDetector:
         weighted: bool = True,
     ) -> None:
         """Args:
-        model: the loaded detector (:data:`~services.points.tracker.inference.DETECTOR`).
+        model: the loaded detector (:data:`~services.points.tracker.model_files.DETECTOR`).
         min_score: drop anchors scoring below this before NMS.
         iou_threshold: NMS overlap threshold.
         weighted: weighted (MediaPipe) or plain NMS.

@@ -24,7 +24,8 @@ from .crops import (
     invert_affine,
     rect_from_box,
 )
-from .inference import Model, fill_input
+from .model_input import fill_input
+from .runtimes import Model
 
 __all__ = [
     "EYE_CONTOUR_VERTICES",
@@ -85,7 +86,7 @@ class IrisLandmarks:
 
     def __init__(self, model: Model) -> None:
         """Args:
-        model: the iris model (:data:`~services.points.tracker.inference.IRIS`) loaded with
+        model: the iris model (:data:`~services.points.tracker.model_files.IRIS`) loaded with
             ``batch=2``.
         """
         if model.input_size != IRIS_SIZE or model.batch != 2:

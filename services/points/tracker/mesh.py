@@ -15,7 +15,8 @@ import numpy as np
 
 from .crops import CropRect, crop_affine, invert_affine, rect_from_box, rect_from_points
 from .detector import Detection
-from .inference import Model, fill_input
+from .model_input import fill_input
+from .runtimes import Model
 
 __all__ = [
     "LEFT_EYE_OUTER",
@@ -78,7 +79,7 @@ class FaceMesh:
 
     def __init__(self, model: Model) -> None:
         """Args:
-        model: the loaded mesh model (:data:`~services.points.tracker.inference.MESH`).
+        model: the loaded mesh model (:data:`~services.points.tracker.model_files.MESH`).
         """
         if model.input_size != MESH_SIZE:
             raise ValueError(f"mesh input must be {MESH_SIZE}, got {model.input_size}")
@@ -90,7 +91,7 @@ class FaceMesh:
         """Mesh for the face inside ``rect``.
 
         Args:
-            frame_rgba: uint8 RGBA frame (:func:`~.inference.frame_to_rgba`).
+            frame_rgba: uint8 RGBA frame (:func:`~.model_input.frame_to_rgba`).
             rect: the crop.
 
         Returns:

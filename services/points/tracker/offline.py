@@ -2,10 +2,6 @@
 
 from __future__ import annotations
 
-import contextlib
-import json
-import os
-import tempfile
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -14,10 +10,13 @@ from typing import Any
 import cv2
 import numpy as np
 
+from facesynth.runtime.atomic import open_atomic
+from services.points.track_file import TrackLine, encode_line
+
 from .errors import VideoError
 from .tracker import FaceTracker, TrackResult
 
-__all__ = ["iter_video_frames", "result_to_record", "track_video"]
+__all__ = ["iter_video_frames", "result_to_line", "track_video"]
 
 
 def iter_video_frames(path: Path | str, max_frames: int | None = None) -> Iterator[np.ndarray]:
@@ -60,15 +59,16 @@ def _points(a: np.ndarray | None) -> list[list[float]] | None:
     return rounded
 
 
-def result_to_record(frame: int, r: TrackResult) -> dict[str, Any]:
-    """One JSON Lines record: frame index, face flag and 2-D points rounded to 0.01 px."""
-    return {
-        "frame": frame,
-        "face": r.face,
-        "mesh": _points(r.mesh),
-        "iris": _points(r.iris),
-        "ibug68": _points(r.ibug68),
-    }
+def result_to_line(frame: int, r: TrackResult) -> TrackLine:
+    """One track-file line: frame index, face flag, 2-D points rounded to 0.01 px, presence."""
+    return TrackLine(
+        frame=frame,
+        face=r.face,
+        mesh=_points(r.mesh),
+        iris=_points(r.iris),
+        ibug68=_points(r.ibug68),
+        presence=round(float(r.presence), 4),
+    )
 
 
 def track_video(
@@ -80,10 +80,9 @@ def track_video(
 ) -> dict[str, Any]:
     """Track every frame of a video and write one JSON line per frame, atomically.
 
-    Each line is ``{"frame": i, "face": bool, "mesh": [[x, y] x 468] | null,
-    "iris": [[x, y] x 10] | null, "ibug68": [[x, y] x 68] | null}`` in frame pixels. The file is
-    written to a temporary file in the same folder, fsynced and renamed over ``out_jsonl``, so
-    it is either complete or absent (an existing file is left untouched on error).
+    Each line is a :class:`~services.points.track_file.TrackLine` (frame pixels). The file is
+    written with :func:`~facesynth.runtime.atomic.open_atomic`, so it is either complete or
+    absent (an existing file is left untouched on error).
 
     Args:
         path: the video.
@@ -102,38 +101,20 @@ def track_video(
     out = Path(out_jsonl)
     trk = tracker if tracker is not None else FaceTracker(backend=backend)
     trk.reset()
-    out.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp_name = tempfile.mkstemp(prefix=f".{out.name}.", suffix=".tmp", dir=out.parent)
-    tmp = Path(tmp_name)
     times: list[float] = []
     lost: list[int] = []
     faces = detections = frames = 0
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            for i, frame in enumerate(iter_video_frames(path)):
-                t = time.perf_counter()
-                r = trk.process(frame)
-                times.append((time.perf_counter() - t) * 1e3)
-                frames += 1
-                faces += r.face
-                detections += r.detected
-                if not r.face:
-                    lost.append(i)
-                fh.write(json.dumps(result_to_record(i, r), separators=(",", ":")))
-                fh.write("\n")
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, out)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            tmp.unlink()
-        raise
-    with contextlib.suppress(OSError):  # make the rename durable where the OS allows it
-        dfd = os.open(out.parent, os.O_RDONLY)
-        try:
-            os.fsync(dfd)
-        finally:
-            os.close(dfd)
+    with open_atomic(out) as fh:
+        for i, frame in enumerate(iter_video_frames(path)):
+            t = time.perf_counter()
+            r = trk.process(frame)
+            times.append((time.perf_counter() - t) * 1e3)
+            frames += 1
+            faces += r.face
+            detections += r.detected
+            if not r.face:
+                lost.append(i)
+            fh.write(encode_line(result_to_line(i, r)))
     arr = np.asarray(times)
     return {
         "video": str(path),

@@ -20,18 +20,11 @@ import numpy as np
 from .crops import CropRect
 from .detector import Detection, FaceDetector, box_iou
 from .ibug68 import mesh_to_ibug68
-from .inference import (
-    DETECTOR,
-    IRIS,
-    MESH,
-    Model,
-    ModelSpec,
-    frame_to_rgba,
-    load_model,
-    resolve_backend,
-)
 from .iris import IrisLandmarks
 from .mesh import FaceMesh, mesh_box, rect_from_detection, rect_from_mesh_box
+from .model_files import DETECTOR, IRIS, MESH, ModelSpec
+from .model_input import frame_to_rgba
+from .runtimes import Model, load_model, resolve_backend
 
 __all__ = ["SELECT_MODES", "FaceTracker", "TrackResult"]
 
@@ -104,7 +97,7 @@ class FaceTracker:
         """Load the models.
 
         Args:
-            backend: ``"auto"``, ``"litert"`` or ``"opencv"`` (see :mod:`.inference`).
+            backend: ``"auto"``, ``"litert"`` or ``"opencv"`` (see :mod:`.runtimes`).
             redetect_every: also run the detector every N tracked frames; None = only when the
                 track is lost.
             min_presence: mesh presence score below which the face counts as lost.
@@ -130,7 +123,6 @@ class FaceTracker:
         self.redetect_every = redetect_every
         self.min_presence = min_presence
         self.select = select
-        self.use_iris = iris
         self.hold_crop = hold_crop
 
         def _load(spec: ModelSpec, batch: int = 1) -> Model:

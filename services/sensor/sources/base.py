@@ -8,8 +8,11 @@ from __future__ import annotations
 import abc
 from collections.abc import Iterator
 from dataclasses import dataclass
+from types import ModuleType
 
 import numpy as np
+
+from facesynth.runtime.opencv import import_cv2
 
 
 class SourceError(ValueError):
@@ -39,9 +42,6 @@ class FrameSource(abc.ABC):
         """Release the device or file (nothing to release by default)."""
 
 
-def opencv():  # type: ignore[no-untyped-def]
-    try:
-        import cv2
-    except ImportError:  # pragma: no cover - depends on the install
-        raise SourceError("OpenCV is not installed: install facesynth[tracker]") from None
-    return cv2
+def opencv() -> ModuleType:
+    """The ``cv2`` module; :class:`SourceError` when OpenCV is not installed."""
+    return import_cv2(SourceError)

@@ -12,20 +12,18 @@ import pytest
 from tracker_fixtures import VIDEO, TrackedVideo
 
 from services.points.tracker import FaceTracker, ModelError
-from services.points.tracker.inference import (
+from services.points.tracker.mesh import rect_from_mesh
+from services.points.tracker.model_files import (
     DETECTOR,
     IRIS,
     MESH,
     MODELS_DIR,
     ModelSpec,
-    available_backends,
-    frame_to_rgba,
-    load_model,
     read_model_bytes,
-    resolve_backend,
 )
-from services.points.tracker.mesh import rect_from_mesh
+from services.points.tracker.model_input import frame_to_rgba
 from services.points.tracker.offline import iter_video_frames
+from services.points.tracker.runtimes import available_backends, load_model, resolve_backend
 
 SPECS = [DETECTOR, MESH, IRIS]
 

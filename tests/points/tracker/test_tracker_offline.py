@@ -1,18 +1,19 @@
-"""Offline video tracking to JSON Lines, corrupt videos, and the benchmark."""
+"""Offline video tracking to a track file, and corrupt videos."""
 
 from __future__ import annotations
 
 import json
-import math
 from pathlib import Path
 
 import numpy as np
 import pytest
 from tracker_fixtures import VIDEO, VIDEO_FRAMES, TrackedVideo
 
-from facesynth.app.bench.tracker import bench_tracker, format_bench
+from schemas.messages import Frame
+from services.points.backends.track import TrackFileConfig, TrackReplay
+from services.points.track_file import TrackLine, encode_line
 from services.points.tracker import FaceTracker, VideoError, track_video
-from services.points.tracker.offline import iter_video_frames
+from services.points.tracker.offline import iter_video_frames, result_to_line
 
 
 def test_track_video_writes_one_line_per_frame(
@@ -29,9 +30,10 @@ def test_track_video_writes_one_line_per_frame(
     assert [p.name for p in out.parent.iterdir()] == ["points.jsonl"]  # no temp file left
     for i, line in enumerate(lines):
         rec = json.loads(line)
-        assert list(rec) == ["frame", "face", "mesh", "iris", "ibug68"]
+        assert list(rec) == ["frame", "face", "mesh", "iris", "ibug68", "presence"]
         assert rec["frame"] == i and rec["face"] is True
         ref = tracked_video.results[i]
+        assert rec["presence"] == round(float(ref.presence), 4)
         for key, n in (("mesh", 468), ("iris", 10), ("ibug68", 68)):
             pts = np.array(rec[key])
             assert pts.shape == (n, 2)
@@ -40,16 +42,29 @@ def test_track_video_writes_one_line_per_frame(
 
 
 def test_no_face_lines_are_null(tmp_path: Path, tracker: FaceTracker) -> None:
-    from services.points.tracker.offline import result_to_record
-
     r = tracker.process(np.zeros((120, 160, 3), np.uint8))
-    assert result_to_record(7, r) == {
-        "frame": 7,
-        "face": False,
-        "mesh": None,
-        "iris": None,
-        "ibug68": None,
-    }
+    line = result_to_line(7, r)
+    assert line == TrackLine(frame=7, face=False, presence=0.0)
+    assert encode_line(line) == (
+        b'{"frame":7,"face":false,"mesh":null,"iris":null,"ibug68":null,"presence":0.0}\n'
+    )
+
+
+def test_the_replay_reads_what_the_tracker_wrote(tmp_path: Path, tracker: FaceTracker) -> None:
+    """Writer and reader share TrackLine: a replay gives the tracked points and presence."""
+    out = tmp_path / "points.jsonl"
+    track_video(VIDEO, out, tracker=tracker)
+    replay = TrackReplay(TrackFileConfig(path=str(out)))
+    assert replay.frame_count() == VIDEO_FRAMES
+    lines = out.read_bytes().splitlines()
+    for seq in (0, 1, VIDEO_FRAMES - 1):
+        rec = json.loads(lines[seq])
+        frame = Frame(seq=seq, t_capture_ns=1, t_media_ns=0, width=640, height=360, encoding="none")
+        points = replay.process(frame)
+        assert points.face and points.confidence == rec["presence"]
+        by_scheme = {s.scheme: np.reshape(s.coords, (-1, s.dims)) for s in points.sets}
+        for scheme, key in (("ibug68", "ibug68"), ("mesh468", "mesh"), ("iris10", "iris")):
+            np.testing.assert_array_equal(by_scheme[scheme], rec[key])
 
 
 def _truncated(p: Path) -> None:
@@ -109,21 +124,3 @@ def test_corrupt_video_is_a_clear_error(
 def test_iter_video_frames_limit() -> None:
     frames = list(iter_video_frames(VIDEO, max_frames=3))
     assert len(frames) == 3 and frames[0].shape == (360, 640, 3)
-
-
-def test_bench_tracker() -> None:
-    result = bench_tracker(VIDEO, backends=("litert", "opencv"), frames=40)
-    assert result["size"] == (640, 360) and result["cv2_threads"] == 1
-    assert 0 < result["peak_rss_mb"] < 1000
-    for name in ("litert", "opencv"):
-        r = result["backends"][name]
-        assert r["frames"] == r["faces"] == 40 and r["detector_runs"] == 2
-        for stage in ("detect", "mesh", "iris", "mesh_iris", "tracker"):
-            s = r[stage]
-            assert s["n"] > 0 and 0 < s["median"] <= s["p99"] < 1000, (name, stage)
-        assert r["mesh_iris"]["n"] == r["mesh"]["n"] == r["iris"]["n"]
-        assert r["mesh_iris"]["mean"] == pytest.approx(r["mesh"]["mean"] + r["iris"]["mean"])
-        assert math.isclose(r["fps"], 1000 / r["tracker"]["median"])
-    text = format_bench(result)
-    assert "litert" in text and "opencv" in text and "mesh_iris" in text
-    assert "goal mesh+iris median <= 2.0 ms" in text

@@ -1,4 +1,4 @@
-"""runtime.calibration and runtime.atomic: load, validate and atomically save calibrations."""
+"""runtime.calibration: load, validate and atomically save calibrations."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ from typing import Any
 import msgspec
 import pytest
 
-from facesynth.runtime import atomic, calibration
+from facesynth.runtime import calibration
 from facesynth.runtime.calibration import (
     Calibration,
     CalibrationError,
@@ -20,13 +20,7 @@ from facesynth.runtime.calibration import (
     save_calibration,
 )
 
-
-@pytest.fixture(autouse=True)
-def _isolated(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
-    home = tmp_path / "home"
-    home.mkdir()
-    monkeypatch.setenv("HOME", str(home))
-    monkeypatch.delenv("FACESYNTH_CALIBRATIONS", raising=False)
+pytestmark = pytest.mark.usefixtures("isolated_home")  # no user calibrations
 
 
 def _calibration(**kw: Any) -> Calibration:
@@ -201,26 +195,4 @@ def test_invalid_calibration_is_not_written(tmp_path: Path) -> None:
     with pytest.raises(CalibrationError, match=r"points \[0, 1, .*\] need delta_min <= 0"):
         save_calibration(bad, target)
     assert target.read_bytes() == before
-    assert _leftovers(tmp_path) == []
-
-
-def test_failed_atomic_write_keeps_the_old_file(
-    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
-) -> None:
-    target = tmp_path / "data.bin"
-    atomic.write_atomic(target, b"old")
-
-    def broken_replace(src: str, dst: str) -> None:
-        raise OSError("disk full")
-
-    monkeypatch.setattr(atomic.os, "replace", broken_replace)
-    with pytest.raises(OSError, match="disk full"):
-        atomic.write_atomic(target, b"new contents")
-    assert target.read_bytes() == b"old"
-    assert _leftovers(tmp_path) == []
-
-
-def test_write_atomic_text_and_bytes(tmp_path: Path) -> None:
-    assert atomic.write_atomic(tmp_path / "a" / "b.txt", "héllo").read_bytes() == "héllo".encode()
-    assert atomic.write_atomic(tmp_path / "c.bin", b"\x00\xff").read_bytes() == b"\x00\xff"
     assert _leftovers(tmp_path) == []

@@ -2,6 +2,12 @@
 
 from __future__ import annotations
 
+import math
+import os
+import subprocess
+import sys
+from subprocess import PIPE
+
 import pytest
 
 from facesynth.runtime import codec, stats
@@ -103,3 +109,23 @@ def test_memory_mb_without_proc(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr("builtins.open", no_proc)
     rss, peak = stats.memory_mb()
     assert rss == peak > 1
+
+
+def test_memory_mb_of_another_process() -> None:
+    script = "import sys; print('ready', flush=True); sys.stdin.read()"
+    child = subprocess.Popen([sys.executable, "-c", script], stdin=PIPE, stdout=PIPE)
+    try:
+        assert child.stdout is not None and child.stdout.readline() == b"ready\n"
+        rss, peak = stats.memory_mb(child.pid)
+        assert 1 < rss <= peak < 100_000
+    finally:
+        child.communicate(b"", timeout=30)
+    assert all(math.isnan(v) for v in stats.memory_mb(child.pid))  # gone: no figures
+
+
+def test_memory_mb_of_another_process_without_proc(monkeypatch: pytest.MonkeyPatch) -> None:
+    def no_proc(*args: object, **kwargs: object) -> None:
+        raise OSError("no /proc")
+
+    monkeypatch.setattr("builtins.open", no_proc)
+    assert all(math.isnan(v) for v in stats.memory_mb(os.getpid()))

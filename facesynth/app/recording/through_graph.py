@@ -1,0 +1,96 @@
+"""``facesynth replay SESSION --graph [FILE]``: a recording through a graph, in one process.
+
+The graph's nodes after the replayed stage run here on an embedded router, as ``facesynth
+run`` runs them, and the replay takes the place of what comes before (the sensor and any
+earlier stage): ``--from features`` with a graph whose translator names another profile replays
+a performance onto another robot. The chain runner is ``run``'s own: it waits for the nodes,
+plays the replay, and drains on ``…/servo_state``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import logging
+from typing import Any
+
+from facesynth.app.chain import ChainResult, freeze_startup_objects, open_embedded, run_chain
+from facesynth.app.graph import load_graph
+from facesynth.app.nodes import stage_of
+from facesynth.app.recording.attach import attached
+from facesynth.app.recording.replay import Replayer
+from facesynth.app.stage_args import apply_arguments
+from facesynth.app.wiring import OptionError, StageParts, build_node, zenoh_options
+from facesynth.runtime.bus.zenoh_bus import ZenohBus, endpoints
+from facesynth.runtime.service import run_async
+
+log = logging.getLogger("facesynth")
+
+#: The services that run after each replayed stage.
+AFTER: dict[str, tuple[str, ...]] = {
+    "input": ("points", "features", "translator", "control"),
+    "points": ("features", "translator", "control"),
+    "features": ("translator", "control"),
+    "servo_commands": ("control",),
+}
+
+
+def graph_parts(replayer: Replayer, args: argparse.Namespace) -> tuple[list[StageParts], str, Any]:
+    """The graph's nodes after the replayed stage, built with the command line's flags."""
+    graph = load_graph(args.graph or None, plugins=False)
+    wanted = AFTER[replayer.stage]
+    parts = []
+    configs = {}
+    for name, node in graph.nodes.items():
+        if stage_of(node) not in wanted:
+            continue
+        node, configs[name] = apply_arguments(name, node, args)
+        graph.nodes[name] = node
+        parts.append(build_node(name, node, graph, configs[name]))
+    if not parts:
+        raise OptionError(
+            f"the graph has no {', '.join(wanted)} node to replay {replayer.stage} into"
+        )
+    return parts, args.rig or graph.rig, configs
+
+
+def replay_through_graph(
+    replayer: Replayer, args: argparse.Namespace
+) -> tuple[Any, str, dict[str, Any]]:
+    """Run the replay and the graph's later nodes.
+
+    Returns the replay's outcome (``None`` when interrupted), the rig, and what the chain did.
+    """
+    parts, rig, configs = graph_parts(replayer, args)
+    listen = endpoints(args.listen) or ["tcp/127.0.0.1:7447"]
+    options = zenoh_options(args, default_mode="router")
+    options.connect = endpoints(args.connect)
+    replay_part = StageParts("replay", "replay", replayer.serve, replayer)
+
+    async def main() -> ChainResult:
+        session, locators = await asyncio.to_thread(open_embedded, listen, options)
+        bus = ZenohBus(session)
+        log.info("embedded Zenoh router on %s (rig %s)", ", ".join(locators), rig)
+        freeze_startup_objects()
+        try:
+            async with attached(bus, rig, args):
+                return await run_chain(
+                    bus,
+                    rig,
+                    [replay_part, *parts],
+                    drain_timeout=args.drain_timeout,
+                    stats_interval=args.stats_interval,
+                )
+        finally:
+            await bus.close()
+
+    result = run_async(main())
+    outs = [out for config in configs.values() if (out := getattr(config, "out", None))]
+    chain = {
+        "commands": result.commands,
+        "last_frame_executed": result.last_frame,
+        "rejected": result.rejected,
+        "dropped": result.dropped,
+        "out": outs[0] if len(outs) == 1 else outs,
+    }
+    return (None if result.interrupted else replayer.published), rig, chain

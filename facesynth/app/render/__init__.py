@@ -1,0 +1,95 @@
+"""The side-by-side video of a chain's input (``facesynth render``, ``facesynth run --render``).
+
+:func:`render_graph` reads what to run from a graph, as ``facesynth run`` does: the sensor
+node's video, the points node's backend, the features node's options, the translator's
+calibration and mirroring. The face is always the ``virtual`` profile's; the bars show another
+profile (``bars``, else the graph's translator profile when it is not ``virtual``).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import msgspec
+
+from facesynth.app.graph import Graph, plugin_config
+from facesynth.app.nodes import FeaturesNode, SensorNode, TranslatorNode
+from facesynth.app.render.video import Progress, RenderChain, RenderError, render_video
+from facesynth.app.wiring import (
+    build_backend,
+    build_calibration,
+    build_processor,
+    build_profile,
+    build_source,
+)
+from services.sensor.sources.video import VideoConfig
+from services.translator.core import Translator
+
+__all__ = ["RenderError", "render_graph"]
+
+FACE_PROFILE = "virtual"
+
+
+def _one(graph: Graph, stage: str) -> tuple[str, Any]:
+    nodes = graph.of_stage(stage)
+    if len(nodes) != 1:
+        raise RenderError(f"the renderer needs one {stage} node (the graph has {len(nodes)})")
+    return next(iter(nodes.items()))
+
+
+def render_graph(
+    graph: Graph,
+    configs: dict[str, msgspec.Struct | None],
+    out: str | Path,
+    *,
+    bars: str | None = None,
+    max_frames: int | None = None,
+    same_size: bool = False,
+    progress: Progress | None = None,
+) -> dict[str, Any]:
+    """Render the graph's input video side by side with the virtual face (and bars)."""
+    sensor_name, sensor = _one(graph, "sensor")
+    assert isinstance(sensor, SensorNode)
+    source_config = configs.get(sensor_name) or plugin_config(sensor, f"node {sensor_name}")
+    if not isinstance(source_config, VideoConfig):
+        raise RenderError("the renderer needs a video file as input (--video PATH)")
+    if source_config.loop:
+        raise RenderError("a looping video never ends: render it without --loop")
+    points_name, points = _one(graph, "points")
+    backend_config = configs.get(points_name) or plugin_config(points, f"node {points_name}")
+    assert backend_config is not None
+    _, features = _one(graph, "features")
+    assert isinstance(features, FeaturesNode)
+    translators = [
+        n for n in graph.of_stage("translator").values() if isinstance(n, TranslatorNode)
+    ]
+    base = translators[0] if translators else TranslatorNode(profile=FACE_PROFILE)
+    calibration = build_calibration(base.calibration)
+    face_profile = build_profile(FACE_PROFILE, base.mirror)
+    bars_profile = bars
+    if bars_profile is None:
+        bars_profile = next((t.profile for t in translators if t.profile != FACE_PROFILE), None)
+    # F's neutral window as in a bus run of the graph: the (first) translator profile's.
+    neutral_s = build_profile(base.profile, False).neutral_seconds
+    chain = RenderChain(
+        backend=build_backend(backend_config),
+        processor=build_processor(features, neutral_s),
+        face=Translator(face_profile, calibration),
+        bars=(
+            Translator(build_profile(bars_profile, base.mirror), calibration)
+            if bars_profile and bars_profile != "none"
+            else None
+        ),
+        encoding=sensor.encoding,
+        quality=sensor.quality,
+    )
+    limit = max_frames if max_frames is not None else sensor.max_frames
+    return render_video(
+        build_source(source_config),
+        chain,
+        out,
+        max_frames=limit,
+        same_size=same_size,
+        progress=progress,
+    )

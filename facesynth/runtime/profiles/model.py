@@ -1,0 +1,133 @@
+"""The profile model: a face's servos, their sources, motion limits, smoothing and safety rules.
+
+Plain msgspec structs, as parsed from a profile's TOML (see :mod:`facesynth.runtime.profiles`
+for the format); :mod:`.validation` says whether their values make sense.
+"""
+
+from __future__ import annotations
+
+import msgspec
+
+
+class Smoothing(msgspec.Struct, forbid_unknown_fields=True, kw_only=True):
+    """One Euro filter parameters (Casiez, Roussel, Vogel, CHI 2012).
+
+    The filter runs on each source signal in *range units*: named features as they are
+    (±1 = calibrated extremes), point groups divided by half their face range, so one set of
+    parameters fits both.
+    """
+
+    enabled: bool = True
+    min_cutoff: float = 1.0
+    beta: float = 0.0
+    d_cutoff: float = 1.0
+
+
+class SmoothingOverride(msgspec.Struct, forbid_unknown_fields=True, kw_only=True):
+    """Per-servo changes to the profile's :class:`Smoothing` (unset fields keep the profile's)."""
+
+    enabled: bool | None = None
+    min_cutoff: float | None = None
+    beta: float | None = None
+    d_cutoff: float | None = None
+
+
+class ExclusiveRule(msgspec.Struct, forbid_unknown_fields=True, kw_only=True):
+    """At most one of ``servos`` may be beyond ``threshold`` of its travel at a time."""
+
+    servos: list[str]
+    threshold: float = 0.8
+
+
+class Safety(msgspec.Struct, forbid_unknown_fields=True, kw_only=True):
+    """Safety rules applied to the translator's output."""
+
+    exclusive: list[ExclusiveRule] = []
+
+
+class ServoSpec(msgspec.Struct, forbid_unknown_fields=True, kw_only=True):
+    """One servo: where it is wired, how far and fast it may move, what drives it."""
+
+    name: str
+    channel: int
+    min_us: float
+    neutral_us: float
+    max_us: float
+    reversed: bool = False
+    points: list[int] = []
+    face_min: float | None = None
+    face_max: float | None = None
+    feature: str | None = None
+    mix: dict[str, float] | None = None
+    gain: float = 1.0
+    deadband: float = 0.0
+    max_speed: float = 0.0
+    max_accel: float = 0.0
+    smoothing: SmoothingOverride | None = None
+    description: str = ""
+
+    def clamp(self, position: float) -> float:
+        """``position`` limited to this servo's [min_us, max_us]: the last word on safety."""
+        return min(max(position, self.min_us), self.max_us)
+
+    def weights(self) -> dict[str, float] | None:
+        """The named features driving this servo and their weights (None: a points servo)."""
+        if self.feature is not None:
+            return {self.feature: 1.0}
+        if self.mix is not None:
+            return dict(self.mix)
+        return None
+
+
+class Profile(msgspec.Struct, forbid_unknown_fields=True, kw_only=True):
+    """A robot or virtual face: its servos and how the performer's face maps onto them."""
+
+    name: str
+    description: str = ""
+    scheme: str = "ibug68"
+    mirror: bool = False
+    neutral_seconds: float = 1.0
+    neutral_ramp_s: float = 0.5
+    smoothing: Smoothing | None = None
+    safety: Safety = msgspec.field(default_factory=Safety)
+    servos: list[ServoSpec]
+
+    def servo(self, name: str) -> ServoSpec:
+        """The servo called ``name`` (KeyError if there is none)."""
+        for spec in self.servos:
+            if spec.name == name:
+                return spec
+        raise KeyError(name)
+
+    def neutral_positions(self) -> dict[str, float]:
+        """Every servo at its neutral position."""
+        return {spec.name: spec.neutral_us for spec in self.servos}
+
+    def smoothing_for(self, spec: ServoSpec) -> Smoothing | None:
+        """The One Euro parameters for ``spec``'s source, or None when it is not filtered."""
+        base = self.smoothing
+        if spec.smoothing is None:
+            return base if base is not None and base.enabled else None
+        merged = msgspec.structs.replace(base) if base is not None else Smoothing()
+        for field in ("enabled", "min_cutoff", "beta", "d_cutoff"):
+            value = getattr(spec.smoothing, field)
+            if value is not None:
+                setattr(merged, field, value)
+        return merged if merged.enabled else None
+
+
+def describe_source(spec: ServoSpec) -> str:
+    """One line saying what drives ``spec`` (for ``facesynth profile show``)."""
+    parts = []
+    if spec.feature is not None:
+        parts.append(f"feature {spec.feature}")
+    if spec.mix is not None:
+        parts.append("mix " + ", ".join(f"{w:+g} {name}" for name, w in spec.mix.items()))
+    if spec.points:
+        parts.append(("fallback points " if parts else "points ") + str(spec.points))
+    defaults = {"gain": 1.0, "deadband": 0.0, "max_speed": 0.0, "max_accel": 0.0}
+    for field, default in defaults.items():
+        value = getattr(spec, field)
+        if value != default:
+            parts.append(f"{field} {value:g}")
+    return "; ".join(parts) or "no source"

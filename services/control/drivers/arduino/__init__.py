@@ -1,0 +1,1 @@
+"""Arduino Uno servo firmware driver (the serial protocol is in :mod:`.protocol`)."""

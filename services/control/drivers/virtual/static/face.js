@@ -1,0 +1,223 @@
+// facesynth live face: draws what the server sends (see services/control/drivers/virtual/wire.py).
+// The face's shapes are computed in Python; this page only draws them. It reconnects by itself.
+"use strict";
+
+const state = {
+  status: "connecting", // "open" | "closed" | "connecting"
+  connects: 0,
+  profile: null,
+  drawsFace: false,
+  face: null, // the last face message
+  drawn: 0, // face messages drawn
+  framesDrawn: 0,
+  points: null,
+  rttMs: null,
+};
+window.facesynth = state;
+
+const $ = (id) => document.getElementById(id);
+const faceCanvas = $("face");
+const faceCtx = faceCanvas.getContext("2d");
+const frameCanvas = $("frame");
+const frameCtx = frameCanvas.getContext("2d");
+const showFrames = $("show-frames");
+let socket = null;
+let retryMs = 250;
+let bars = new Map();
+
+function setStatus(status) {
+  state.status = status;
+  const el = $("status");
+  el.className = "pill " + status;
+  el.textContent = { open: "live", closed: "reconnecting…", connecting: "connecting…" }[status];
+}
+
+function connect() {
+  setStatus("connecting");
+  const scheme = location.protocol === "https:" ? "wss://" : "ws://";
+  const ws = new WebSocket(scheme + location.host + "/ws");
+  ws.binaryType = "arraybuffer";
+  socket = ws;
+  ws.onopen = () => {
+    state.connects += 1;
+    retryMs = 250;
+    setStatus("open");
+    ws.send(JSON.stringify({ type: "hello", frames: showFrames.checked }));
+  };
+  ws.onmessage = (event) => {
+    if (typeof event.data === "string") onText(JSON.parse(event.data));
+    else onFrame(event.data);
+  };
+  ws.onclose = () => {
+    if (socket !== ws) return;
+    setStatus("closed");
+    setTimeout(connect, retryMs);
+    retryMs = Math.min(retryMs * 2, 2000);
+  };
+}
+
+function onText(message) {
+  switch (message.type) {
+    case "hello": return onHello(message);
+    case "face": return onFace(message);
+    case "points": state.points = message; return;
+    case "stats": return onStats(message.services);
+    case "pong": state.rttMs = performance.now() - message.t;
+      $("rtt").textContent = `page round trip ${state.rttMs.toFixed(1)} ms`; return;
+  }
+}
+
+function onHello(message) {
+  state.profile = message.profile;
+  state.drawsFace = message.face;
+  $("profile").textContent = `profile ${message.profile}`;
+  $("face-panel").hidden = !message.face;
+  const box = $("bars");
+  box.replaceChildren();
+  bars = new Map();
+  for (const c of message.controls) {
+    const row = document.createElement("div");
+    row.className = "bar";
+    row.innerHTML = '<span class="name"></span><span class="track"><span class="fill"></span>' +
+      '<span class="mark"></span></span><span class="value"></span>';
+    row.querySelector(".name").textContent = c.name;
+    const span = c.high - c.low || 1;
+    row.querySelector(".mark").style.left = `${(100 * (c.neutral - c.low)) / span}%`;
+    box.appendChild(row);
+    bars.set(c.name, { row, c, span });
+  }
+}
+
+function onFace(message) {
+  state.face = message;
+  const tracking = $("tracking");
+  tracking.textContent = message.seq === null ? "neutral" : message.face ? "tracking" : "no face";
+  tracking.className = "pill" + (message.face ? " open" : " noface");
+  $("face-info").textContent = message.seq === null ? "" : `frame ${message.seq}`;
+  for (const [name, value] of Object.entries(message.controls)) {
+    const bar = bars.get(name);
+    if (!bar) continue;
+    const v = Math.min(bar.c.high, Math.max(bar.c.low, value));
+    const a = (100 * (Math.min(v, bar.c.neutral) - bar.c.low)) / bar.span;
+    const b = (100 * (Math.max(v, bar.c.neutral) - bar.c.low)) / bar.span;
+    const fill = bar.row.querySelector(".fill");
+    fill.style.left = `${a}%`;
+    fill.style.width = `${b - a}%`;
+    bar.row.querySelector(".value").textContent = value.toFixed(0);
+  }
+  if (message.shapes) drawShapes(faceCtx, message.shapes);
+  state.drawn += 1;
+}
+
+// Draws the shapes of geometry.py exactly as facesynth/app/render/draw.py does with OpenCV.
+function drawShapes(ctx, shapes) {
+  ctx.clearRect(0, 0, ctx.canvas.width, ctx.canvas.height);
+  ctx.lineJoin = "round";
+  ctx.lineCap = "round";
+  for (const s of shapes) {
+    ctx.beginPath();
+    if (s.kind === "circle") {
+      ctx.arc(s.points[0][0], s.points[0][1], s.radius, 0, 2 * Math.PI);
+    } else {
+      ctx.moveTo(s.points[0][0], s.points[0][1]);
+      for (let i = 1; i < s.points.length; i++) ctx.lineTo(s.points[i][0], s.points[i][1]);
+      if (s.kind === "polygon") ctx.closePath();
+    }
+    if (s.fill && s.kind !== "polyline") { ctx.fillStyle = s.fill; ctx.fill(); }
+    if (s.stroke) { ctx.strokeStyle = s.stroke; ctx.lineWidth = s.width; ctx.stroke(); }
+  }
+}
+
+// Frames: the newest one is decoded; any that arrive meanwhile replace each other.
+let pendingFrame = null;
+let decoding = false;
+
+function onFrame(buffer) {
+  pendingFrame = buffer;
+  if (!decoding) decodeFrames();
+}
+
+async function decodeFrames() {
+  decoding = true;
+  try {
+    while (pendingFrame !== null) {
+      const buffer = pendingFrame;
+      pendingFrame = null;
+      const view = new DataView(buffer);
+      const length = view.getUint32(0);
+      const header = JSON.parse(new TextDecoder().decode(new Uint8Array(buffer, 4, length)));
+      const pixels = new Uint8Array(buffer, 4 + length);
+      if (frameCanvas.width !== header.width || frameCanvas.height !== header.height) {
+        frameCanvas.width = header.width;
+        frameCanvas.height = header.height;
+      }
+      if (header.encoding === "jpeg") {
+        const bitmap = await createImageBitmap(new Blob([pixels], { type: "image/jpeg" }));
+        frameCtx.drawImage(bitmap, 0, 0);
+        bitmap.close();
+      } else {
+        const image = frameCtx.createImageData(header.width, header.height);
+        for (let i = 0, j = 0; i < pixels.length; i += 3, j += 4) {
+          image.data[j] = pixels[i + 2];
+          image.data[j + 1] = pixels[i + 1];
+          image.data[j + 2] = pixels[i];
+          image.data[j + 3] = 255;
+        }
+        frameCtx.putImageData(image, 0, 0);
+      }
+      drawPoints(header.width);
+      state.framesDrawn += 1;
+      $("no-frames").hidden = true;
+      $("frame-info").textContent = `frame ${header.seq}`;
+    }
+  } catch (error) {
+    console.warn("frame not drawn", error);
+  } finally {
+    decoding = false;
+  }
+}
+
+function drawPoints(width) {
+  const p = state.points;
+  if (!p || !p.face) return;
+  const r = Math.max(1.5, width / 320);
+  frameCtx.fillStyle = "#50ff78";
+  for (let i = 0; i + 1 < p.ibug68.length; i += 2) {
+    frameCtx.beginPath();
+    frameCtx.arc(p.ibug68[i], p.ibug68[i + 1], r, 0, 2 * Math.PI);
+    frameCtx.fill();
+  }
+}
+
+function onStats(services) {
+  const body = document.querySelector("#stats tbody");
+  body.replaceChildren();
+  const fmt = (v) => (v === null ? "–" : v.toFixed(2));
+  for (const s of services) {
+    const row = document.createElement("tr");
+    const cells = [s.service, s.instance, s.status, s.rate_hz.toFixed(1), fmt(s.p50_ms),
+      fmt(s.p99_ms), s.received, s.published, s.dropped, s.rejected];
+    cells.forEach((value, i) => {
+      const td = document.createElement("td");
+      td.textContent = String(value);
+      if (i === 2) td.className = s.status;
+      row.appendChild(td);
+    });
+    body.appendChild(row);
+  }
+}
+
+showFrames.addEventListener("change", () => {
+  $("performer-panel").classList.toggle("off", !showFrames.checked);
+  if (socket && socket.readyState === WebSocket.OPEN) {
+    socket.send(JSON.stringify({ type: "hello", frames: showFrames.checked }));
+  }
+});
+
+setInterval(() => {
+  if (socket && socket.readyState === WebSocket.OPEN) {
+    socket.send(JSON.stringify({ type: "ping", t: performance.now() }));
+  }
+}, 2000);
+
+connect();
