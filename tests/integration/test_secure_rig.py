@@ -189,6 +189,25 @@ def test_secured_chain_runs_end_to_end(
     assert status.returncode == 0, status.stderr
     listed = {row.split()[1] for row in status.stdout.splitlines()[1:] if row.startswith("lab")}
     assert listed == {"points", "features", "translator", "control"}, status.stdout
+    # A service's own identity may run its container's health check.
+    health = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "facesynth",
+            "health",
+            "--rig",
+            "lab",
+            "--zenoh-config",
+            str(certs["lab"] / "control.json5"),
+            "--connect",
+            router,
+        ],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert health.returncode == 0 and "/health/" in health.stdout, health.stdout + health.stderr
 
 
 @pytest.mark.parametrize(
