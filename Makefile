@@ -4,8 +4,8 @@ VENV ?= .venv
 PYTHON ?= python3
 BIN := $(VENV)/bin
 
-.PHONY: demo test test-browser lint bench install clean firmware-test test-deploy test-containers \
-	test-netns test-board
+.PHONY: demo test test-browser lint bench bench-drivers install clean firmware-test test-deploy \
+	test-containers test-netns test-board
 
 $(BIN)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -56,6 +56,14 @@ firmware-test: $(BIN)/.installed
 bench: $(BIN)/.installed
 	$(BIN)/facesynth bench chain
 	$(BIN)/facesynth bench tracker
+	$(BIN)/facesynth bench drivers
+
+## Servo drivers: bytes and wire time of one pose per driver, then command -> pulse latency
+## through the arduino driver on the emulated Uno (emulated time; needs the firmware toolchain).
+bench-drivers: $(BIN)/.installed
+	$(BIN)/facesynth bench drivers
+	$(BIN)/python -m pytest -q -s tests/control/test_arduino_driver.py -k latency
+	$(BIN)/python -m pytest -q -s tests/firmware/test_firmware_emulated.py -k latency
 
 clean:
 	rm -rf $(VENV) .mypy_cache .ruff_cache .pytest_cache facesynth-commands.jsonl facesynth-demo.mp4 firmware/build

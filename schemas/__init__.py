@@ -6,6 +6,7 @@ from schemas.messages import (
     Frame,
     Points,
     PointSet,
+    ScoreSet,
     ServiceStats,
     ServoCommands,
 )
@@ -16,6 +17,7 @@ __all__ = [
     "Frame",
     "PointSet",
     "Points",
+    "ScoreSet",
     "ServiceStats",
     "ServoCommands",
 ]

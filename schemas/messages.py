@@ -49,8 +49,10 @@ class PointSet(msgspec.Struct, kw_only=True):
     """Landmarks of one scheme, flattened: ``[x0, y0, (z0,) x1, y1, …]`` in frame pixels.
 
     Known schemes: ``ibug68`` (2D, the iBUG/CLM 68-point numbering used by the paper),
-    ``mesh468`` (3D, the MediaPipe face mesh; z in the same pixel scale), ``iris10`` (2D, right
-    iris centre + 4 contour points, then the left iris; right/left are the performer's own).
+    ``mesh468`` (3D, the MediaPipe face mesh; z in the same pixel scale), ``mesh478`` (3D, Face
+    Landmarker v2: the 468 mesh vertices then the right and the left iris, centre + 4 contour
+    points each), ``iris10`` (2D, right iris centre + 4 contour points, then the left iris;
+    right/left are the performer's own).
     """
 
     scheme: str
@@ -58,11 +60,24 @@ class PointSet(msgspec.Struct, kw_only=True):
     coords: list[float]
 
 
+class ScoreSet(msgspec.Struct, kw_only=True):
+    """Named scores of one scheme, as values in the scheme's fixed order.
+
+    Known scheme: ``blendshapes52`` (the 52 ARKit-style blendshapes in MediaPipe's order,
+    ``facesynth.runtime.blendshapes.NAMES``; each in [0, 1]).
+    """
+
+    scheme: str
+    values: list[float]
+
+
 class Points(msgspec.Struct, tag="points", tag_field=TAG_FIELD, kw_only=True):
     """Face landmarks for one frame (topic ``…/points``).
 
-    When ``face`` is false, ``sets`` is empty: a missing face is said, never replaced by stale
-    points.
+    When ``face`` is false, ``sets`` and ``scores`` are empty: a missing face is said, never
+    replaced by stale points. ``scores`` (added with the ``full`` tracker model) carries
+    per-face scores such as the ``blendshapes52`` set; older senders leave it empty and older
+    receivers ignore it.
     """
 
     seq: int
@@ -74,6 +89,7 @@ class Points(msgspec.Struct, tag="points", tag_field=TAG_FIELD, kw_only=True):
     image_height: int
     sets: list[PointSet] = []
     source: str = ""
+    scores: list[ScoreSet] = []
 
 
 class Features(msgspec.Struct, tag="features", tag_field=TAG_FIELD, kw_only=True):

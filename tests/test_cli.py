@@ -7,6 +7,7 @@ from pathlib import Path
 import pytest
 
 from facesynth.app.cli import build_parser, main
+from facesynth.app.data import sample_openface_csv
 
 COMMANDS = [
     "run",
@@ -22,6 +23,7 @@ COMMANDS = [
     "track",
     "compose",
     "calibrate",
+    "firmware",
     "render",
     "certs",
     "health",
@@ -47,6 +49,9 @@ def _files(tmp: Path) -> dict[str, Path]:
         "garbage.mp4": "this is not a video",
         "bad.json5": "{ mode: ",
         "track.jsonl": '{"frame": 0, "face": true, "ibug68": [[1, 2]]}\n',
+        "blend.jsonl": '{"frame": 0, "face": true, "ibug68": '
+        + str([[1.0, 2.0]] * 68)
+        + ', "blendshapes": [0.5, 2.0]}\n',
         "graph.toml": '[nodes.control]\nstage = "control"\n[nodes.f]\nstage = "features"\n',
         "nodriver.toml": '[nodes.c]\nstage = "control"\ndriver = { driver = "record" }\n',
         "badgraph.toml": "[nodes.x\n",
@@ -72,6 +77,37 @@ CASES = [
     ("record without out", ["control"], "needs --out"),
     ("not OpenFace", ["points", "--openface-csv", "{garbage.csv}"], "missing columns"),
     ("bad track file", ["points", "--points-jsonl", "{track.jsonl}"], "68 finite"),
+    ("bad track blendshapes", ["points", "--points-jsonl", "{blend.jsonl}"], "52 numbers in 0..1"),
+    ("unknown tracker model", ["points", "--model", "huge"], "unknown tracker model 'huge'"),
+    ("unknown bench model", ["bench", "tracker", "--models", "fast,huge"], "unknown ['huge']"),
+    (
+        "mediapipe without task",
+        ["bench", "tracker", "--mediapipe-python", "python3", "--frames", "2"],
+        "needs --mediapipe-task",
+    ),
+    (
+        "mediapipe task missing",
+        ["bench", "tracker", "--mediapipe-python", "python3", "--mediapipe-task", "/no.task"],
+        "task file not found",
+    ),
+    ("bench repeat", ["bench", "tracker", "--repeat", "0", "--frames", "2"], "--repeat"),
+    ("fidelity model", ["bench", "fidelity", "--models", "slow"], "unknown ['slow']"),
+    (
+        "blendshape profile, fast model",
+        ["run", "--model", "fast", "--profile", "head16_bs", "--listen", "tcp/127.0.0.1:0"],
+        "profile head16_bs is driven by blendshapes (browDownLeft",
+    ),
+    (
+        "blendshape profile, no blendshapes",
+        ["run", "--no-blendshapes", "--profile", "arkit52", "--listen", "tcp/127.0.0.1:0"],
+        "use the tracker with --model full (and blendshapes)",
+    ),
+    (
+        "blendshape profile, openface replay",
+        ["run", "--openface-csv", str(sample_openface_csv()), "--profile", "arkit52"],
+        "profile arkit52 is driven by blendshapes",
+    ),
+    ("fidelity profile", ["bench", "fidelity", "--profiles", "head16,robo9"], "'robo9'"),
     ("not a video", ["sensor", "--video", "{garbage.mp4}"], "cannot open"),
     ("missing video", ["sensor", "--video", "/nonexistent.mp4"], "does not exist"),
     ("two sources", ["sensor", "--video", "{garbage.mp4}", "--ticks", "3"], "choose one"),
@@ -120,6 +156,49 @@ CASES = [
     ),
     ("bad watchdog", ["control", "--out", "x", "--watchdog", "0"], "--watchdog: Expected"),
     ("profile without name", ["profile", "check"], "needs a profile"),
+    (
+        "control test without a servo",
+        ["control", "test", "--driver", "ssc32", "--port", "/nonexistent/tty"],
+        "test needs --servo NAME or --all",
+    ),
+    (
+        "control test of an unknown servo",
+        ["control", "test", "--servo", "nose", "--out", "x"],
+        "profile 'paper16' has no servo 'nose'",
+    ),
+    ("test option without test", ["control", "--servo", "jaw", "--out", "x"], "control test`"),
+    ("status option of test", ["control", "status", "--all", "--out", "x"], "an option of test"),
+    ("control status of record", ["control", "status", "--out", "x"], "has no device to query"),
+    (
+        "control status without a board",
+        ["control", "status", "--driver", "maestro", "--port", "/nonexistent/tty"],
+        "/nonexistent/tty: cannot open it: No such file or directory",
+    ),
+    (
+        "malformed port URL",
+        ["control", "--driver", "ssc32", "--port", "socket://nohost"],
+        "socket://nohost: expected socket://HOST:PORT",
+    ),
+    ("driver without port", ["control", "--driver", "arduino"], "driver arduino needs --port"),
+    (
+        "board too small",
+        ["control", "--driver", "maestro", "--port", "/dev/null", "--maestro-model", "micro6"],
+        "channel 15, but the Micro Maestro 6 has channels 0..5",
+    ),
+    (
+        "board watchdog out of range",
+        ["control", "--driver", "arduino", "--port", "p", "--board-watchdog-ms", "10"],
+        "--board-watchdog-ms: Expected `int` >= 20",
+    ),
+    ("flash without port", ["firmware", "flash"], "flash needs --port"),
+    ("flash options on build", ["firmware", "build", "--port", "p"], "options of flash"),
+    ("flash all variants", ["firmware", "flash", "--port", "p", "--variant", "all"], "one variant"),
+    (
+        "missing hex",
+        ["firmware", "flash", "--port", "p", "--hex", "/nonexistent.hex"],
+        "/nonexistent.hex does not exist",
+    ),
+    ("no firmware sources", ["firmware", "build", "--firmware-dir", "/nonexistent"], "no firmware"),
     ("render to a text file", ["render", "--out", "x.txt"], "use a .mp4, .mov, .mkv, .avi file"),
     (
         "render a missing video",
@@ -188,6 +267,24 @@ def test_bad_rig_is_named(tmp_path: Path, capsys: pytest.CaptureFixture[str]) ->
     assert "invalid rig name 'a/b'" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("command", ["points", "run", "track"])
+def test_model_choices_come_from_the_registry(
+    command: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    with pytest.raises(SystemExit) as exit_info:
+        main([command, "--help"])
+    assert exit_info.value.code == 0
+    out = " ".join(capsys.readouterr().out.split())
+    assert "--model" in out and "Face Landmarker v2" in out and "fast" in out
+
+
+def test_track_refuses_an_unknown_model(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as exit_info:
+        build_parser().parse_args(["track", "v.mp4", "--out", "x", "--model", "huge"])
+    assert exit_info.value.code == 2
+    assert "invalid choice: 'huge'" in capsys.readouterr().err
+
+
 def test_profile_check_and_list(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["profile", "check", "paper16"]) == 0
     assert "paper16: ok (16 servos)" in capsys.readouterr().out
@@ -207,9 +304,21 @@ def test_a_taken_page_port_is_one_error_line(capsys: pytest.CaptureFixture[str])
         taken.bind(("127.0.0.1", 0))
         taken.listen()
         address = f"127.0.0.1:{taken.getsockname()[1]}"
-        argv = ["run", "--profile", "virtual", "--driver", "virtual", "--http", address,
-                "--ticks", "3", "--openface-csv", "facesynth/app/data/OpenFace_Test.csv",
-                "--listen", "tcp/127.0.0.1:0"]
+        argv = [
+            "run",
+            "--profile",
+            "virtual",
+            "--driver",
+            "virtual",
+            "--http",
+            address,
+            "--ticks",
+            "3",
+            "--openface-csv",
+            "facesynth/app/data/OpenFace_Test.csv",
+            "--listen",
+            "tcp/127.0.0.1:0",
+        ]
         assert main(argv) == 1
     err = capsys.readouterr().err
     assert f"facesynth run: error: cannot serve the live face page on {address}" in err

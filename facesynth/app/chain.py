@@ -19,7 +19,7 @@ import msgspec
 
 from facesynth.app.graph import Graph
 from facesynth.app.nodes import stage_of
-from facesynth.app.wiring import OptionError, StageParts, build_node
+from facesynth.app.wiring import OptionError, StageParts, build_node, check_blendshapes
 from facesynth.runtime import codec, keys
 from facesynth.runtime.bus.base import Bus
 from facesynth.runtime.bus.zenoh_bus import (
@@ -119,6 +119,7 @@ def build_chain(graph: Graph, configs: dict[str, msgspec.Struct | None]) -> list
     sensor = build_node(name, node, graph, configs.get(name), replay_frames=replay_frames)
     if any(b.needs_pixels() for b in backends) and sensor.service.source.info.name == "ticks":
         raise OptionError("the tracker needs images: give --video, --camera or --images")
+    check_blendshapes(parts)
     return [sensor, *parts]
 
 
@@ -213,7 +214,8 @@ class ServoStateWatch:
         while self.last_seq < seq:
             self._progress.clear()
             try:
-                await asyncio.wait_for(self._progress.wait(), timeout)
+                async with asyncio.timeout(timeout):
+                    await self._progress.wait()
             except TimeoutError:
                 log.warning(
                     "the chain stopped before the last frame (%d; last applied %d)",

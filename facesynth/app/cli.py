@@ -15,6 +15,8 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 from facesynth import __version__
+from facesynth.app.control_tools import add_tool_arguments
+from facesynth.app.firmware import add_firmware_arguments, cmd_firmware
 from facesynth.app.recording.attach import add_attach_arguments
 from facesynth.app.stage_args import add_stage_arguments
 from facesynth.runtime import keys
@@ -29,7 +31,8 @@ STAGE_HELP = {
     "points": "P: publish face landmarks on …/points (tracker, or a replayed recording)",
     "features": "F: publish pose-free features on …/features",
     "translator": "T: publish servo positions on …/servo_commands through a profile",
-    "control": "C: drive servos (or record) from …/servo_commands",
+    "control": "C: drive servos (or record) from …/servo_commands; `control test` and "
+    "`control status` are bring-up tools for a servo board",
 }
 
 
@@ -142,6 +145,7 @@ def build_parser() -> argparse.ArgumentParser:
                 action="store_true",
                 help="list the servo drivers and their options, then exit",
             )
+            add_tool_arguments(p)
 
     p = add(
         "render",
@@ -268,6 +272,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", help="output file (default ~/.config/facesynth/calibrations/NAME.json)")
     p.add_argument("--log-level", default="WARNING", choices=("DEBUG", "INFO", "WARNING", "ERROR"))
 
+    p = add(
+        "firmware",
+        cmd_firmware,
+        "the Arduino Uno servo firmware: build it (gcc-avr) or flash it to a board (avrdude)",
+    )
+    add_firmware_arguments(p)
+
     p = add("router", commands.cmd_router, "run a Zenoh router (for hosts without zenohd)")
     _zenoh_arguments(p)
     p.set_defaults(mode="router")
@@ -305,9 +316,13 @@ def build_parser() -> argparse.ArgumentParser:
     p = add(
         "bench",
         commands.cmd_bench,
-        "benchmarks: the five-process chain, the tracker, smoothing, recording, the live face page",
+        "benchmarks: the five-process chain, the tracker, smoothing, recording, the live face "
+        "page, expression fidelity, servo drivers on the wire",
     )
-    p.add_argument("what", choices=("chain", "tracker", "smoothing", "recording", "face"))
+    p.add_argument(
+        "what",
+        choices=("chain", "tracker", "smoothing", "recording", "face", "fidelity", "drivers"),
+    )
     p.add_argument("video", nargs="?", help="video (default: the bundled performer video)")
     p.add_argument(
         "--seconds",
@@ -331,7 +346,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--encoding", choices=("jpeg", "raw"), default="jpeg", help="chain: frame encoding"
     )
     p.add_argument("--threads", type=int, default=1, help="chain: tracker inference threads")
-    p.add_argument("--profile", default="paper16", help="smoothing: profile to measure")
+    p.add_argument("--profile", default="paper16", help="smoothing, drivers: profile to measure")
     p.add_argument(
         "--track", help="smoothing: a facesynth track file to measure tracking noise from"
     )
@@ -340,6 +355,34 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--backends", default="litert,opencv", help="tracker: inference backends to compare"
+    )
+    p.add_argument(
+        "--models",
+        default="fast,full",
+        help="tracker, fidelity: tracker models to compare (default fast,full)",
+    )
+    p.add_argument(
+        "--profiles",
+        metavar="A,B",
+        help="fidelity: profiles to measure (default: every shipped one)",
+    )
+    p.add_argument(
+        "--repeat",
+        type=int,
+        default=1,
+        metavar="N",
+        help="tracker: N interleaved runs, medians reported (default 1; shared machines: 5)",
+    )
+    p.add_argument(
+        "--mediapipe-python",
+        metavar="PATH",
+        help="tracker: also time MediaPipe's own trackers with this Python (a venv with "
+        "mediapipe==0.10.21; see facesynth/app/bench/mediapipe_helper.py)",
+    )
+    p.add_argument(
+        "--mediapipe-task",
+        metavar="PATH",
+        help="tracker: the face_landmarker.task bundle for --mediapipe-python",
     )
     p.add_argument(
         "--minutes", type=float, default=10.0, help="recording: session length (default 10)"
@@ -356,11 +399,31 @@ def build_parser() -> argparse.ArgumentParser:
         default="auto",
         help="inference runtime (default auto: LiteRT when installed)",
     )
+    _model_arguments(p)
 
     from facesynth.app.recording.cli import add_recording_parsers
 
     add_recording_parsers(sub, _zenoh_arguments)
     return parser
+
+
+def _model_arguments(parser: argparse.ArgumentParser) -> None:
+    """``--model`` (choices and help from the tracker-model registry) and ``--no-blendshapes``."""
+    from services.points.tracker.landmarkers import TRACKER_MODELS
+
+    summaries = "; ".join(f"{p.name}: {p.summary.rstrip('.')}" for p in TRACKER_MODELS)
+    parser.add_argument(
+        "--model",
+        choices=TRACKER_MODELS.names(),
+        default="full",
+        help=f"tracker model (default full). {summaries}",
+    )
+    parser.add_argument(
+        "--no-blendshapes",
+        dest="blendshapes",
+        action="store_false",
+        help="with --model full: skip the blendshape model (about 0.4 ms a frame)",
+    )
 
 
 def main(argv: Sequence[str] | None = None) -> int:

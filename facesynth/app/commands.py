@@ -20,6 +20,7 @@ from facesynth.app.chain import (
     run_single,
 )
 from facesynth.app.compose import compose_file, override_file, secure_file
+from facesynth.app.control_tools import TEST_OPTIONS, cmd_control_tool
 from facesynth.app.graph import Graph, load_graph, select_node
 from facesynth.app.nodes import NODE_TYPES, SensorNode, stage_of
 from facesynth.app.plugin_help import describe_plugins
@@ -41,6 +42,10 @@ def cmd_stage(args: argparse.Namespace) -> int:
     if getattr(args, "list_drivers", False):
         print(describe_plugins(DRIVERS))
         return 0
+    if stage == "control" and (
+        args.action or any(getattr(args, name) not in (None, False) for name in TEST_OPTIONS)
+    ):
+        return cmd_control_tool(args)
     if args.graph:
         graph = load_graph(args.graph, plugins=False)
         name = args.node
@@ -228,7 +233,8 @@ def cmd_status(args: argparse.Namespace) -> int:
             deadline = time.monotonic() + args.timeout
             while (remaining := deadline - time.monotonic()) > 0:
                 try:
-                    sample = await asyncio.wait_for(subscription.receive(), remaining)
+                    async with asyncio.timeout(remaining):
+                        sample = await subscription.receive()
                 except TimeoutError:
                     break
                 try:
@@ -249,7 +255,8 @@ def format_status(alive: list[str], stats: dict[str, Any]) -> str:
     by_instance = {keys.parse_service_key(k): s for k, s in stats.items()}
     header = (
         f"{'rig':<12} {'service':<11} {'instance':<28} {'rate Hz':>8} {'p50 ms':>8} "
-        f"{'p99 ms':>8} {'recv':>7} {'sent':>7} {'drop':>5} {'rej':>5} {'RSS MB':>7}  router"
+        f"{'p99 ms':>8} {'recv':>7} {'sent':>7} {'drop':>5} {'rej':>5} {'router':<21} "
+        f"{'RSS MB':>7}  state"
     )
     lines = [header]
     for key in alive:
@@ -264,8 +271,8 @@ def format_status(alive: list[str], stats: dict[str, Any]) -> str:
         p99 = f"{s.latency_p99_ms:.2f}" if s.latency_p99_ms is not None else "-"
         lines.append(
             f"{parsed[0]:<12} {parsed[1]:<11} {parsed[2]:<28} {s.rate_hz:>8.1f} {p50:>8} {p99:>8} "
-            f"{s.received:>7} {s.published:>7} {s.dropped:>5} {s.rejected:>5} {s.rss_mb:>7.1f}  "
-            f"{describe_link(s)}"
+            f"{s.received:>7} {s.published:>7} {s.dropped:>5} {s.rejected:>5} "
+            f"{describe_link(s):<21} {s.rss_mb:>7.1f}" + (f"  {s.note}" if s.note else "")
         )
     if len(lines) == 1:
         lines.append("(no live services)")
@@ -322,9 +329,8 @@ def describe_link(stats: Any) -> str:
     if connected is None:
         return "-"
     state = "up" if connected else "down"
-    if stats.router_losses:
-        times = "time" if stats.router_losses == 1 else "times"
-        state += f" (lost {stats.router_losses} {times}, {stats.router_offline_s:.1f} s offline)"
+    if stats.router_losses:  # how often it was lost, and the time spent without it
+        state += f", lost {stats.router_losses}x ({stats.router_offline_s:.1f} s)"
     return state
 
 
@@ -365,7 +371,14 @@ def cmd_profile(args: argparse.Namespace) -> int:
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
-    """``facesynth bench chain|tracker``."""
+    """``facesynth bench chain|tracker|smoothing|recording|face|fidelity|drivers``."""
+    if args.what == "fidelity":
+        return _bench_fidelity(args)
+    if args.what == "drivers":
+        from facesynth.app.bench.drivers import bench_drivers, format_drivers
+
+        print(format_drivers(*bench_drivers(args.profile)))
+        return 0
     if args.what == "smoothing":
         from facesynth.app.bench.smoothing import bench_smoothing, format_smoothing
 
@@ -400,13 +413,44 @@ def cmd_bench(args: argparse.Namespace) -> int:
         return 0
     from facesynth.app.bench.tracker import bench_tracker, format_bench
     from facesynth.app.data import sample_video
+    from services.points.tracker.landmarkers import model_names
 
     backends = tuple(b for b in args.backends.split(",") if b)
-    print(
-        format_bench(
-            bench_tracker(args.video or str(sample_video()), backends=backends, frames=args.frames)
-        )
+    models = tuple(m for m in args.models.split(",") if m)
+    unknown = [m for m in models if m not in model_names()]
+    if unknown or not models:
+        choices = ", ".join(model_names())
+        raise OptionError(f"--models: unknown {unknown}; choose from {choices}")
+    result = bench_tracker(
+        args.video or str(sample_video()),
+        backends=backends,
+        frames=args.frames,
+        models=models,
+        repeat=args.repeat,
+        mediapipe_python=args.mediapipe_python,
+        mediapipe_task=args.mediapipe_task,
     )
+    print(format_bench(result))
+    return 0
+
+
+def _bench_fidelity(args: argparse.Namespace) -> int:
+    """``facesynth bench fidelity``: synthetic expressions through every profile and model."""
+    from facesynth.app.bench.fidelity import PROFILES, bench_fidelity, format_fidelity
+    from facesynth.app.data import sample_video
+    from facesynth.runtime.profiles import resolve_profile
+    from services.points.tracker.landmarkers import model_names
+
+    models = tuple(m for m in args.models.split(",") if m)
+    unknown = [m for m in models if m not in model_names()]
+    if unknown or not models:
+        choices = ", ".join(model_names())
+        raise OptionError(f"--models: unknown {unknown}; choose from {choices}")
+    profiles = tuple(p for p in (args.profiles or ",".join(PROFILES)).split(",") if p)
+    for profile in profiles:
+        resolve_profile(profile)  # a clear error for an unknown name before any tracking
+    rows = bench_fidelity(args.video or str(sample_video()), models, profiles)
+    print(format_fidelity(rows))
     return 0
 
 
@@ -420,8 +464,11 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
 
 def cmd_track(args: argparse.Namespace) -> int:
     """``facesynth track VIDEO --out FILE``."""
+    from services.points.tracker.landmarkers import model_config
     from services.points.tracker.offline import track_video
 
-    summary = track_video(args.video, args.out, backend=args.inference)
+    options = {"blendshapes": args.blendshapes} if args.model == "full" else {}
+    model = model_config(args.model, **options)
+    summary = track_video(args.video, args.out, backend=args.inference, model=model)
     print(json.dumps(summary))
     return 0

@@ -25,6 +25,7 @@ from facesynth.app.nodes import (
 )
 from facesynth.runtime.bus.zenoh_bus import DEFAULT_ROUTER, ZenohOptions, endpoints
 from facesynth.runtime.calibration import Calibration, load_calibration
+from facesynth.runtime.feature_names import BLENDSHAPE_NAMES
 from facesynth.runtime.profiles import Profile, load_profile
 from facesynth.runtime.service import ServiceContext
 from services.control.drivers.registry import DRIVERS
@@ -190,6 +191,27 @@ def build_node(
         control = build_control(node, config)
         return StageParts(name, stage, control.serve, control)
     raise OptionError(f"node {name}: unknown stage {stage!r}")
+
+
+def check_blendshapes(parts: list[StageParts]) -> None:
+    """Refuse a chain whose profile is driven by blendshapes that no points backend gives
+    (the ``fast`` tracker model, ``--no-blendshapes``, a replay without them): its servos would
+    silently stay at neutral."""
+    backends = [p.service for p in parts if isinstance(p.service, PointsBackend)]
+    if not backends or any(b.gives_blendshapes() for b in backends):
+        return
+    for part in parts:
+        if isinstance(part.service, Translator):
+            profile = part.service.profile
+            used = sorted(
+                {n for spec in profile.servos for n in spec.weights() or {}} & BLENDSHAPE_NAMES
+            )
+            if used:
+                shown = ", ".join(used[:3]) + (", …" if len(used) > 3 else "")
+                raise OptionError(
+                    f"profile {profile.name} is driven by blendshapes ({shown}), which the points "
+                    "backend does not give: use the tracker with --model full (and blendshapes)"
+                )
 
 
 def replay_frames_of(graph: Graph) -> int | None:

@@ -13,6 +13,7 @@ from typing import Any, TypeVar
 import msgspec
 import numpy as np
 
+from facesynth.runtime import blendshapes
 from schemas.messages import Features, Frame, Points, ServiceStats, ServoCommands
 
 M = TypeVar("M", Frame, Points, Features, ServoCommands, ServiceStats)
@@ -93,8 +94,8 @@ def validate_points(points: Points) -> None:
     _finite(points.confidence, "confidence", 1e6)
     if not (0 < points.image_width <= MAX_FRAME_SIDE and 0 < points.image_height <= MAX_FRAME_SIDE):
         raise MessageError(f"image size {points.image_width}x{points.image_height} is out of range")
-    if not points.face and points.sets:
-        raise MessageError("a 'no face' message must not carry points")
+    if not points.face and (points.sets or points.scores):
+        raise MessageError("a 'no face' message must not carry points or scores")
     seen: set[str] = set()
     for point_set in points.sets:
         if point_set.scheme in seen:
@@ -108,6 +109,32 @@ def validate_points(points: Points) -> None:
                 f"not a positive multiple of {point_set.dims}"
             )
         _all_finite(point_set.coords, f"a coordinate of {point_set.scheme!r}", MAX_COORD)
+    validate_scores(points)
+
+
+def validate_scores(points: Points) -> None:
+    """Check every score set: unique scheme, finite values; ``blendshapes52``: 52 in [0, 1]."""
+    seen: set[str] = set()
+    for score_set in points.scores:
+        if score_set.scheme in seen:
+            raise MessageError(f"score set {score_set.scheme!r} appears twice")
+        seen.add(score_set.scheme)
+        if not score_set.values:
+            raise MessageError(f"score set {score_set.scheme!r} is empty")
+        _all_finite(score_set.values, f"a score of {score_set.scheme!r}", MAX_COORD)
+        if score_set.scheme == blendshapes.BLENDSHAPES52:
+            if len(score_set.values) != blendshapes.COUNT:
+                raise MessageError(
+                    f"score set 'blendshapes52' has {len(score_set.values)} values, "
+                    f"not {blendshapes.COUNT}"
+                )
+            array = np.asarray(score_set.values)
+            if array.min() < 0.0 or array.max() > 1.0:
+                bad = int(np.argmax((array < 0.0) | (array > 1.0)))
+                raise MessageError(
+                    f"blendshape {blendshapes.NAMES[bad]!r} is {float(array[bad])!r}: "
+                    "must be within 0..1"
+                )
 
 
 def validate_features(features: Features) -> None:

@@ -9,12 +9,20 @@ neutral, in the units below), which is what calibration records.
 Default ranges were measured on the bundled performer video with the tracker (the range a
 clear expression reaches); a calibration replaces them. Right/left are the performer's own.
 Directions: x positive = toward the performer's left, y positive = up, as the performer sees it.
+
+With the ``full`` tracker model F also publishes the 51 ARKit blendshapes of
+:mod:`facesynth.runtime.blendshapes` as named features under their own (camelCase) names,
+e.g. ``mouthSmileLeft``: the raw value is the model's score (0..1), and like every named
+feature it is taken relative to the performer's neutral and scaled to the calibrated range
+(default ±0.5 of a score: half the scale from neutral reads ±1). ``_neutral`` is left out.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 from typing import Final
+
+from facesynth.runtime import blendshapes
 
 SCALED_LIMIT: Final = 1.5
 
@@ -69,5 +77,21 @@ FEATURES: Final[tuple[NamedFeature, ...]] = (
     NamedFeature("lip_pucker", IOD, "mouth narrowed (pucker)", -0.15, 0.08),
 )
 
-BY_NAME: Final[dict[str, NamedFeature]] = {feature.name: feature for feature in FEATURES}
+#: Default raw range of a blendshape feature (scores relative to the neutral's).
+BLENDSHAPE_RANGE: Final = (-0.5, 0.5)
+
+BLENDSHAPE_FEATURES: Final[tuple[NamedFeature, ...]] = tuple(
+    NamedFeature(
+        name, "score (0..1)", f"ARKit blendshape {name} stronger than at neutral", *BLENDSHAPE_RANGE
+    )
+    for name in blendshapes.SHAPES
+)
+#: The names of the blendshape features (a profile's ``blendshape = NAME`` must be one).
+BLENDSHAPE_NAMES: Final[frozenset[str]] = frozenset(blendshapes.SHAPES)
+
+BY_NAME: Final[dict[str, NamedFeature]] = {
+    feature.name: feature for feature in (*FEATURES, *BLENDSHAPE_FEATURES)
+}
 NAMES: Final[tuple[str, ...]] = tuple(BY_NAME)
+#: The features read from the landmarks (every name but the blendshapes').
+LANDMARK_NAMES: Final[tuple[str, ...]] = tuple(feature.name for feature in FEATURES)

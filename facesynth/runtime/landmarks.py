@@ -11,6 +11,9 @@ import numpy as np
 
 IBUG68: Final = "ibug68"
 MESH468: Final = "mesh468"
+#: Face Landmarker v2: the 468 mesh vertices (same numbering as ``mesh468``), then the
+#: performer's right iris (centre + 4 contour points), then the left one; x, y, z.
+MESH478: Final = "mesh478"
 IRIS10: Final = "iris10"
 
 N_IBUG = 68

@@ -3,7 +3,9 @@
 A service is an ``async`` function taking a :class:`ServiceContext`. The runtime announces it
 with a liveliness token, publishes its :class:`ServiceStats` every ``stats_interval`` seconds,
 counts and logs rejected messages (never crashing on them), and stops it cleanly on SIGINT or
-SIGTERM.
+SIGTERM. The context carries the service's :class:`~facesynth.runtime.clock.Clock`: shells read
+and wait on ``ctx.clock``, so a test can run them in virtual time (see
+:mod:`facesynth.runtime.testing`).
 """
 
 from __future__ import annotations
@@ -23,6 +25,7 @@ import msgspec
 
 from facesynth.runtime import codec, keys
 from facesynth.runtime.bus.base import Bus, Subscription, Token
+from facesynth.runtime.clock import Clock, SystemClock
 from facesynth.runtime.stats import StageStats
 
 M = TypeVar("M")
@@ -44,19 +47,21 @@ def default_instance() -> str:
 
 @dataclass
 class ServiceContext:
-    """One service instance's view of the bus and its running figures."""
+    """One service instance's view of the bus, its clock and its running figures."""
 
     bus: Bus
     rig: str
     service: str
     instance: str = field(default_factory=default_instance)
     stats_interval: float = 1.0
+    clock: Clock = field(default_factory=SystemClock)
 
     def __post_init__(self) -> None:
         keys.check_name(self.rig)
         keys.check_name(self.service, "service")
         keys.check_name(self.instance, "instance")
         self.stats = StageStats(self.service, self.instance, self.rig)
+        self.stats.started_ns = self.clock.time_ns()
         self.log = logging.getLogger(f"facesynth.{self.service}")
         self.subscriptions: list[Subscription] = []
         self._reject_logged = 0
@@ -92,7 +97,7 @@ class ServiceContext:
     def publish(self, stage: keys.Stage, message: msgspec.Struct) -> None:
         """Encode and publish ``message`` on a stage key, and count it."""
         self.bus.publish(self.key(stage), codec.encode(message))
-        self.stats.record_published(getattr(message, "t_capture_ns", 0))
+        self.stats.record_published(getattr(message, "t_capture_ns", 0), self.clock.time_ns())
 
     def reject(self, reason: str) -> None:
         """Count and log an unusable input; logs the first ten, then every hundredth."""
@@ -108,7 +113,7 @@ class ServiceContext:
     def publish_stats(self, note: str = "") -> None:
         """Publish the current figures on this instance's stats key."""
         self.stats.dropped = self.dropped()
-        snapshot = self.stats.snapshot(note=note, link=self.bus.link())
+        snapshot = self.stats.snapshot(self.clock.time_ns(), note=note, link=self.bus.link())
         key = keys.stats_key(self.rig, self.service, self.instance)
         self.bus.publish(key, codec.encode(snapshot))
 
@@ -141,7 +146,7 @@ async def serve_transform(
 
 async def _stats_loop(ctx: ServiceContext) -> None:
     while True:
-        await asyncio.sleep(ctx.stats_interval)
+        await ctx.clock.sleep(ctx.stats_interval)
         ctx.publish_stats()
 
 

@@ -47,6 +47,8 @@ class StageStats:
         self.published = 0
         self.rejected = 0
         self.dropped = 0
+        #: A line on the service's state, published with its stats (e.g. a servo board's link).
+        self.note = ""
         self.latencies_ms: collections.deque[float] = collections.deque(maxlen=window)
         self._published_at: collections.deque[int] = collections.deque()
 
@@ -94,7 +96,7 @@ class StageStats:
             rss_mb=rss,
             peak_rss_mb=peak,
             window=len(self.latencies_ms),
-            note=note,
+            note=note or self.note,
             router_connected=None if link is None else link.connected,
             router_losses=0 if link is None else link.losses,
             router_offline_s=0.0 if link is None else round(link.offline_s, 3),

@@ -19,11 +19,14 @@ import numpy as np
 
 from facesynth.runtime.calibration import Calibration
 from facesynth.runtime.feature_names import BY_NAME
-from facesynth.runtime.landmarks import IRIS10, MESH468, N_IBUG
+from facesynth.runtime.landmarks import IRIS10, N_IBUG
 from schemas.messages import Points
 from services.features.core import (
     FeatureError,
+    blendshape_features,
+    blendshape_scores,
     ibug_points,
+    mesh_points,
     normalise,
     nose_distances,
     optional_points,
@@ -62,6 +65,7 @@ PROMPTS: dict[str, str] = {
 MIN_SPAN_SHARE = 0.25
 
 #: Absolute named features of one frame: (ibug68, mesh, iris, neutral mesh reference or None).
+#: The blendshape features (``full`` tracker model) are added to what it returns.
 NamedExtractor = Callable[..., dict[str, float]]
 
 
@@ -75,6 +79,7 @@ class _Frame:
     ibug: np.ndarray
     mesh: np.ndarray | None
     iris: np.ndarray | None
+    scores: np.ndarray | None = None
 
 
 @dataclass
@@ -152,9 +157,16 @@ class CalibrationRecorder:
             ibug = ibug_points(points)
         except FeatureError:
             return False
-        mesh = _point_set(points, MESH468, 468, 3)
+        try:
+            mesh = mesh_points(points)
+        except FeatureError:  # a malformed mesh counts as absent (the frame still calibrates)
+            mesh = None
         iris = _point_set(points, IRIS10, 10, 2)
-        recording.frames.append(_Frame(t_in_step_s, ibug, mesh, iris))
+        try:
+            scores = blendshape_scores(points)
+        except FeatureError:  # malformed scores count as absent, like a malformed mesh
+            scores = None
+        recording.frames.append(_Frame(t_in_step_s, ibug, mesh, iris, scores))
         return True
 
     def summary(self) -> dict[str, tuple[int, int]]:
@@ -174,9 +186,7 @@ class CalibrationRecorder:
         meshes = [f.mesh for f in neutral_frames if f.mesh is not None]
         neutral_mesh = np.median(np.stack(meshes), axis=0) if len(meshes) >= 3 else None
         reference = MeshReference(neutral_mesh) if neutral_mesh is not None else None
-        named_neutral = _median_named(
-            [self.extract_named(f.ibug, f.mesh, f.iris, reference) for f in neutral_frames]
-        )
+        named_neutral = _median_named([self._named(f, reference) for f in neutral_frames])
         lows = np.zeros(N_IBUG)
         highs = np.zeros(N_IBUG)
         named_low: dict[str, float] = {}
@@ -187,10 +197,7 @@ class CalibrationRecorder:
             deltas = np.stack([_distances(f.ibug) - neutral for f in recording.frames])
             lows = np.minimum(lows, np.percentile(deltas, self.low_pct, axis=0))
             highs = np.maximum(highs, np.percentile(deltas, self.high_pct, axis=0))
-            rows = [
-                relative(self.extract_named(f.ibug, f.mesh, f.iris, reference), named_neutral)
-                for f in recording.frames
-            ]
+            rows = [relative(self._named(f, reference), named_neutral) for f in recording.frames]
             for name in set().union(*rows):
                 values = np.array([row[name] for row in rows if name in row])
                 low = float(np.percentile(values, self.low_pct))
@@ -209,6 +216,12 @@ class CalibrationRecorder:
             named_max=named_max,
             neutral_mesh=neutral_mesh.ravel().tolist() if neutral_mesh is not None else [],
         )
+
+    def _named(self, frame: _Frame, reference: MeshReference | None) -> dict[str, float]:
+        """Absolute named values of a frame: its geometry, then its blendshapes."""
+        named = self.extract_named(frame.ibug, frame.mesh, frame.iris, reference)
+        named.update(blendshape_features(frame.scores))
+        return named
 
 
 def _distances(ibug: np.ndarray) -> np.ndarray:

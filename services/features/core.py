@@ -28,8 +28,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from facesynth.runtime import blendshapes
 from facesynth.runtime.calibration import Calibration
-from facesynth.runtime.landmarks import IBUG68, IRIS10, MESH468, N_IBUG, NOSE_TIP
+from facesynth.runtime.landmarks import IBUG68, IRIS10, MESH468, MESH478, N_IBUG, NOSE_TIP
 from schemas.messages import Features, Points
 from services.features.expressions import (
     HEAD,
@@ -51,7 +52,9 @@ __all__ = [
     "NeutralEstimator",
     "NeutralFace",
     "Sample",
+    "blendshape_scores",
     "ibug_points",
+    "mesh_points",
     "neutral_face",
     "normalise",
     "nose_distances",
@@ -93,6 +96,43 @@ def optional_points(points: Points, scheme: str, count: int, dims: int) -> np.nd
                 raise FeatureError(f"{scheme} set has a value that is not a finite number")
             return array.reshape(count, point_set.dims)[:, :dims]
     return None
+
+
+def mesh_points(points: Points) -> np.ndarray | None:
+    """The face mesh's 468 vertices (468, 3): the ``mesh468`` set, else the first 468 points of
+    a ``mesh478`` set (Face Landmarker v2: the same vertices, then the irises); None if neither
+    (or only without depth). A set with the wrong number of values raises :class:`FeatureError`.
+    """
+    mesh = optional_points(points, MESH468, N_MESH, 3)
+    if mesh is None:
+        full = optional_points(points, MESH478, N_MESH + N_IRIS, 3)
+        if full is not None:
+            mesh = full[:N_MESH]
+    return mesh
+
+
+def blendshape_scores(points: Points) -> np.ndarray | None:
+    """The ``blendshapes52`` scores of a message (52 in MediaPipe's order), or None if absent.
+
+    A set with the wrong number of values, or values that are not finite numbers in [0, 1],
+    raises :class:`FeatureError`.
+    """
+    for score_set in points.scores:
+        if score_set.scheme == blendshapes.BLENDSHAPES52:
+            values = np.asarray(score_set.values, dtype=np.float64)
+            if values.shape != (blendshapes.COUNT,):
+                raise FeatureError(f"blendshapes52 set has {values.size} values")
+            if not (np.all(np.isfinite(values)) and values.min() >= 0.0 and values.max() <= 1.0):
+                raise FeatureError("blendshapes52 set has a value that is not a number in 0..1")
+            return values
+    return None
+
+
+def blendshape_features(scores: np.ndarray | None) -> dict[str, float]:
+    """The absolute raw values of the blendshape features (``_neutral`` left out)."""
+    if scores is None:
+        return {}
+    return dict(zip(blendshapes.SHAPES, scores[1:].tolist(), strict=True))
 
 
 def nose_distances(normalised: np.ndarray) -> np.ndarray:
@@ -210,18 +250,20 @@ class FeatureProcessor:
             )
         ibug = ibug_points(points)
         frame = normalise(ibug)
-        mesh = optional_points(points, MESH468, N_MESH, 3)
+        mesh = mesh_points(points)
         iris = optional_points(points, IRIS10, N_IRIS, 2)
+        scores = blendshape_scores(points)
         distances = nose_distances(frame)
         t = points.t_media_ns
         ready = self.estimator.add(t, distances)
-        if self.frame_neutral is None and self.window.add(t, Sample(ibug, frame, mesh, iris)):
+        sample = Sample(ibug, frame, mesh, iris, scores)
+        if self.frame_neutral is None and self.window.add(t, sample):
             self._complete_neutral()
         distance_neutral = self.estimator.neutral if ready else None
         frame_neutral = self.frame_neutral
         named: dict[str, float] = {}
         rel: dict[str, float] = {}
-        raw = self._raw(ibug, mesh, iris)
+        raw = self._raw(ibug, mesh, iris, scores)
         if raw is not None and self.named_neutral is not None:
             named_neutral = self.named_neutral if self.auto is None else self.auto.named
             self.gaze.observe(raw, named_neutral)
@@ -256,19 +298,27 @@ class FeatureProcessor:
         )
 
     def _raw(
-        self, ibug: np.ndarray, mesh: np.ndarray | None, iris: np.ndarray | None
+        self,
+        ibug: np.ndarray,
+        mesh: np.ndarray | None,
+        iris: np.ndarray | None,
+        scores: np.ndarray | None,
     ) -> dict[str, float] | None:
-        """Absolute named values, or None when the neutral cannot place them."""
+        """Absolute named values (geometry and blendshapes), or None when the neutral cannot
+        place them."""
         if self.use_mesh is None:
             return None
         try:
             if self.use_mesh:
                 if mesh is None or self.reference is None:
                     return None  # the neutral is in the mesh's frame: 2D values would not match
-                return raw_features(ibug, mesh, iris, self.reference)
-            return raw_features(ibug, None, iris)
+                raw = raw_features(ibug, mesh, iris, self.reference)
+            else:
+                raw = raw_features(ibug, None, iris)
         except FeatureError:  # a degenerate mesh: this frame has the paper's features only
             return None
+        raw.update(blendshape_features(scores))
+        return raw
 
     def _learnable(self, raw: dict[str, float]) -> dict[str, float]:
         """Raw values the rolling neutral may learn from: no gaze of a closed eye."""

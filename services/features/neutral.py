@@ -13,6 +13,7 @@ from typing import Generic, TypeVar
 
 import numpy as np
 
+from facesynth.runtime.blendshapes import SHAPES
 from facesynth.runtime.feature_names import NAMES
 from facesynth.runtime.landmarks import N_IBUG
 from services.features.autorange import AutoRange, RollingNeutral
@@ -33,12 +34,14 @@ STABLE = np.asarray(STABLE_VERTICES)
 
 @dataclass(frozen=True)
 class Sample:
-    """One face frame's landmarks: 68 image points, their eye-corner frame, mesh, iris."""
+    """One face frame's landmarks: 68 image points, their eye-corner frame, mesh, iris, and
+    the 52 blendshape scores (``full`` tracker model)."""
 
     ibug68: np.ndarray
     frame: np.ndarray
     mesh: np.ndarray | None = None
     iris: np.ndarray | None = None
+    blendshapes: np.ndarray | None = None
 
 
 @dataclass
@@ -89,6 +92,8 @@ def neutral_face(
             raw = raw_features(sample.ibug68, mesh, sample.iris, reference)
         except FeatureError:
             continue
+        if sample.blendshapes is not None:
+            raw.update(zip(SHAPES, sample.blendshapes[1:].tolist(), strict=True))
         for name, value in raw.items():
             values.setdefault(name, []).append(value)
     frame = np.median(np.stack([s.frame for s in samples]), axis=0)

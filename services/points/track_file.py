@@ -9,7 +9,8 @@ defined here only. A line, in frame pixels::
 
 ``mesh``, ``iris`` and ``ibug68`` are null (or absent) on a line without a face; a face line
 needs ``ibug68``. Points may carry a third coordinate. ``presence`` is the tracker's face
-presence score (0..1; absent: 1).
+presence score (0..1; absent: 1). ``blendshapes`` (``full`` tracker model) holds the 52 ARKit
+blendshape scores in ``facesynth.runtime.blendshapes.NAMES`` order (absent: none).
 """
 
 from __future__ import annotations
@@ -28,6 +29,7 @@ class TrackLine(msgspec.Struct, kw_only=True):
     iris: list[list[float]] | None = None
     ibug68: list[list[float]] | None = None
     presence: float = 1.0
+    blendshapes: list[float] | None = None
 
 
 _ENCODER = msgspec.json.Encoder()

@@ -2,14 +2,14 @@
 
 Real-time by default (frames leave at the recording's pace); ``fast`` sends as fast as the chain
 takes them, keeping at most ``window`` frames ahead of the last servo command seen, so a replay
-loses no frame and gives the same commands every time.
+loses no frame and gives the same commands every time. Pacing, the credit window's
+``ack_timeout`` and the wait for other services run on the context's clock (``ctx.clock``).
 """
 
 from __future__ import annotations
 
 import asyncio
 import contextlib
-import time
 from dataclasses import dataclass, field
 
 from facesynth.runtime import codec, keys
@@ -40,7 +40,8 @@ async def wait_for_services(ctx: ServiceContext, services: list[str], timeout: f
     """Wait until every named service of this rig has a liveliness token."""
     if not services:
         return True
-    deadline = time.monotonic() + timeout
+    clock = ctx.clock
+    deadline = clock.monotonic_ns() + round(timeout * 1e9)
     missing = set(services)
     while True:
         alive = await ctx.bus.alive(keys.health_pattern(ctx.rig), timeout=0.5)
@@ -48,12 +49,12 @@ async def wait_for_services(ctx: ServiceContext, services: list[str], timeout: f
         missing = set(services) - present
         if not missing:
             return True
-        if time.monotonic() >= deadline:
+        if clock.monotonic_ns() >= deadline:
             ctx.log.warning(
                 "still waiting for %s after %.1f s: starting anyway", sorted(missing), timeout
             )
             return False
-        await asyncio.sleep(0.05)
+        await clock.sleep(0.05)
 
 
 class SensorService:
@@ -90,10 +91,11 @@ class SensorService:
         )
 
     async def _wait_credit(self, ctx: ServiceContext, seq: int) -> None:
-        deadline = time.monotonic() + self.options.ack_timeout
+        clock = ctx.clock
+        deadline = clock.monotonic_ns() + round(self.options.ack_timeout * 1e9)
         while not self.flow.may_send(seq):
             self._acked.clear()
-            remaining = deadline - time.monotonic()
+            remaining = (deadline - clock.monotonic_ns()) / 1e9
             if remaining <= 0:
                 self.stalls += 1
                 ctx.log.warning(
@@ -104,13 +106,12 @@ class SensorService:
                 self.flow.ack(seq - self.flow.window)
                 return
             with contextlib.suppress(TimeoutError):
-                await asyncio.wait_for(self._acked.wait(), remaining)
+                await clock.wait_for(self._acked.wait(), remaining)
 
-    def _frame(self, image: object, seq: int, t_media_ns: int) -> Frame:
+    def _frame(self, image: object, seq: int, t_media_ns: int, now: int) -> Frame:
         from facesynth.runtime.frames import encode_frame  # OpenCV only where pixels exist
 
         info = self.source.info
-        now = time.time_ns()
         if image is None:
             width, height = TICK_SIZE
             return Frame(
@@ -167,12 +168,12 @@ class SensorService:
                 elif not info.live:
                     if t_media_ns < previous_media:
                         pacer.restart()
-                    delay = pacer.delay_ns(t_media_ns, time.monotonic_ns())
+                    delay = pacer.delay_ns(t_media_ns, ctx.clock.monotonic_ns())
                     if delay:
-                        await asyncio.sleep(delay / 1e9)
+                        await ctx.clock.sleep(delay / 1e9)
                 previous_media = t_media_ns
                 ctx.stats.received += 1
-                ctx.publish("input", self._frame(image, seq, t_media_ns))
+                ctx.publish("input", self._frame(image, seq, t_media_ns, ctx.clock.time_ns()))
                 self.last_seq = seq
                 await asyncio.sleep(0)
         finally:

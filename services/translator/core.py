@@ -3,17 +3,20 @@
 Per frame, per servo:
 
 1. **Source value.** A ``points`` servo takes the mean delta of its point group (the paper);
-   a ``feature`` servo one named feature (``Features.named``, scaled: 0 neutral, ±1 the
-   calibrated extremes); a ``mix`` servo the weighted sum of named features (an antagonist pair
-   on one servo). With ``mirror``, right and left are swapped first (and x directions negated).
+   a ``feature`` (or ``blendshape``) servo one named feature (``Features.named``, scaled: 0
+   neutral, ±1 the calibrated extremes); a ``mix`` servo the weighted sum of named features
+   (an antagonist pair on one servo). With ``mirror``, right and left are swapped first (and x
+   directions negated).
    ``points`` given with ``feature``/``mix`` are a fallback, used only while no frame since the
    start (or :meth:`Translator.reset`) has carried the named features.
 2. **Smoothing.** Each distinct signal used (a point group, a named feature) goes through its
    own One Euro filter (:mod:`services.translator.filters`), with time from ``t_media_ns``.
    Point groups are filtered in range units (divided by half their face range), so one set of
    parameters fits groups and named features alike.
-3. **Dead-band and gain.** ``|value| <= deadband`` gives 0, beyond it the dead-band is subtracted
-   (continuous); then the value is multiplied by ``gain``. The dead-band is in source units (IOD
+3. **Dead-band, gain, one side.** ``|value| <= deadband`` gives 0, beyond it the dead-band is
+   subtracted (continuous); then the value is multiplied by ``gain``; a ``one_sided`` servo
+   takes negative values as 0 (neutral), so a mouth more closed than the neutral's never drives
+   the jaw past closed. The dead-band is in source units (IOD
    for points, scaled for named features; for points used as a fallback of named features, it
    is taken in scaled units, i.e. times half the group's face range).
 4. **Mapping.** Points: linearly from the face range [face_min, 0, face_max] (profile default or
@@ -88,14 +91,25 @@ def deadband(value: float, width: float) -> float:
     return value - math.copysign(width, value)
 
 
+def mirror_name(name: str) -> str:
+    """The name of a feature's mirror-image counterpart: ``_right``/``_left`` swapped, and the
+    blendshapes' ``Left``/``Right`` endings (``mouthSmileLeft``, ``jawLeft``) swapped."""
+    if name.endswith("_right") or "_right_" in name:
+        return name.replace("_right", "_left", 1)
+    if name.endswith("_left") or "_left_" in name:
+        return name.replace("_left", "_right", 1)
+    if name.endswith("Left"):
+        return name[: -len("Left")] + "Right"
+    if name.endswith("Right"):
+        return name[: -len("Right")] + "Left"
+    return name
+
+
 def mirror_named(named: Mapping[str, float]) -> dict[str, float]:
     """Named features of the mirror image: right and left swapped, x directions negated."""
     out = {}
     for name, value in named.items():
-        if name.endswith("_right") or "_right_" in name:
-            name = name.replace("_right", "_left", 1)
-        elif name.endswith("_left") or "_left_" in name:
-            name = name.replace("_left", "_right", 1)
+        name = mirror_name(name)
         out[name] = -value if name in MIRROR_NEGATED else value
     return out
 
@@ -235,7 +249,8 @@ class Translator:
                     weight * self._feature_value(servo.feature_keys[name], named[name], t_ns, cache)
                     for name, weight in servo.weights.items()
                 )
-                return scaled_position(deadband(value, spec.deadband) * spec.gain, spec)
+                value = deadband(value, spec.deadband) * spec.gain
+                return scaled_position(max(value, 0.0) if spec.one_sided else value, spec)
             if servo.seen or not spec.points:
                 return None  # hold; points are only a fallback while the features never came
         if deltas is None:
@@ -245,7 +260,7 @@ class Translator:
         if servo.weights is not None:  # a fallback: the dead-band is in scaled units
             width *= (high - low) / 2.0
         movement = deadband(self._group_value(servo, deltas, t_ns, cache), width) * spec.gain
-        return interpolate(movement, low, high, spec)
+        return interpolate(max(movement, 0.0) if spec.one_sided else movement, low, high, spec)
 
     def _targets(
         self, deltas: np.ndarray | None, named: Mapping[str, float], t_ns: int | None

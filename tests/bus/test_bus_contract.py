@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+import time
 from collections.abc import AsyncIterator, Callable
 
 import pytest
@@ -160,6 +161,38 @@ async def test_bus_close_withdraws_tokens(make_bus: Factory, key_prefix: str) ->
     await settle(announcer)
     assert await observer.alive(f"{key_prefix}/health/**") == [f"{key_prefix}/health/x/1"]
     await announcer.close()
+    await settle(observer)
+    assert await observer.alive(f"{key_prefix}/health/**") == []
+
+
+async def test_a_subscriber_that_never_reads_does_not_slow_the_publisher(
+    make_bus: Factory, key_prefix: str
+) -> None:
+    sender, receiver = make_bus(), make_bus()
+    subscription = receiver.subscribe_queued(f"{key_prefix}/unread", 4)
+    await settle(receiver)
+    payload = bytes(2_000)
+    slowest = 0.0
+    for _ in range(300):
+        before = time.perf_counter()
+        sender.publish(f"{key_prefix}/unread", payload)
+        slowest = max(slowest, time.perf_counter() - before)
+        await asyncio.sleep(0.001)  # like a service between two messages
+    await asyncio.sleep(0.5 if isinstance(sender, ZenohBus) else 0)
+    assert slowest < 0.25, f"publish took {slowest:.3f} s"
+    # The mailbox stays bounded: what did not fit was dropped (oldest first) and counted.
+    assert subscription.received > 4 and subscription.pending() == 4
+    assert subscription.dropped == subscription.received - 4
+
+
+async def test_async_with_closes_the_bus(make_bus: Factory, key_prefix: str) -> None:
+    observer = make_bus()
+    async with make_bus() as bus:
+        subscription = bus.subscribe_queued(f"{key_prefix}/ctx", 4)
+        bus.declare_token(f"{key_prefix}/health/ctx/1")
+        await settle(bus)
+        assert await observer.alive(f"{key_prefix}/health/**") == [f"{key_prefix}/health/ctx/1"]
+    assert subscription.closed
     await settle(observer)
     assert await observer.alive(f"{key_prefix}/health/**") == []
 

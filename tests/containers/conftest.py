@@ -26,6 +26,7 @@ PROJECT_FILES = [
     "docker-compose.yml",
     "docker-compose.secure.yml",
     "docker-compose.virtual.yml",
+    "docker-compose.arduino.yml",
     "pyproject.toml",
     "README.md",
     "LICENSE",

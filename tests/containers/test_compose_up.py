@@ -234,6 +234,7 @@ def test_compose_files_validate_offline(engine: Engine, project: Path, tmp_path:
         ["docker-compose.yml", "docker-compose.replay.yml"],
         ["docker-compose.yml", "deploy/zenohd/compose.yml"],
         ["docker-compose.yml", "docker-compose.virtual.yml"],
+        ["docker-compose.yml", "docker-compose.arduino.yml"],
     ):
         args = [arg for file in files for arg in ("-f", file)]
         merged = engine.run("docker-compose", *args, "config", cwd=project).stdout

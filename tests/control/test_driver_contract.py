@@ -1,218 +1,264 @@
-"""One contract, every servo driver: record, virtual (live page) and vmc (avatar over OSC).
+"""One contract, every servo driver: record, virtual (live page), vmc (avatar over OSC), and the
+boards: maestro and ssc32 (fakes on ptys) and arduino (the real firmware on the emulated Uno).
 
-Each harness builds its driver on the ``virtual`` profile and reads back what reached the
-outside world (the file, a page's WebSocket, a real OSC server), in the driver's own form.
+Each rig (driver_rigs.py) builds its driver and reads back what reached the outside world in
+the outside's own form. Every driver puts out what it is sent and the neutral face; it never
+lets a position outside the profile's limits out, refuses unknown servos and non-finite
+positions, is an error to use before connect or after close, connects again after close, and
+refuses settings that cannot work with one clear line. Drivers of devices that can be
+unplugged keep running while unplugged (sends do not raise) and carry on when the device is
+back, without a restart; a device missing at start is waited for, and is a clear error for
+one-off tools.
 """
 
 from __future__ import annotations
 
-import abc
 import asyncio
-import contextlib
-import json
-from collections.abc import AsyncIterator, Mapping
+import math
+from collections.abc import AsyncIterator
 from pathlib import Path
-from typing import Any
 
-import aiohttp
 import pytest
+from driver_rigs import RIGS, DriverRig
 
 from facesynth.runtime.plugins import PluginError
-from facesynth.runtime.profiles import Profile, load_profile
+from facesynth.runtime.profiles import Profile
 from services.control.core import CommandInfo
-from services.control.drivers.base import DriverError, ServoDriver
-from services.control.drivers.record import RecordConfig, RecordDriver, read_record
+from services.control.drivers.base import DriverConfigError, DriverError, ServoDriver
 from services.control.drivers.registry import DRIVERS
-from services.control.drivers.virtual import VirtualConfig, VirtualDriver
-from services.control.drivers.vmc import AvatarMapping, VmcConfig, VmcDriver
-from tests.control.osc_receiver import osc_receiver
-
-PROFILE = load_profile("virtual")
 
 
-class Harness(abc.ABC):
-    """A driver and a way to see what it put out."""
-
-    driver: ServoDriver
-
-    def expected(self, positions: Mapping[str, float]) -> Any:
-        """What the outside should see for ``positions``."""
-        return {name: round(value, 2) for name, value in positions.items()}
-
-    @abc.abstractmethod
-    async def observed(self, count: int) -> Any:
-        """What the outside saw last, once ``count`` commands have arrived."""
-
-    async def after_connect(self) -> None:  # noqa: B027 - optional
-        """Attach the observer once the driver is up."""
-
-    async def aclose(self) -> None:  # noqa: B027 - optional
-        """Release the observer."""
+async def _rig(request: pytest.FixtureRequest, tmp_path: Path) -> AsyncIterator[DriverRig]:
+    make = RIGS[request.param]
+    if make.needs_firmware:
+        request.getfixturevalue("firmware_ready")
+    made = make(tmp_path)
+    try:
+        yield made
+    finally:
+        await made.aclose()
 
 
-class RecordHarness(Harness):
-    def __init__(self, tmp_path: Path) -> None:
-        self.path = tmp_path / "commands.jsonl"
-        self.driver = RecordDriver(RecordConfig(out=str(self.path)), PROFILE)
-
-    async def observed(self, count: int) -> Any:
-        lines = read_record(self.path)
-        assert len(lines) == count
-        return {name: round(value, 2) for name, value in lines[-1].servos.items()}
+@pytest.fixture(params=sorted(RIGS))
+async def rig(request: pytest.FixtureRequest, tmp_path: Path) -> AsyncIterator[DriverRig]:
+    async for made in _rig(request, tmp_path):
+        yield made
 
 
-class VirtualHarness(Harness):
-    def __init__(self, tmp_path: Path) -> None:
-        self.driver = VirtualDriver(VirtualConfig(http="127.0.0.1:0"), PROFILE)
-        self.faces: list[dict[str, Any]] = []
-        self._session: aiohttp.ClientSession | None = None
-        self._task: asyncio.Task[None] | None = None
-
-    async def after_connect(self) -> None:
-        assert isinstance(self.driver, VirtualDriver)
-        self._session = aiohttp.ClientSession()
-        ws = await self._session.ws_connect(self.driver.url + "ws")
-        self._task = asyncio.create_task(self._read(ws))
-        await asyncio.sleep(0.1)
-
-    async def _read(self, ws: aiohttp.ClientWebSocketResponse) -> None:
-        async for msg in ws:
-            if msg.type == aiohttp.WSMsgType.TEXT and json.loads(msg.data)["type"] == "face":
-                self.faces.append(json.loads(msg.data))
-
-    async def observed(self, count: int) -> Any:
-        """The newest face once it is command ``count`` (a page may skip older ones)."""
-        for _ in range(300):
-            if self.faces and self.faces[-1]["seq"] in (count, None):
-                break
-            await asyncio.sleep(0.01)
-        return self.faces[-1]["controls"]
-
-    async def aclose(self) -> None:
-        if self._task is not None:
-            self._task.cancel()
-            with contextlib.suppress(asyncio.CancelledError):
-                await self._task
-        if self._session is not None:
-            await self._session.close()
+@pytest.fixture(params=sorted(name for name, make in RIGS.items() if make.can_unplug))
+async def pluggable(request: pytest.FixtureRequest, tmp_path: Path) -> AsyncIterator[DriverRig]:
+    async for made in _rig(request, tmp_path):
+        yield made
 
 
-class VmcHarness(Harness):
-    def __init__(self, tmp_path: Path, port: int, receiver: Any) -> None:
-        self.driver = VmcDriver(VmcConfig(port=port), PROFILE)
-        self.receiver = receiver
-        self.mapping = AvatarMapping(PROFILE)
-
-    def expected(self, positions: Mapping[str, float]) -> Any:
-        return self.mapping.blendshapes(positions)
-
-    async def observed(self, count: int) -> Any:
-        await asyncio.to_thread(self.receiver.wait_for, "/VMC/Ext/Blend/Apply", count)
-        return {k: pytest.approx(v, abs=1e-6) for k, v in self.receiver.blendshapes().items()}
+@pytest.fixture(params=sorted(name for name, make in RIGS.items() if make.has_device_path))
+async def with_device_path(
+    request: pytest.FixtureRequest, tmp_path: Path
+) -> AsyncIterator[DriverRig]:
+    async for made in _rig(request, tmp_path):
+        yield made
 
 
-@pytest.fixture(params=["record", "virtual", "vmc"])
-async def harness(request: pytest.FixtureRequest, tmp_path: Path) -> AsyncIterator[Harness]:
-    with osc_receiver() as receiver:
-        made: Harness
-        if request.param == "record":
-            made = RecordHarness(tmp_path)
-        elif request.param == "virtual":
-            made = VirtualHarness(tmp_path)
-        else:
-            made = VmcHarness(tmp_path, receiver.port, receiver)
-        try:
-            yield made
-        finally:
-            await made.driver.close()
-            await made.aclose()
+class Session:
+    """A connected driver whose commands are numbered, so the rig knows which one it sees."""
 
-
-def positions(**controls: float) -> dict[str, float]:
-    return {**PROFILE.neutral_positions(), **controls}
-
-
-async def _start(harness: Harness) -> None:
-    await harness.driver.connect()
-    await harness.after_connect()
-
-
-class _Counted:
-    """Numbers each send, so a harness knows which command it is looking at."""
-
-    def __init__(self, harness: Harness) -> None:
-        self.harness = harness
+    def __init__(self, rig: DriverRig) -> None:
+        self.rig = rig
+        self.driver: ServoDriver = rig.make()
         self.count = 0
 
-    async def send(self, values: dict[str, float]) -> Any:
+    async def connect(self) -> Session:
+        await self.driver.connect()
+        await self.rig.after_connect(self.driver, self.count)
+        return self
+
+    async def send(self, positions: dict[str, float]) -> None:
         self.count += 1
-        await self.harness.driver.send(values, CommandInfo(self.count, None, True))
-        return await self._observe()
+        await self.driver.send(positions, CommandInfo(self.count, None, True))
 
-    async def neutral(self) -> Any:
+    async def neutral(self) -> None:
         self.count += 1
-        await self.harness.driver.neutral(PROFILE.neutral_positions())
-        return await self._observe()
+        await self.driver.neutral(self.rig.profile.neutral_positions())
 
-    async def _observe(self) -> Any:
-        return await self.harness.observed(self.count)
+    async def shows(self, positions: dict[str, float]) -> None:
+        await self.rig.shows(positions, self.count)
 
-
-async def test_what_is_sent_is_what_comes_out(harness: Harness) -> None:
-    await _start(harness)
-    counted = _Counted(harness)
-    values = positions(jaw=640.0, lid_left=120.0, brow_right=910.0)
-    assert await counted.send(values) == harness.expected(values)
+    async def close(self) -> None:
+        await self.driver.close()
 
 
-async def test_neutral_puts_out_the_neutral_face(harness: Harness) -> None:
-    await _start(harness)
-    counted = _Counted(harness)
-    await counted.send(positions(jaw=1000.0))
-    assert await counted.neutral() == harness.expected(PROFILE.neutral_positions())
+@pytest.fixture
+async def session(rig: DriverRig) -> AsyncIterator[Session]:
+    made = await Session(rig).connect()
+    try:
+        yield made
+    finally:
+        await made.close()
 
 
-async def test_limits_come_out_as_limits(harness: Harness) -> None:
-    """Positions arrive clamped; a driver passes the profile's extremes through unchanged."""
-    await _start(harness)
-    counted = _Counted(harness)
-    low = {spec.name: spec.min_us for spec in PROFILE.servos}
-    high = {spec.name: spec.max_us for spec in PROFILE.servos}
-    assert await counted.send(low) == harness.expected(low)
-    assert await counted.send(high) == harness.expected(high)
+def pose(profile: Profile, shift: float) -> dict[str, float]:
+    """Each servo somewhere different inside its limits."""
+    count = len(profile.servos)
+    return {
+        s.name: s.min_us + (s.max_us - s.min_us) * ((0.15 + 0.7 * i / count + shift) % 1.0)
+        for i, s in enumerate(profile.servos)
+    }
 
 
-async def test_the_last_of_many_commands_is_what_stays(harness: Harness) -> None:
-    await _start(harness)
-    counted = _Counted(harness)
+def test_every_registered_driver_has_a_rig() -> None:
+    assert set(DRIVERS.names()) == set(RIGS), "add a rig for the new driver to driver_rigs.py"
+
+
+async def test_what_is_sent_is_what_comes_out(session: Session) -> None:
+    values = pose(session.rig.profile, 0.0)
+    await session.send(values)
+    await session.shows(values)
+
+
+async def test_neutral_puts_out_the_neutral_face(session: Session) -> None:
+    await session.send(pose(session.rig.profile, 0.3))
+    await session.neutral()
+    await session.shows(session.rig.profile.neutral_positions())
+
+
+async def test_limits_come_out_as_limits(session: Session) -> None:
+    """The profile's extremes pass through unchanged."""
+    profile = session.rig.profile
+    low = {spec.name: spec.min_us for spec in profile.servos}
+    high = {spec.name: spec.max_us for spec in profile.servos}
+    await session.send(low)
+    await session.shows(low)
+    await session.send(high)
+    await session.shows(high)
+
+
+async def test_positions_outside_the_limits_never_come_out(session: Session) -> None:
+    """Given values outside the limits (the control core never passes them), a driver clamps
+    them before anything leaves it."""
+    profile = session.rig.profile
+    wild = {s.name: (-1e6 if i % 2 else 1e6) for i, s in enumerate(profile.servos)}
+    await session.send(wild)
+    await session.shows(
+        {s.name: (s.min_us if i % 2 else s.max_us) for i, s in enumerate(profile.servos)}
+    )
+
+
+async def test_the_last_of_many_commands_is_what_stays(session: Session) -> None:
     for i in range(30):
-        await harness.driver.send(positions(jaw=i * 30.0), CommandInfo(i + 1, None, True))
-    counted.count = 30
-    assert await counted._observe() == harness.expected(positions(jaw=29 * 30.0))
+        await session.send(pose(session.rig.profile, i / 30))
+    await session.shows(pose(session.rig.profile, 29 / 30))
 
 
-async def test_send_before_connect_and_after_close_is_a_driver_error(harness: Harness) -> None:
+async def test_unknown_servos_and_non_finite_positions_are_refused(session: Session) -> None:
+    start = pose(session.rig.profile, 0.2)
+    await session.send(start)
+    await session.shows(start)
+    first = session.rig.profile.servos[0].name
+    with pytest.raises(DriverError, match="'nose' is not in"):
+        await session.driver.send({"nose": 1500.0}, CommandInfo(None, None, True))
+    with pytest.raises(DriverError, match=f"position of '{first}' is nan"):
+        await session.driver.send({first: math.nan}, CommandInfo(None, None, True))
+    await asyncio.sleep(0.2)
+    await session.shows(start)  # nothing came out
+
+
+async def test_send_before_connect_and_after_close_is_a_driver_error(rig: DriverRig) -> None:
+    driver = rig.make()
+    values = rig.profile.neutral_positions()
     with pytest.raises(DriverError):
-        await harness.driver.send(positions(), CommandInfo(1, None, True))
-    await _start(harness)
-    await harness.driver.close()
-    await harness.driver.close()  # twice is harmless
+        await driver.send(values, CommandInfo(1, None, True))
+    await driver.connect()
+    await driver.close()
+    await driver.close()  # twice is harmless
     with pytest.raises(DriverError):
-        await harness.driver.send(positions(), CommandInfo(2, None, True))
+        await driver.send(values, CommandInfo(2, None, True))
 
 
-async def test_close_without_connect_is_harmless(harness: Harness) -> None:
-    await harness.driver.close()
+async def test_async_with_connects_and_closes_even_when_the_block_fails(rig: DriverRig) -> None:
+    driver = rig.make()
+    values = rig.profile.neutral_positions()
+    with pytest.raises(KeyError, match="stop"):
+        async with driver as entered:
+            assert entered is driver
+            await driver.send(values, CommandInfo(1, None, True))
+            raise KeyError("stop")
+    with pytest.raises(DriverError):  # closed on the way out
+        await driver.send(values, CommandInfo(2, None, True))
 
 
-@pytest.mark.parametrize("name", ["record", "virtual", "vmc"])
-def test_malformed_settings_are_refused_naming_the_field(name: str) -> None:
+async def test_close_without_connect_is_harmless(rig: DriverRig) -> None:
+    await rig.make().close()
+
+
+async def test_connect_again_after_close(session: Session) -> None:
+    profile = session.rig.profile
+    await session.send(pose(profile, 0.1))
+    await session.shows(pose(profile, 0.1))
+    await session.driver.close()
+    await session.connect()  # the same driver object, opened again
+    await session.send(pose(profile, 0.5))
+    await session.shows(pose(profile, 0.5))
+
+
+def test_malformed_settings_are_refused_naming_the_field(rig: DriverRig) -> None:
     with pytest.raises(PluginError, match="unknown field `nope`"):
-        DRIVERS.parse(
-            {"driver": name, **({"out": "x.jsonl"} if name == "record" else {}), "nope": 1}
-        )
+        DRIVERS.parse({**rig.config(), "nope": 1})
 
 
-def test_every_driver_is_in_this_contract() -> None:
-    assert set(DRIVERS.names()) == {"record", "virtual", "vmc"}
-    assert isinstance(PROFILE, Profile)
+async def test_settings_that_cannot_work_are_one_clear_line(rig: DriverRig) -> None:
+    for config, message in rig.bad_configs():
+        with pytest.raises((PluginError, DriverConfigError, ValueError)) as info:
+            driver = DRIVERS.build(DRIVERS.parse(config), rig.profile)
+            await driver.connect()  # some problems show only when the device answers
+            await driver.close()
+        assert message in str(info.value), (config, str(info.value))
+        assert "\n" not in str(info.value)
+
+
+async def test_a_missing_device_is_a_clear_error_for_one_off_tools(
+    with_device_path: DriverRig,
+) -> None:
+    rig = with_device_path
+    driver = DRIVERS.build(DRIVERS.parse(rig.missing_device()), rig.profile)
+    with pytest.raises(DriverError, match="no-such-port: cannot open it") as info:
+        await driver.connect_once()
+    assert isinstance(info.value, ValueError) and "\n" not in str(info.value)
+    await driver.close()
+
+
+async def test_an_unplugged_device_keeps_the_driver_alive_until_it_is_back(
+    pluggable: DriverRig,
+) -> None:
+    rig = pluggable
+    session = await Session(rig).connect()
+    try:
+        await session.send(pose(rig.profile, 0.1))
+        await session.shows(pose(rig.profile, 0.1))
+        rig.unplug()
+        meanwhile = pose(rig.profile, 0.3)
+        for _ in range(10):  # as the control service would: no exception escapes
+            await session.send(meanwhile)
+            await asyncio.sleep(0.05)
+        assert "disconnected" in session.driver.state()
+        rig.plug()
+        # The pose the driver holds (the last one sent) comes back without another command.
+        await session.shows(meanwhile)
+        await session.send(pose(rig.profile, 0.6))
+        await session.shows(pose(rig.profile, 0.6))
+        assert "disconnected" not in session.driver.state()
+    finally:
+        await session.close()
+
+
+async def test_a_device_not_there_at_start_is_waited_for(pluggable: DriverRig) -> None:
+    rig = pluggable
+    rig.unplug()
+    session = await Session(rig).connect()  # the service starts anyway
+    try:
+        wanted = pose(rig.profile, 0.5)
+        await session.send(wanted)
+        assert "disconnected" in session.driver.state()
+        rig.plug()
+        await session.shows(wanted)
+    finally:
+        await session.close()

@@ -201,3 +201,19 @@ def test_missing_driver_config(tmp_path: Path) -> None:
     where = re.escape(str(path))
     with pytest.raises(PluginError, match=f"cannot read driver config {where}"):
         DRIVERS.load(path)
+
+
+async def test_a_driver_is_an_async_context_manager_that_connects_and_closes(
+    tmp_path: Path,
+) -> None:
+    out = tmp_path / "commands.jsonl"
+    driver = RecordDriver(RecordConfig(out=str(out)))
+    with pytest.raises(KeyError, match="boom"):
+        async with driver as entered:
+            assert entered is driver and out.exists()
+            await driver.send({"jaw": 1600.0}, CommandInfo(0, 1, True))
+            raise KeyError("boom")
+    with pytest.raises(DriverError, match="not connected"):  # closed on the way out
+        await driver.send({"jaw": 1500.0}, CommandInfo(1, 1, True))
+    # Leaving does not move the face: only what was sent is on file.
+    assert [line.servos for line in read_record(out)] == [{"jaw": 1600.0}]

@@ -215,3 +215,14 @@ def test_without_python_osc_the_error_names_the_extra(monkeypatch: pytest.Monkey
     monkeypatch.setitem(sys.modules, "pythonosc", None)
     with pytest.raises(PluginError, match=r"python-osc, which is not installed: pip install "):
         VmcDriver(VmcConfig(), load_profile("virtual"))
+
+
+def test_the_shipped_arkit52_profile_goes_out_as_its_blendshapes() -> None:
+    """Every arkit52 control is an ARKit name the driver sends directly (value / 1000)."""
+    profile = load_profile("arkit52")
+    mapping = AvatarMapping(profile)
+    assert mapping.direct == [spec.name for spec in profile.servos] and not mapping.ignored
+    positions = {spec.name: 0.0 for spec in profile.servos} | {"jawOpen": 640.0}
+    weights = mapping.blendshapes(positions)
+    assert weights["jawOpen"] == pytest.approx(0.64) and weights["mouthSmileLeft"] == 0.0
+    assert set(weights) == set(ARKIT52) - {"tongueOut"}

@@ -184,10 +184,10 @@ def make_fixture(path: Path = FIXTURE) -> None:
     from facesynth.runtime.frames import encode_frame
     from services.features.gaze import IRIS_CENTRE, MESH_EYE_CORNERS, eye_gaze
     from services.features.pose import median_mesh
-    from services.points.backends.tracker import TrackerBackend
+    from services.points.backends.tracker import TrackerBackend, TrackerConfig
 
     capture = cv2.VideoCapture(str(sample_video()))
-    backend, meshes, irises = TrackerBackend(), [], []
+    backend, meshes, irises = TrackerBackend(TrackerConfig(model="fast")), [], []
     while len(meshes) < 24:  # the first second at 23.98 fps
         _, image = capture.read()
         frame = encode_frame(image, seq=0, t_capture_ns=0, t_media_ns=0, encoding="raw")

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 from synthetic_face import IRIS, MESH, ibug_of, look, look_3d, move, to_face_frame, transform
 
-from facesynth.runtime.feature_names import BY_NAME, NAMES, SCALED_LIMIT
+from facesynth.runtime.feature_names import BY_NAME, LANDMARK_NAMES, SCALED_LIMIT
 from services.features.expressions import (
     BROW,
     BROW_INNER,
@@ -233,12 +233,13 @@ def test_neutral_reads_zero() -> None:
 def test_features_each_input_supports() -> None:
     ibug = ibug_of(MESH)
     full = raw_features(ibug, MESH, IRIS, REFERENCE)
-    assert set(full) == set(NAMES)
+    assert set(full) == set(LANDMARK_NAMES)
     no_iris = raw_features(ibug, MESH, None, MESH)  # a plain array as neutral mesh works too
-    assert set(no_iris) == {n for n in NAMES if not n.startswith("gaze_")}
+    assert set(no_iris) == {n for n in LANDMARK_NAMES if not n.startswith("gaze_")}
     flat = raw_features(ibug, None, IRIS)
-    assert set(flat) == set(NAMES) - MESH_ONLY
-    assert set(raw_features(ibug)) == set(NAMES) - MESH_ONLY - {n for n in NAMES if "gaze" in n}
+    assert set(flat) == set(LANDMARK_NAMES) - MESH_ONLY
+    gaze = {n for n in LANDMARK_NAMES if "gaze" in n}
+    assert set(raw_features(ibug)) == set(LANDMARK_NAMES) - MESH_ONLY - gaze
     own_frame = raw_features(ibug, MESH, IRIS)  # no neutral mesh: own frame, pose vs camera
     for name, value in full.items():
         assert own_frame[name] == pytest.approx(value, abs=1e-9), name

@@ -8,7 +8,7 @@ from synthetic_face import IRIS, MESH, S, ibug_of, look, move, points_message, t
 
 from facesynth.runtime import codec
 from facesynth.runtime.calibration import Calibration
-from facesynth.runtime.feature_names import BY_NAME, NAMES
+from facesynth.runtime.feature_names import BY_NAME, LANDMARK_NAMES, NAMES
 from schemas.messages import Features, PointSet
 from services.features.core import (
     FeatureError,
@@ -49,7 +49,7 @@ def test_still_face_holds_still(auto_range: bool) -> None:
     assert [o.neutral_ready for o in outs[: FPS + 1]] == [False] * FPS + [True]
     assert all(o.named == {} and o.raw == {} and o.displacements == [] for o in outs[:FPS])
     for out in outs[FPS:]:
-        assert set(out.named) == set(NAMES)
+        assert set(out.named) == set(LANDMARK_NAMES)
         assert max(abs(v) for v in out.named.values()) <= 1e-6
         assert max(abs(v) for v in out.raw.values()) <= 1e-6
         assert len(out.displacements) == 136 and max(map(abs, out.displacements)) <= 1e-9
@@ -97,7 +97,7 @@ def test_points_without_mesh_give_the_2d_features() -> None:
         for i in range(FPS + 2)
     ]
     outs = [processor.process(f) for f in frames]
-    assert set(outs[-1].named) == set(NAMES) - MESH_ONLY - set(GAZE)
+    assert set(outs[-1].named) == set(LANDMARK_NAMES) - MESH_ONLY - set(GAZE)
 
 
 def test_mesh_without_depth_is_ignored() -> None:
@@ -237,7 +237,7 @@ def test_an_old_calibration_gets_the_named_neutral_from_the_stream() -> None:
     processor = FeatureProcessor.from_calibration(calibration)
     outs = _feed(processor, [(MESH, IRIS)] * (FPS + 1) + [(RIGHT_BROW_RAISED, IRIS)])
     assert all(o.neutral_ready for o in outs)
-    assert outs[0].named == {} and set(outs[FPS].named) == set(NAMES)
+    assert outs[0].named == {} and set(outs[FPS].named) == set(LANDMARK_NAMES)
     assert outs[-1].raw["brow_raise_inner_right"] == pytest.approx(0.05, abs=1e-6)
 
 
@@ -248,7 +248,7 @@ def test_calibrated_named_neutral_without_mesh_means_2d_features() -> None:
     calibration.named_neutral = raw_features(ibug)
     processor = FeatureProcessor.from_calibration(calibration)
     [out] = _feed(processor, [(RIGHT_BROW_RAISED, IRIS)])
-    assert set(out.named) == set(NAMES) - MESH_ONLY - set(GAZE)
+    assert set(out.named) == set(LANDMARK_NAMES) - MESH_ONLY - set(GAZE)
     assert out.raw["brow_raise_inner_right"] == pytest.approx(0.05, abs=1e-6)
 
 

@@ -5,7 +5,10 @@ then crying with eyes shut and a hand at the face (about frames 40-130); looking
 mouth a little open, hand at the mouth (160-210); then smiling and laughing with the head turned
 to her left and chin up (about 230-440), the head tilted to her right shoulder (400-435); a
 closed-mouth smile looking down to finish (440-472). The bounds below are what this recording
-shows (see the numbers in each test), with margin.
+shows (see the numbers in each test), with margin, tracked with the ``fast`` model (468-point
+mesh + iris model), whose features they were measured on. The ``full`` model's features on this
+video are checked through the profiles (tests/integration/test_face_sections.py) and on
+synthetic faces (tests/integration/test_face_sections_synthetic.py).
 """
 
 from __future__ import annotations
@@ -18,19 +21,19 @@ import pytest
 
 from facesynth.app.data import sample_video
 from facesynth.runtime import codec
-from facesynth.runtime.feature_names import NAMES
+from facesynth.runtime.feature_names import LANDMARK_NAMES
 from facesynth.runtime.frames import encode_frame
 from schemas.messages import Features, Points
 from services.features.core import FeatureProcessor, ibug_points, optional_points
 from services.features.expressions import raw_features, relative
-from services.points.backends.tracker import TrackerBackend
+from services.points.backends.tracker import TrackerBackend, TrackerConfig
 
 
 @pytest.fixture(scope="module")
 def tracked() -> list[Points]:
     capture = cv2.VideoCapture(str(sample_video()))
     fps = capture.get(cv2.CAP_PROP_FPS)
-    backend = TrackerBackend()
+    backend = TrackerBackend(TrackerConfig(model="fast"))
     points = []
     while True:
         ok, image = capture.read()
@@ -71,7 +74,7 @@ def test_every_feature_once_the_neutral_is_known(run) -> None:
     assert ready[0] == 24 and len(ready) == 472 - 24  # 23.98 fps: the first second is 24 frames
     for out in outs[24:]:
         codec.validate_features(out)
-        assert set(out.named) == set(NAMES) and len(out.displacements) == 136
+        assert set(out.named) == set(LANDMARK_NAMES) and len(out.displacements) == 136
 
 
 def test_the_neutral_second_reads_about_zero(run, tracked) -> None:

@@ -88,9 +88,20 @@ class Pulse:
 class EmulatedUno:
     """The firmware on simavr: a pyserial port to it and the harness's event log."""
 
-    def __init__(self, workdir: Path, output: str = "pca9685", *extra: str) -> None:
+    def __init__(
+        self,
+        workdir: Path,
+        output: str = "pca9685",
+        *extra: str,
+        link: Path | None = None,
+        open_port: bool = True,
+    ) -> None:
+        """Start the harness; ``link`` is the pty's symlink (default ``workdir/uno-pty``).
+
+        With ``open_port=False`` the test does not open the pty itself (a driver will).
+        """
         self.log_path = workdir / "emulator.log"
-        self.link = workdir / "uno-pty"
+        self.link = link or workdir / "uno-pty"
         self.stderr_path = workdir / "emulator.stderr"
         with open(self.stderr_path, "wb") as err:
             self.proc = subprocess.Popen(
@@ -118,11 +129,16 @@ class EmulatedUno:
                 break
         else:
             raise RuntimeError(f"harness exited: {self.stderr_path.read_text()}")
-        self.port = serial.Serial(str(self.link), 115200, timeout=0.05)
+        self.port = serial.Serial(str(self.link), 115200, timeout=0.05) if open_port else None
         self.decoder = proto.ReplyDecoder()
         self.sent_bytes = 0
         self.seq = 0
         self.unanswered: list[proto.Reply] = []
+
+    def opened(self) -> serial.Serial:
+        """The test's own pyserial port to the pty (started with ``open_port=True``)."""
+        assert self.port is not None, "this emulated Uno was started without a port of its own"
+        return self.port
 
     def next_seq(self) -> int:
         """A fresh sequence number (wraps at 65536)."""
@@ -131,8 +147,9 @@ class EmulatedUno:
 
     def write(self, data: bytes) -> int:
         """Send raw bytes; returns how many bytes were sent in total so far."""
-        self.port.write(data)
-        self.port.flush()
+        port = self.opened()
+        port.write(data)
+        port.flush()
         self.sent_bytes += len(data)
         return self.sent_bytes
 
@@ -141,7 +158,8 @@ class EmulatedUno:
         deadline = time.monotonic() + timeout
         out: list[proto.Reply] = []
         while time.monotonic() < deadline:
-            out += self.decoder.feed(self.port.read(self.port.in_waiting or 1))
+            port = self.opened()
+            out += self.decoder.feed(port.read(port.in_waiting or 1))
         return out
 
     def request(self, frame: bytes, timeout: float = 3.0) -> proto.Reply:
@@ -150,7 +168,8 @@ class EmulatedUno:
         self.write(frame)
         deadline = time.monotonic() + timeout
         while time.monotonic() < deadline:
-            for reply in self.decoder.feed(self.port.read(self.port.in_waiting or 1)):
+            port = self.opened()
+            for reply in self.decoder.feed(port.read(port.in_waiting or 1)):
                 if reply.seq == seq:
                     return reply
                 self.unanswered.append(reply)
@@ -212,7 +231,8 @@ class EmulatedUno:
 
     def close(self) -> int:
         """Stop the harness; returns its exit status."""
-        self.port.close()
+        if self.port is not None:
+            self.port.close()
         self.proc.terminate()
         try:
             return self.proc.wait(timeout=10)

@@ -67,7 +67,7 @@ def _cut(source: str, target: Path, frames: int) -> None:
     capture.release()
 
 
-def test_points_process_publishes_mesh_iris_and_ibug68(
+def test_points_process_publishes_the_full_models_points_and_blendshapes(
     spawn: Any, zenoh_router: str, rig: str, tmp_path: Path
 ) -> None:
     common = ["--connect", zenoh_router, "--rig", rig]
@@ -108,7 +108,9 @@ def test_points_process_publishes_mesh_iris_and_ibug68(
     for message in points:
         assert message.face and message.source == "tracker"
         dims = {s.scheme: (s.dims, len(s.coords)) for s in message.sets}
-        assert dims == {"ibug68": (2, 136), "mesh468": (3, 1404), "iris10": (2, 20)}
+        # the default (full) model: 478 points with the irises, and the blendshapes
+        assert dims == {"ibug68": (2, 136), "mesh478": (3, 1434), "iris10": (2, 20)}
+        assert [(s.scheme, len(s.values)) for s in message.scores] == [("blendshapes52", 52)]
 
 
 def test_tracker_chain_in_processes_matches_run(

@@ -1,4 +1,5 @@
-"""The face tracker as P's backend: Frame in, Points with ibug68 + mesh468 + iris10 out."""
+"""The face tracker as P's backend: Frame in, Points out (``full`` model, the default: ibug68
++ mesh478 + iris10 + the blendshapes52 scores; ``fast``: ibug68 + mesh468 + iris10)."""
 
 from __future__ import annotations
 
@@ -11,9 +12,12 @@ from facesynth.runtime import codec
 from facesynth.runtime.frames import encode_frame
 from schemas.messages import Frame
 from services.points.backends import BackendError
-from services.points.backends.tracker import TrackerBackend
+from services.points.backends.tracker import TrackerBackend, TrackerConfig
 
-SHAPES = {"ibug68": (68, 2), "mesh468": (468, 3), "iris10": (10, 2)}
+SHAPES = {
+    "full": {"ibug68": (68, 2), "mesh478": (478, 3), "iris10": (10, 2)},
+    "fast": {"ibug68": (68, 2), "mesh468": (468, 3), "iris10": (10, 2)},
+}
 
 
 @pytest.fixture(scope="module")
@@ -32,9 +36,12 @@ def _frame(image: np.ndarray, seq: int, encoding: str = "jpeg") -> Frame:
     return encode_frame(image, seq=seq, t_capture_ns=10 + seq, t_media_ns=seq, encoding=encoding)
 
 
+@pytest.mark.parametrize("model", ["full", "fast"])
 @pytest.mark.parametrize("encoding", ["jpeg", "raw"])
-def test_real_frames_give_three_point_sets(video_frames: list[np.ndarray], encoding: str) -> None:
-    backend = TrackerBackend()
+def test_real_frames_give_the_models_point_sets(
+    video_frames: list[np.ndarray], encoding: str, model: str
+) -> None:
+    backend = TrackerBackend(TrackerConfig(model=model))
     for seq, image in enumerate(video_frames):
         points = backend.process(_frame(image, seq, encoding))
         codec.validate_points(points)  # what P publishes passes its own wire checks
@@ -42,7 +49,8 @@ def test_real_frames_give_three_point_sets(video_frames: list[np.ndarray], encod
         assert (points.seq, points.t_capture_ns) == (seq, 10 + seq)
         assert (points.image_width, points.image_height) == (640, 360)
         shapes = {s.scheme: (len(s.coords) // s.dims, s.dims) for s in points.sets}
-        assert shapes == SHAPES
+        assert shapes == SHAPES[model]
+        assert [s.scheme for s in points.scores] == (["blendshapes52"] if model == "full" else [])
         ibug = np.asarray(points.sets[0].coords).reshape(68, 2)
         assert ibug[:, 0].min() >= 0 and ibug[:, 0].max() <= 640
         assert ibug[36, 0] < ibug[45, 0], "right eye outer corner is on the image's left"
@@ -56,7 +64,7 @@ def test_blank_frame_after_a_face_gives_no_face_not_stale_points(
     assert backend.process(_frame(video_frames[0], 0)).face
     blank = np.zeros_like(video_frames[0])
     points = backend.process(_frame(blank, 1))
-    assert not points.face and points.sets == []
+    assert not points.face and points.sets == [] and points.scores == []
     assert backend.process(_frame(video_frames[1], 2)).face, "tracking resumes on the next face"
 
 

@@ -10,7 +10,15 @@ import pytest
 
 from facesynth.runtime import codec
 from facesynth.runtime.codec import MessageError
-from schemas.messages import Features, Frame, Points, PointSet, ServiceStats, ServoCommands
+from schemas.messages import (
+    Features,
+    Frame,
+    Points,
+    PointSet,
+    ScoreSet,
+    ServiceStats,
+    ServoCommands,
+)
 
 NAN = math.nan
 INF = math.inf
@@ -118,6 +126,8 @@ def _roundtrip(message: msgspec.Struct) -> Any:
                 PointSet(scheme="mesh468", dims=3, coords=[1.0, 2.0, -3.0]),
             ]
         ),
+        _points(scores=[ScoreSet(scheme="blendshapes52", values=[0.0] * 51 + [1.0])]),
+        _points(scores=[ScoreSet(scheme="other", values=[-2.5])]),
         _features(),
         _features(face=False, neutral_ready=False, distances=[], deltas=[], named={}),
         _features(neutral_ready=False, deltas=[]),
@@ -133,6 +143,8 @@ def _roundtrip(message: msgspec.Struct) -> Any:
         "points",
         "points-noface",
         "points-two-sets",
+        "points-blendshapes",
+        "points-unknown-scores",
         "features",
         "features-noface",
         "features-no-neutral",
@@ -349,6 +361,41 @@ def _set(coords: list[float], scheme: str = "ibug68", dims: int = 2) -> PointSet
     ],
 )
 def test_bad_points(points: Points, detail: str) -> None:
+    with pytest.raises(MessageError) as info:
+        _roundtrip(points)
+    assert detail in str(info.value)
+
+
+def _scores(values: list[float], scheme: str = "blendshapes52") -> list[ScoreSet]:
+    return [ScoreSet(scheme=scheme, values=values)]
+
+
+@pytest.mark.parametrize(
+    ("points", "detail"),
+    [
+        (_points(face=False, sets=[], scores=_scores([0.5] * 52)), "must not carry points or"),
+        (_points(scores=_scores([0.5] * 52) * 2), "score set 'blendshapes52' appears twice"),
+        (_points(scores=_scores([])), "score set 'blendshapes52' is empty"),
+        (_points(scores=_scores([0.5] * 51)), "'blendshapes52' has 51 values, not 52"),
+        (_points(scores=_scores([0.5] * 53)), "'blendshapes52' has 53 values, not 52"),
+        (_points(scores=_scores([0.5] * 51 + [NAN])), "a score of 'blendshapes52' is nan"),
+        (_points(scores=_scores([1.5] + [0.5] * 51)), "blendshape '_neutral' is 1.5"),
+        (_points(scores=_scores([0.5] * 25 + [-0.1] + [0.5] * 26)), "'jawOpen' is -0.1"),
+        (_points(scores=_scores([INF], "other")), "a score of 'other' is inf"),
+    ],
+    ids=[
+        "noface-with-scores",
+        "duplicate-scores",
+        "empty-scores",
+        "51-blendshapes",
+        "53-blendshapes",
+        "blendshape-nan",
+        "blendshape-above-1",
+        "blendshape-negative",
+        "unknown-scheme-inf",
+    ],
+)
+def test_bad_scores(points: Points, detail: str) -> None:
     with pytest.raises(MessageError) as info:
         _roundtrip(points)
     assert detail in str(info.value)

@@ -132,6 +132,13 @@ def test_mix_is_a_weighted_sum(
         (points_servo(name="s", reversed=True), jaw_deltas(0.1), 1250.0),
         (points_servo(name="s", deadband=0.02), jaw_deltas(0.12), 1750.0),
         (points_servo(name="s", deadband=0.02), jaw_deltas(-0.01), 1500.0),
+        (feature_servo(one_sided=True), {"jaw_open": 0.5}, 1750.0),
+        (feature_servo(one_sided=True), {"jaw_open": -0.5}, 1500.0),
+        (feature_servo(one_sided=True, reversed=True), {"jaw_open": 0.5}, 1250.0),
+        (feature_servo(one_sided=True, reversed=True), {"jaw_open": -0.5}, 1500.0),
+        (feature_servo(one_sided=True, gain=-1.0), {"jaw_open": -0.5}, 1750.0),
+        (points_servo(name="s", one_sided=True), jaw_deltas(0.1), 1750.0),
+        (points_servo(name="s", one_sided=True), jaw_deltas(-0.1), 1500.0),
     ],
     ids=[
         "gain-2",
@@ -143,6 +150,13 @@ def test_mix_is_a_weighted_sum(
         "points-reversed",
         "points-deadband-iod",
         "points-inside-deadband",
+        "one-sided-open",
+        "one-sided-closed-past-neutral",
+        "one-sided-reversed-open",
+        "one-sided-reversed-closed",
+        "one-sided-after-gain",
+        "one-sided-points-open",
+        "one-sided-points-closed",
     ],
 )
 def test_gain_reversed_deadband(
@@ -165,12 +179,33 @@ def test_gain_reversed_deadband(
             {"lip_corner_pull_left": 0.7, "lip_corner_pull_right": 0.1},
             {"lip_corner_pull_right": 0.7, "lip_corner_pull_left": 0.1},
         ),
+        ({"mouthSmileLeft": 0.4}, {"mouthSmileRight": 0.4}),
+        ({"eyeLookInRight": 0.5, "jawOpen": 0.2}, {"eyeLookInLeft": 0.5, "jawOpen": 0.2}),
+        ({"jawLeft": 0.3, "mouthRight": 0.1}, {"jawRight": 0.3, "mouthLeft": 0.1}),
     ],
-    ids=["central", "gaze-x", "gaze-y", "brow", "head", "swap-both"],
+    ids=[
+        "central",
+        "gaze-x",
+        "gaze-y",
+        "brow",
+        "head",
+        "swap-both",
+        "blendshape",
+        "blendshape-eye-and-central",
+        "blendshape-directions",
+    ],
 )
 def test_mirror_named(named: dict[str, float], mirrored: dict[str, float]) -> None:
     assert mirror_named(named) == mirrored
     assert mirror_named(mirror_named(named)) == named
+
+
+def test_a_blendshape_drives_its_servo() -> None:
+    profile = profile_of(feature_servo(blendshape="mouthSmileLeft", min_us=0.0, neutral_us=0.0))
+    translator = Translator(profile)
+    assert translator.step(features_at(0, {"mouthSmileLeft": 0.5}))["s"] == pytest.approx(1000.0)
+    mirrored = Translator(profile_of(profile.servos[0], mirror=True))
+    assert mirrored.step(features_at(0, {"mouthSmileRight": 0.25}))["s"] == pytest.approx(500.0)
 
 
 def test_mirror_drives_the_right_eye_from_the_left() -> None:

@@ -20,7 +20,7 @@ def feature_servo(name: str = "s", channel: int = 0, **kw: Any) -> ServoSpec:
     fields: dict[str, Any] = dict(
         name=name, channel=channel, min_us=1000.0, neutral_us=1500.0, max_us=2000.0
     )
-    if not {"points", "feature", "mix"} & kw.keys():
+    if not {"points", "feature", "blendshape", "mix"} & kw.keys():
         fields["feature"] = "jaw_open"
     fields.update(kw)
     return ServoSpec(**fields)

@@ -131,7 +131,8 @@ class Replayer:
                 self.flow.ack(seq - self.flow.window)
                 return
             with contextlib.suppress(TimeoutError):
-                await asyncio.wait_for(self._acked.wait(), remaining)
+                async with asyncio.timeout(remaining):
+                    await self._acked.wait()
 
     async def _ack_stage(self, ctx: ServiceContext) -> keys.Stage:
         if self.stage == "servo_commands":

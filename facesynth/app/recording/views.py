@@ -15,7 +15,7 @@ from typing import Any
 
 from foxglove import messages as fg
 
-from facesynth.runtime.landmarks import IBUG68, IRIS10, MESH468
+from facesynth.runtime.landmarks import IBUG68, IRIS10, MESH468, MESH478
 from schemas.messages import Frame, Points
 
 
@@ -123,8 +123,8 @@ def annotations_view(points: Points) -> tuple[SchemaSpec, bytes]:
                     thickness=2.0,
                 )
             )
-    elif MESH468 in sets:
-        mesh = sets[MESH468]
+    elif MESH468 in sets or MESH478 in sets:
+        mesh = sets.get(MESH468) or sets[MESH478]
         shapes.append(
             fg.PointsAnnotation(
                 timestamp=stamp,

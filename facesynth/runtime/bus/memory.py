@@ -1,22 +1,24 @@
 """In-memory bus for unit tests: same contract as Zenoh, no network, no threads.
 
 Several :class:`MemoryBus` instances made from one :class:`MemoryNetwork` see each other, like
-services on one Zenoh network. Key expressions match with Zenoh's own rules.
+services on one Zenoh network. Key expressions match with Zenoh's own rules. Publishing delivers
+synchronously into the subscribers' mailboxes, so it never waits; samples are stamped with the
+network's clock (a :class:`~facesynth.runtime.clock.FakeClock` in tests that control time).
 """
 
 from __future__ import annotations
 
-import time
-
 import zenoh
 
 from facesynth.runtime.bus.base import Bus, Sample, Subscription, Token
+from facesynth.runtime.clock import Clock, SystemClock
 
 
 class MemoryNetwork:
     """Shared routing table of a group of in-memory buses."""
 
-    def __init__(self) -> None:
+    def __init__(self, clock: Clock | None = None) -> None:
+        self.clock: Clock = clock if clock is not None else SystemClock()
         self.subscriptions: list[tuple[zenoh.KeyExpr, Subscription]] = []
         self.tokens: dict[int, str] = {}
 
@@ -56,7 +58,7 @@ class MemoryBus(Bus):
 
     def publish(self, key: str, payload: bytes) -> None:
         concrete = zenoh.KeyExpr(key)
-        sample = Sample(key, bytes(payload), time.time_ns())
+        sample = Sample(key, bytes(payload), self.network.clock.time_ns())
         for key_expr, subscription in list(self.network.subscriptions):
             if key_expr.intersects(concrete):
                 subscription.deliver(sample)

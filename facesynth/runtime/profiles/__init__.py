@@ -8,16 +8,21 @@ whether the servo is reversed, and what drives it, which is exactly one *source*
   neutral face) that reaches min_us / max_us when no calibration says otherwise;
 * ``feature = "jaw_open"``: a named feature of :mod:`~facesynth.runtime.feature_names` (scaled by
   F: 0 neutral, ±1 the calibrated extremes), mapped ``+1 -> max_us``, ``-1 -> min_us``;
+* ``blendshape = "mouthSmileLeft"``: one of the 51 ARKit blendshapes (``--model full``), which
+  F publishes as named features under their own names, scaled like the others;
 * ``mix = { lip_corner_pull_right = 1.0, lip_corner_depress_right = -1.0 }``: a weighted sum of
-  named features (an antagonist pair on one servo), then mapped as ``feature``.
+  named features (an antagonist pair on one servo), blendshapes included, then mapped as
+  ``feature``.
 
-``points`` may also accompany ``feature`` or ``mix`` as a *fallback*: it drives the servo while
-the stream has not carried the named feature(s) since the translator started or was reset (an
-OpenFace replay has no iris, hence no gaze). Once the feature has been seen, a frame without it
-holds the servo.
+``points`` may also accompany ``feature``, ``blendshape`` or ``mix`` as a *fallback*: it drives
+the servo while the stream has not carried the named feature(s) since the translator started or
+was reset (an OpenFace replay has no iris, hence no gaze). Once the feature has been seen, a
+frame without it holds the servo.
 
-Per servo, optional: ``gain`` (multiplies the source value, default 1), ``deadband`` (in source
-units, default 0), ``max_speed`` (µs/s) and ``max_accel`` (µs/s²) (0 = unlimited), and
+Per servo, optional: ``one_sided`` (the source's negative side, e.g. a mouth more closed than
+the performer's neutral, maps to ``neutral_us`` instead of toward ``min_us``: for a jaw or lips
+whose neutral is closed), ``gain`` (multiplies the source value, default 1), ``deadband`` (in
+source units, default 0), ``max_speed`` (µs/s) and ``max_accel`` (µs/s²) (0 = unlimited), and
 ``smoothing`` (overrides of the profile's One Euro parameters). Per profile, optional:
 ``[smoothing]`` (One Euro filter; absent or ``enabled = false`` = no filtering),
 ``neutral_ramp_s`` (how long a servo without ``max_speed`` takes to return to neutral when the

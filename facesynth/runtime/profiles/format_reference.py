@@ -47,7 +47,16 @@ min_us = 1000
 neutral_us = 1000
 max_us = 2000
 mix = { brow_lower_right = 1.0, brow_raise_outer_right = -0.5 }  # source: a weighted sum
-max_speed = 3000
+max_speed = 3000               # (a mix may weigh blendshapes too: { mouthSmileRight = 1.0 })
+
+[[servos]]
+name = "smile"
+channel = 3
+min_us = 0
+neutral_us = 0
+max_us = 1000
+blendshape = "mouthSmileRight" # source: an ARKit blendshape (--model full), scaled like features
+one_sided = true               # below the performer's neutral reads as neutral, never past it
 
 [[safety.exclusive]]           # never two of these servos beyond threshold of their travel
 servos = ["brow_raise", "brow_lower"]

@@ -58,7 +58,9 @@ class ServoSpec(msgspec.Struct, forbid_unknown_fields=True, kw_only=True):
     face_min: float | None = None
     face_max: float | None = None
     feature: str | None = None
+    blendshape: str | None = None
     mix: dict[str, float] | None = None
+    one_sided: bool = False
     gain: float = 1.0
     deadband: float = 0.0
     max_speed: float = 0.0
@@ -71,9 +73,15 @@ class ServoSpec(msgspec.Struct, forbid_unknown_fields=True, kw_only=True):
         return min(max(position, self.min_us), self.max_us)
 
     def weights(self) -> dict[str, float] | None:
-        """The named features driving this servo and their weights (None: a points servo)."""
+        """The named features driving this servo and their weights (None: a points servo).
+
+        A ``blendshape`` source is the named feature of that blendshape (F publishes each of
+        the 51 under its own name); a ``mix`` may weigh geometric features and blendshapes.
+        """
         if self.feature is not None:
             return {self.feature: 1.0}
+        if self.blendshape is not None:
+            return {self.blendshape: 1.0}
         if self.mix is not None:
             return dict(self.mix)
         return None
@@ -121,10 +129,14 @@ def describe_source(spec: ServoSpec) -> str:
     parts = []
     if spec.feature is not None:
         parts.append(f"feature {spec.feature}")
+    if spec.blendshape is not None:
+        parts.append(f"blendshape {spec.blendshape}")
     if spec.mix is not None:
         parts.append("mix " + ", ".join(f"{w:+g} {name}" for name, w in spec.mix.items()))
     if spec.points:
         parts.append(("fallback points " if parts else "points ") + str(spec.points))
+    if spec.one_sided:
+        parts.append("one-sided")
     defaults = {"gain": 1.0, "deadband": 0.0, "max_speed": 0.0, "max_accel": 0.0}
     for field, default in defaults.items():
         value = getattr(spec, field)

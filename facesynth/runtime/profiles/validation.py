@@ -5,7 +5,7 @@ from __future__ import annotations
 import difflib
 import math
 
-from facesynth.runtime.feature_names import NAMES
+from facesynth.runtime.feature_names import BLENDSHAPE_NAMES, NAMES
 from facesynth.runtime.landmarks import N_IBUG
 
 from .model import Profile, ServoSpec, Smoothing, SmoothingOverride
@@ -21,6 +21,18 @@ def _unknown_feature(name: str) -> str:
     return f"unknown feature {name!r}{hint}"
 
 
+def _unknown_blendshape(name: str) -> str:
+    if name in NAMES:
+        return f"{name!r} is a feature, not a blendshape (use feature = {name!r})"
+    close = difflib.get_close_matches(name, sorted(BLENDSHAPE_NAMES), n=1)
+    hint = (
+        f" (did you mean {close[0]!r}?)"
+        if close
+        else " (one of the 51 ARKit names, e.g. 'mouthSmileLeft': facesynth.runtime.blendshapes)"
+    )
+    return f"unknown blendshape {name!r}{hint}"
+
+
 def _smoothing_problems(where: str, params: Smoothing | SmoothingOverride) -> list[str]:
     problems = []
     for field in ("min_cutoff", "d_cutoff"):
@@ -34,16 +46,20 @@ def _smoothing_problems(where: str, params: Smoothing | SmoothingOverride) -> li
 
 def _source_problems(where: str, spec: ServoSpec) -> list[str]:
     problems: list[str] = []
-    named = [field for field in ("feature", "mix") if getattr(spec, field) is not None]
+    named = [
+        field for field in ("feature", "blendshape", "mix") if getattr(spec, field) is not None
+    ]
     if not spec.points and not named:
-        problems.append(f"{where}: no points, feature or mix (give exactly one source)")
+        problems.append(f"{where}: no points, feature, blendshape or mix (give exactly one source)")
     if len(named) > 1:
         problems.append(
-            f"{where}: several sources (feature and mix); give exactly one "
-            "(points may accompany either as a fallback)"
+            f"{where}: several sources ({' and '.join(named)}); give exactly one "
+            "(points may accompany any of them as a fallback)"
         )
     if spec.feature is not None and spec.feature not in NAMES:
         problems.append(f"{where}: {_unknown_feature(spec.feature)}")
+    if spec.blendshape is not None and spec.blendshape not in BLENDSHAPE_NAMES:
+        problems.append(f"{where}: {_unknown_blendshape(spec.blendshape)}")
     if spec.mix is not None:
         if not spec.mix:
             problems.append(f"{where}: mix is empty (give named features and their weights)")

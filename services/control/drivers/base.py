@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import abc
 from collections.abc import Mapping
+from types import TracebackType
+from typing import Any, Self
 
 from facesynth.runtime.rig_view import RigView
 from services.control.core import CommandInfo
@@ -13,8 +15,36 @@ class DriverError(RuntimeError):
     """A driver that cannot do what it was asked (device gone, file unwritable)."""
 
 
+class DriverConfigError(DriverError, ValueError):
+    """A driver setting, profile or device that cannot work together; one line, said at connect.
+
+    A ``ValueError`` too, so the command line prints it as ``facesynth CMD: error: …``.
+    """
+
+
+class DeviceUnavailable(DriverError, ValueError):
+    """The device cannot be opened or does not answer (bring-up tools fail with this at once)."""
+
+
 class ServoDriver(abc.ABC):
-    """One output of the control interface: a servo board, a virtual face, a recorder."""
+    """One output of the control interface: a servo board, a virtual face, a recorder.
+
+    A driver is an async context manager: ``async with driver:`` connects it and closes it on
+    the way out, whatever happened. It does not move the face on exit: returning to neutral is
+    the control interface's decision, made before the driver closes.
+    """
+
+    async def __aenter__(self) -> Self:
+        await self.connect()
+        return self
+
+    async def __aexit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        traceback: TracebackType | None,
+    ) -> None:
+        await self.close()
 
     def observe(self, rig: RigView) -> None:  # noqa: B027 - an optional hook
         """Optional: called once before :meth:`connect` with a read-only view of the rig.
@@ -25,7 +55,20 @@ class ServoDriver(abc.ABC):
 
     @abc.abstractmethod
     async def connect(self) -> None:
-        """Open the device or file; raise :class:`DriverError` if it cannot be opened."""
+        """Open the device or file; raise :class:`DriverError` if it cannot be opened.
+
+        Drivers of devices that can be unplugged may instead keep trying in the background
+        (and say so in :meth:`state`); settings that can never work raise
+        :class:`DriverConfigError`.
+        """
+
+    async def connect_once(self, *, query_only: bool = False) -> None:
+        """Open for a one-off task (bring-up tools): fail at once rather than keep trying.
+
+        With ``query_only`` the device is only asked questions (``control status``): it is
+        neither configured nor moved.
+        """
+        await self.connect()
 
     @abc.abstractmethod
     async def send(self, positions: Mapping[str, float], info: CommandInfo) -> None:
@@ -38,3 +81,11 @@ class ServoDriver(abc.ABC):
     @abc.abstractmethod
     async def close(self) -> None:
         """Release the device or file."""
+
+    def state(self) -> str:
+        """One line on the device's state for the service's stats (empty: nothing to say)."""
+        return ""
+
+    async def device_status(self) -> dict[str, Any]:
+        """What the device reports about itself (``facesynth control status``)."""
+        raise DriverConfigError(f"the {type(self).__name__} has no device to query")

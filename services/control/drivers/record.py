@@ -13,6 +13,7 @@ from facesynth.runtime.profiles import Profile
 from services.control.core import CommandInfo
 from services.control.drivers.base import DriverError, ServoDriver
 from services.control.drivers.registry import DRIVERS
+from services.control.drivers.servo_map import ProfileLimits
 
 
 class RecordConfig(
@@ -43,6 +44,9 @@ class RecordDriver(ServoDriver):
         self._file: IO[bytes] | None = None
         self._encoder = msgspec.json.Encoder()
         self.count = 0
+        #: With a profile, positions are checked and clamped like a board's (the safety
+        #: contract every driver keeps); without, they are recorded as given.
+        self.limits = ProfileLimits(profile) if profile else None
 
     async def connect(self) -> None:
         try:
@@ -54,13 +58,14 @@ class RecordDriver(ServoDriver):
     async def send(self, positions: Mapping[str, float], info: CommandInfo) -> None:
         if self._file is None:
             raise DriverError("record driver is not connected")
+        checked = self.limits.clamp(positions) if self.limits else dict(positions)
         line = RecordLine(
             seq=self.count,
             frame=info.frame,
             t_capture_ns=info.t_capture_ns,
             t_sent_ns=time.time_ns(),
             face=info.face,
-            servos={name: round(value, 3) for name, value in positions.items()},
+            servos={name: round(value, 3) for name, value in checked.items()},
         )
         try:
             self._file.write(self._encoder.encode(line) + b"\n")

@@ -47,6 +47,7 @@ from services.control.core import CommandInfo
 from services.control.drivers._extras import require
 from services.control.drivers.base import DriverError, ServoDriver
 from services.control.drivers.registry import DRIVERS
+from services.control.drivers.servo_map import ProfileLimits
 
 log = logging.getLogger("facesynth.control")
 
@@ -234,6 +235,7 @@ class VmcDriver(ServoDriver):
             raise VmcError("the vmc driver needs a profile")
         self.config = config
         self.mapping = AvatarMapping(profile)
+        self.limits = ProfileLimits(profile)
         if self.mapping.ignored:
             log.warning("vmc: profile %s: ignored controls %s", profile.name, self.mapping.ignored)
         try:
@@ -281,7 +283,7 @@ class VmcDriver(ServoDriver):
     async def send(self, positions: Mapping[str, float], info: CommandInfo) -> None:
         if self._socket is None:
             raise DriverError("vmc driver is not connected")
-        data = self.bundle(positions)
+        data = self.bundle(self.limits.clamp(positions))
         try:
             self._socket.sendto(data, self._address)
         except OSError as exc:  # UDP: a receiver that is not there is not an error of ours

@@ -65,6 +65,10 @@ class PointsBackend(abc.ABC):
         """How many frames a recording holds (``None`` for live trackers)."""
         return None
 
+    def gives_blendshapes(self) -> bool:
+        """Whether its Points carry the ``blendshapes52`` scores (profiles may need them)."""
+        return False
+
     def needs_pixels(self) -> bool:
         """Whether frames must carry an image."""
         return False

@@ -1,4 +1,5 @@
-"""Replay of a ``facesynth track`` JSON-lines file (mesh, iris and 68-point views)."""
+"""Replay of a ``facesynth track`` JSON-lines file (mesh, iris and 68-point views, and the
+blendshapes when the file has them)."""
 
 from __future__ import annotations
 
@@ -9,9 +10,10 @@ from typing import Annotated, Any
 import msgspec
 import numpy as np
 
+from facesynth.runtime import blendshapes
 from facesynth.runtime.codec import MAX_COORD
 from facesynth.runtime.landmarks import IBUG68, IRIS10, MESH468, N_IBUG
-from schemas.messages import Frame, Points, PointSet
+from schemas.messages import Frame, Points, PointSet, ScoreSet
 from services.points.backends.base import (
     BackendError,
     Replay,
@@ -70,9 +72,24 @@ def _track_sets(line: TrackLine, where: str) -> list[PointSet]:
     return sets
 
 
+def _track_scores(line: TrackLine, where: str) -> list[ScoreSet]:
+    if line.blendshapes is None:
+        return []
+    values = np.asarray(line.blendshapes, dtype=np.float64)
+    if (
+        values.shape != (blendshapes.COUNT,)
+        or not np.all(np.isfinite(values))
+        or values.min() < 0.0
+        or values.max() > 1.0
+    ):
+        raise BackendError(f"{where}: blendshapes must be {blendshapes.COUNT} numbers in 0..1")
+    return [ScoreSet(scheme=blendshapes.BLENDSHAPES52, values=values.tolist())]
+
+
 @BACKENDS.register(TrackFileConfig)
 class TrackReplay(Replay):
-    """Replay of a ``facesynth track`` JSON-lines file (mesh, iris and 68-point views)."""
+    """Replay of a ``facesynth track`` JSON-lines file (mesh, iris and 68-point views, and the
+    blendshapes when the file has them)."""
 
     name = "track"
 
@@ -80,7 +97,7 @@ class TrackReplay(Replay):
         super().__init__(config.loop)
         file = Path(config.path)
         decoder = msgspec.json.Decoder(TrackLine)
-        self.lines: list[tuple[bool, float, list[PointSet]]] = []
+        self.lines: list[tuple[bool, float, list[PointSet], list[ScoreSet]]] = []
         try:
             raw_lines = file.read_bytes().splitlines()
         except OSError as exc:
@@ -96,18 +113,24 @@ class TrackReplay(Replay):
             if not (math.isfinite(line.presence) and 0.0 <= line.presence <= 1.0):
                 raise BackendError(f"{where}: presence {line.presence} is not within 0..1")
             sets = _track_sets(line, where) if line.face else []
-            self.lines.append((line.face, line.presence, sets))
+            scores = _track_scores(line, where) if line.face else []
+            self.lines.append((line.face, line.presence, sets, scores))
         if not self.lines:
             raise BackendError(f"{file}: no frames")
 
     def frame_count(self) -> int:
         return len(self.lines)
 
+    def gives_blendshapes(self) -> bool:
+        return any(scores for _, _, _, scores in self.lines)
+
     def process(self, frame: Frame) -> Points:
         index = self._index(frame.seq, len(self.lines))
         if index is None:
             return no_face(frame, self.name)
-        face, presence, sets = self.lines[index]
+        face, presence, sets, scores = self.lines[index]
         if not face:
             return no_face(frame, self.name, presence)
-        return face_points(frame, sets, presence, self.name)
+        points = face_points(frame, sets, presence, self.name)
+        points.scores = list(scores)
+        return points

@@ -1,8 +1,15 @@
 """The face tracker as a point streamer backend (P's default).
 
-Decodes each frame, runs :class:`services.points.tracker.FaceTracker` and publishes three point
-sets: ``ibug68`` (the paper's 68 points, derived from the mesh), ``mesh468`` (x, y, z) and
-``iris10``. A frame without a face gives "no face", never the previous frame's points.
+Decodes each frame, runs :class:`services.points.tracker.FaceTracker` with the chosen tracker
+model (``services.points.tracker.landmarkers``) and publishes:
+
+* ``fast`` model: ``ibug68`` (the paper's 68 points, derived from the mesh), ``mesh468``
+  (x, y, z) and ``iris10``;
+* ``full`` model: ``ibug68`` (from the same 468 vertices), ``mesh478`` (x, y, z: the mesh, then
+  both irises), ``iris10`` (the same irises as 2D points, so every reader of ``iris10`` keeps
+  working) and, unless ``blendshapes = false``, the ``blendshapes52`` score set.
+
+A frame without a face gives "no face", never the previous frame's points.
 """
 
 from __future__ import annotations
@@ -11,9 +18,10 @@ from typing import Annotated, Literal
 
 import msgspec
 
+from facesynth.runtime.blendshapes import BLENDSHAPES52
 from facesynth.runtime.frames import decode_frame
-from facesynth.runtime.landmarks import IBUG68, IRIS10, MESH468
-from schemas.messages import Frame, Points
+from facesynth.runtime.landmarks import IBUG68, IRIS10, MESH468, MESH478
+from schemas.messages import Frame, Points, ScoreSet
 from services.points.backends.base import (
     BackendError,
     PointsBackend,
@@ -22,7 +30,14 @@ from services.points.backends.base import (
     point_set,
 )
 from services.points.backends.registry import BACKENDS
+from services.points.tracker.landmarkers import TRACKER_MODELS, model_config
 from services.points.tracker.runtimes import backend_choices, check_backend_name
+
+
+def _model_help() -> str:
+    """``--model`` help, from the tracker-model registry (no OpenCV imported)."""
+    models = "; ".join(f"{p.name} = {p.summary.rstrip('.')}" for p in TRACKER_MODELS)
+    return f"tracker model (default full): {models}"
 
 
 class TrackerConfig(
@@ -55,9 +70,25 @@ class TrackerConfig(
             "(default 30)",
         ),
     ] = 30
+    model: Annotated[str, msgspec.Meta(description=_model_help())] = "full"
+    blendshapes: Annotated[
+        bool,
+        msgspec.Meta(
+            description="with --model full: run the blendshape model (about 0.4 ms a frame)"
+        ),
+    ] = True
 
     def __post_init__(self) -> None:
         check_backend_name(self.inference)  # the runtimes registered, installed here or not
+        if self.model not in TRACKER_MODELS:
+            known = ", ".join(TRACKER_MODELS.names())
+            raise ValueError(f"unknown tracker model {self.model!r} (known: {known})")
+
+    def model_config(self) -> msgspec.Struct:
+        """The tracker model's own config: its name and those of its options set here."""
+        fields = {f.name for f in TRACKER_MODELS.get(self.model).fields()}
+        options = {name: getattr(self, name) for name in ("blendshapes",) if name in fields}
+        return model_config(self.model, **options)
 
 
 @BACKENDS.register(TrackerConfig)
@@ -75,10 +106,14 @@ class TrackerBackend(PointsBackend):
             redetect_every=config.redetect_every,
             select=config.select,
             num_threads=config.threads,
+            model=config.model_config(),
         )
 
     def needs_pixels(self) -> bool:
         return True
+
+    def gives_blendshapes(self) -> bool:
+        return bool(getattr(self.tracker.model_config, "blendshapes", False))
 
     def process(self, frame: Frame) -> Points:
         if frame.encoding == "none":
@@ -86,7 +121,15 @@ class TrackerBackend(PointsBackend):
         result = self.tracker.process(decode_frame(frame))
         if not result.face or result.ibug68 is None or result.mesh is None:
             return no_face(frame, self.name, result.presence)
-        sets = [point_set(IBUG68, result.ibug68), point_set(MESH468, result.mesh)]
+        sets = [point_set(IBUG68, result.ibug68)]
+        if result.mesh478 is not None:
+            sets.append(point_set(MESH478, result.mesh478))
+        else:
+            sets.append(point_set(MESH468, result.mesh))
         if result.iris is not None:
             sets.append(point_set(IRIS10, result.iris))
-        return face_points(frame, sets, result.presence, self.name)
+        points = face_points(frame, sets, result.presence, self.name)
+        if result.blendshapes is not None:
+            values = result.blendshapes.astype(float).tolist()
+            points.scores = [ScoreSet(scheme=BLENDSHAPES52, values=values)]
+        return points

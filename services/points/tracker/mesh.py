@@ -1,4 +1,6 @@
-"""468-point face mesh (MediaPipe ``face_landmark.tflite``) on an eye-aligned 192x192 crop.
+"""Face mesh models on an eye-aligned square crop: the 468-point mesh (MediaPipe
+``face_landmark.tflite``, 192x192) and, with the same class, Face Landmarker v2
+(``face_landmarks_detector.tflite``, 256x256, 478 points: the mesh then the two irises).
 
 The crop comes either from a detection (box centre, eye keypoints for the angle, side 1.5x the
 box) or, while tracking, from the previous frame's mesh (bounding box of all vertices, angle
@@ -75,17 +77,33 @@ def rect_from_mesh_box(
 
 
 class FaceMesh:
-    """Runs the mesh model on one crop and maps the result back to frame pixels."""
+    """Runs a mesh model on one crop and maps the result back to frame pixels."""
 
-    def __init__(self, model: Model) -> None:
+    def __init__(
+        self,
+        model: Model,
+        num_points: int = NUM_VERTICES,
+        points_output: str = "conv2d_21",
+        presence_output: str = "conv2d_31",
+    ) -> None:
         """Args:
-        model: the loaded mesh model (:data:`~services.points.tracker.model_files.MESH`).
+        model: the loaded mesh model (:data:`~services.points.tracker.model_files.MESH`, or
+            :data:`~services.points.tracker.model_files.LANDMARKS_V2` with 478 points and the
+            outputs ``Identity`` / ``Identity_1``).
+        num_points: points the model gives (x, y, z each, in crop pixels).
+        points_output, presence_output: its output names.
         """
-        if model.input_size != MESH_SIZE:
-            raise ValueError(f"mesh input must be {MESH_SIZE}, got {model.input_size}")
+        size = model.input_size
+        if model.spec.item_shape != (size, size, 3):
+            raise ValueError(f"a mesh model takes a square RGB image, not {model.spec.item_shape}")
+        if points_output not in model.spec.outputs or presence_output not in model.spec.outputs:
+            raise ValueError(f"{model.spec.filename} has no {points_output}/{presence_output}")
         self.model = model
-        self._crop = np.zeros((MESH_SIZE, MESH_SIZE, 4), np.uint8)
-        self._rgb = np.zeros((MESH_SIZE, MESH_SIZE, 3), np.uint8)
+        self.size = size
+        self.num_points = num_points
+        self._outputs = (points_output, presence_output)
+        self._crop = np.zeros((size, size, 4), np.uint8)
+        self._rgb = np.zeros((size, size, 3), np.uint8)
 
     def run(self, frame_rgba: np.ndarray, rect: CropRect) -> tuple[np.ndarray, float]:
         """Mesh for the face inside ``rect``.
@@ -95,14 +113,16 @@ class FaceMesh:
             rect: the crop.
 
         Returns:
-            (mesh, presence): mesh (468, 3) float32 with x, y in frame pixels and z (relative
-            depth, smaller = nearer the camera) in the same pixel scale; presence in [0, 1].
+            (mesh, presence): mesh (num_points, 3) float32 with x, y in frame pixels and z
+            (relative depth, smaller = nearer the camera) in the same pixel scale; presence in
+            [0, 1].
         """
-        m = crop_affine(rect, MESH_SIZE)
+        size = self.size
+        m = crop_affine(rect, size)
         cv2.warpAffine(
             frame_rgba,
             m,
-            (MESH_SIZE, MESH_SIZE),
+            (size, size),
             dst=self._crop,
             flags=cv2.INTER_LINEAR,
             borderMode=cv2.BORDER_CONSTANT,
@@ -110,9 +130,11 @@ class FaceMesh:
         )
         fill_input(self.model.input_view()[0], self._crop, 1.0 / 255.0, 0.0, self._rgb)
         out = self.model.run()
-        pts = out["conv2d_21"][0].reshape(NUM_VERTICES, 3)
+        points_name, presence_name = self._outputs
+        n = self.num_points
+        pts = out[points_name][0].reshape(n, 3)
         inv = invert_affine(m)
-        mesh = np.empty((NUM_VERTICES, 3), np.float32)
+        mesh = np.empty((n, 3), np.float32)
         mesh[:, :2] = pts[:, :2] @ inv[:, :2].T + inv[:, 2]
-        mesh[:, 2] = pts[:, 2] * (rect.side / MESH_SIZE)
-        return mesh, sigmoid(float(out["conv2d_31"][0, 0]))
+        mesh[:, 2] = pts[:, 2] * (rect.side / size)
+        return mesh, sigmoid(float(out[presence_name][0, 0]))

@@ -1,4 +1,4 @@
-"""The three bundled MediaPipe model files: what the engine expects of each, and reading one.
+"""The bundled MediaPipe model files: what the engine expects of each, and reading one.
 
 Every model file is read once and its SHA-256 checked against the bundled value before a
 runtime is built from it, so a missing, unreadable, truncated or otherwise corrupt file raises
@@ -13,19 +13,39 @@ from pathlib import Path
 
 from .errors import ModelError
 
-__all__ = ["DETECTOR", "IRIS", "MESH", "MODELS_DIR", "ModelSpec", "read_model_bytes"]
+__all__ = [
+    "BLENDSHAPES",
+    "DETECTOR",
+    "IRIS",
+    "LANDMARKS_V2",
+    "MESH",
+    "MODELS_DIR",
+    "ModelSpec",
+    "read_model_bytes",
+]
 
 MODELS_DIR: Path = Path(__file__).resolve().parent / "models"
 
 
 @dataclass(frozen=True, slots=True)
 class ModelSpec:
-    """What the engine expects of one bundled model file."""
+    """What the engine expects of one bundled model file.
+
+    Image models take (batch, S, S, 3) with S = ``input_size``; a model with another input
+    gives its per-item shape in ``input_shape`` (``input_size`` is then its first dimension).
+    """
 
     filename: str
     sha256: str
     input_size: int
     outputs: tuple[str, ...]
+    input_shape: tuple[int, ...] = ()
+
+    @property
+    def item_shape(self) -> tuple[int, ...]:
+        """The input shape of one item (without the batch dimension)."""
+        s = self.input_size
+        return self.input_shape or (s, s, 3)
 
 
 DETECTOR = ModelSpec(
@@ -45,6 +65,22 @@ IRIS = ModelSpec(
     "d1744d2a09c25f501d39eba4faff47e53ecca8852c5ce19bce8eeac39357521f",
     64,
     ("output_iris", "output_eyes_contours_and_brows"),
+)
+#: Face Landmarker v2 (``face_landmarks_detector.tflite`` from ``face_landmarker.task``): 478
+#: points (x, y, z in input pixels), presence logit; ``Identity_2`` is not used.
+LANDMARKS_V2 = ModelSpec(
+    "face_landmarks_detector.tflite",
+    "c7d54204ce0448474c7f3fa9af494787c0965cbdd6f20fc72867e43046bd43d5",
+    256,
+    ("Identity", "Identity_1"),
+)
+#: The 52 ARKit-style blendshape scores from 146 of the 478 points (x, y in frame pixels).
+BLENDSHAPES = ModelSpec(
+    "face_blendshapes.tflite",
+    "4f36dded049db18d76048567439b2a7f58f1daabc00d78bfe8f3ad396a2d2082",
+    146,
+    ("StatefulPartitionedCall:0",),
+    input_shape=(146, 2),
 )
 
 

@@ -60,7 +60,9 @@ def _points(a: np.ndarray | None) -> list[list[float]] | None:
 
 
 def result_to_line(frame: int, r: TrackResult) -> TrackLine:
-    """One track-file line: frame index, face flag, 2-D points rounded to 0.01 px, presence."""
+    """One track-file line: frame index, face flag, 2-D points rounded to 0.01 px, presence,
+    and the blendshapes (``full`` model) rounded to 0.0001."""
+    scores = r.blendshapes
     return TrackLine(
         frame=frame,
         face=r.face,
@@ -68,6 +70,7 @@ def result_to_line(frame: int, r: TrackResult) -> TrackLine:
         iris=_points(r.iris),
         ibug68=_points(r.ibug68),
         presence=round(float(r.presence), 4),
+        blendshapes=None if scores is None else np.round(scores.astype(np.float64), 4).tolist(),
     )
 
 
@@ -77,6 +80,7 @@ def track_video(
     backend: str = "auto",
     *,
     tracker: FaceTracker | None = None,
+    model: str | Any = "fast",
 ) -> dict[str, Any]:
     """Track every frame of a video and write one JSON line per frame, atomically.
 
@@ -89,6 +93,7 @@ def track_video(
         out_jsonl: output file.
         backend: inference backend for a new tracker.
         tracker: use this tracker instead (it is reset first).
+        model: tracker model for a new tracker (a name or its config struct).
 
     Returns:
         ``{"video", "output", "backend", "frames", "faces", "lost_frames", "tracker_ms_median",
@@ -99,7 +104,7 @@ def track_video(
         ModelError: a model file is missing or corrupt.
     """
     out = Path(out_jsonl)
-    trk = tracker if tracker is not None else FaceTracker(backend=backend)
+    trk = tracker if tracker is not None else FaceTracker(backend=backend, model=model)
     trk.reset()
     times: list[float] = []
     lost: list[int] = []
@@ -120,6 +125,7 @@ def track_video(
         "video": str(path),
         "output": str(out),
         "backend": trk.backend,
+        "model": trk.model.name,
         "frames": frames,
         "faces": faces,
         "lost_frames": lost,

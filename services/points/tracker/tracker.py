@@ -1,4 +1,8 @@
-"""The face tracker: detector + mesh + irises + 68-point view, for one performer.
+"""The face tracker: detector + a tracker model (mesh, irises, blendshapes) + 68-point view.
+
+The tracker model (:mod:`.landmarkers`: ``fast`` or ``full``) runs on the crop the tracker
+chooses; detection, crops, presence and which face to follow are the tracker's, the same for
+every model.
 
 Tracking follows MediaPipe's video mode: once a face is found the next crop comes from the
 previous frame's mesh and the detector is skipped. The detector runs again when the mesh's
@@ -15,14 +19,15 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import msgspec
 import numpy as np
 
 from .crops import CropRect
 from .detector import Detection, FaceDetector, box_iou
 from .ibug68 import mesh_to_ibug68
-from .iris import IrisLandmarks
-from .mesh import FaceMesh, mesh_box, rect_from_detection, rect_from_mesh_box
-from .model_files import DETECTOR, IRIS, MESH, ModelSpec
+from .landmarkers import TRACKER_MODELS, Landmarks, TrackerModel, model_config
+from .mesh import NUM_VERTICES, mesh_box, rect_from_detection, rect_from_mesh_box
+from .model_files import DETECTOR, ModelSpec
 from .model_input import frame_to_rgba
 from .runtimes import Model, load_model, resolve_backend
 
@@ -55,11 +60,14 @@ class TrackResult:
         presence: the mesh model's face-presence score in [0, 1] (0.0 if it did not run).
         mesh: (468, 3) float32 — x, y, and z (relative depth in the same pixel scale).
         iris: (10, 2) float32 — subject's right eye (image left) centre + 4 contour points,
-            then the left eye's; None also when the tracker runs with ``iris=False``.
+            then the left eye's; None also when the ``fast`` model runs with ``iris=False``.
         ibug68: (68, 2) float32 iBUG/CLM points (see :mod:`.ibug68`).
         box: (x, y, w, h) bounding box of the mesh.
         detected: the face detector ran on this frame.
-        timings_ms: "detect", "mesh", "iris" and "total" milliseconds for this frame.
+        timings_ms: "detect", "mesh" (the tracker model's main call, crop included), "iris",
+            "blendshapes" and "total" milliseconds for this frame (0.0 for a stage not run).
+        mesh478: (478, 3) float32 — the ``full`` model's points (mesh, then both irises).
+        blendshapes: (52,) float32 scores in [0, 1] (``full`` model with blendshapes).
     """
 
     face: bool
@@ -70,6 +78,8 @@ class TrackResult:
     box: _Box | None = None
     detected: bool = False
     timings_ms: dict[str, float] = field(default_factory=dict)
+    mesh478: np.ndarray | None = None
+    blendshapes: np.ndarray | None = None
 
 
 def _xyxy(box: _Box) -> np.ndarray:
@@ -87,6 +97,7 @@ class FaceTracker:
         min_presence: float = 0.5,
         select: str = "largest",
         *,
+        model: str | msgspec.Struct = "fast",
         iris: bool = True,
         num_threads: int = 1,
         min_detection_score: float = 0.5,
@@ -102,16 +113,19 @@ class FaceTracker:
                 track is lost.
             min_presence: mesh presence score below which the face counts as lost.
             select: at first detection pick the ``"largest"`` face or the best ``"score"``.
-            iris: run the iris model (about half the per-frame cost).
+            model: the tracker model (:mod:`.landmarkers`): a registered name (``"fast"``,
+                ``"full"``) or its config struct.
+            iris: with the ``fast`` model named by name, run the iris model (about half its
+                per-frame cost); ignored otherwise.
             num_threads: LiteRT threads per model.
             min_detection_score: detector score threshold.
-            model_dir: folder with the three ``.tflite`` files (default: bundled).
+            model_dir: folder with the ``.tflite`` files (default: bundled).
             verify_models: check each file's SHA-256 against the bundled value.
             hold_crop: crop hysteresis while tracking (see :data:`HOLD_SHIFT`).
 
         Raises:
             ModelError: a model file is missing, unreadable or corrupt.
-            ValueError: a bad argument.
+            ValueError: a bad argument (an unknown model: a PluginError).
         """
         if select not in SELECT_MODES:
             raise ValueError(f"select must be one of {SELECT_MODES}, got {select!r}")
@@ -124,6 +138,8 @@ class FaceTracker:
         self.min_presence = min_presence
         self.select = select
         self.hold_crop = hold_crop
+        config = model_config("fast", iris=iris) if model == "fast" else model_config(model)
+        self.model_config = config
 
         def _load(spec: ModelSpec, batch: int = 1) -> Model:
             return load_model(
@@ -136,8 +152,7 @@ class FaceTracker:
             )
 
         self.detector = FaceDetector(_load(DETECTOR), min_score=min_detection_score)
-        self.mesh = FaceMesh(_load(MESH))
-        self.iris = IrisLandmarks(_load(IRIS, batch=2)) if iris else None
+        self.model: TrackerModel = TRACKER_MODELS.build(config, _load)
         self._rgba: np.ndarray | None = None
         self.reset()
 
@@ -188,9 +203,9 @@ class FaceTracker:
         self, frame: np.ndarray, rect: CropRect, timings: dict[str, float]
     ) -> tuple[np.ndarray, float]:
         t = time.perf_counter()
-        mesh, presence = self.mesh.run(frame, rect)
+        points, presence = self.model.mesh(frame, rect)
         timings["mesh"] += (time.perf_counter() - t) * 1e3
-        return mesh, presence
+        return points, presence
 
     # -- main entry -----------------------------------------------------------------------
 
@@ -201,7 +216,7 @@ class FaceTracker:
             ValueError: not a uint8 image.
         """
         t0 = time.perf_counter()
-        timings = {"detect": 0.0, "mesh": 0.0, "iris": 0.0, "total": 0.0}
+        timings = {"detect": 0.0, "mesh": 0.0, "iris": 0.0, "blendshapes": 0.0, "total": 0.0}
         frame = frame_to_rgba(image_bgr, self._rgba)
         self._rgba = frame
 
@@ -216,7 +231,7 @@ class FaceTracker:
             if rect is None:
                 return self._no_face(0.0, True, timings, t0)
 
-        mesh, presence = self._run_mesh(frame, rect, timings)
+        points, presence = self._run_mesh(frame, rect, timings)
         if presence < self.min_presence and not detected:
             # Lost while tracking: look for the face again on this very frame.
             detected = True
@@ -225,15 +240,12 @@ class FaceTracker:
             if found is None:
                 return self._no_face(presence, True, timings, t0)
             rect = found
-            mesh, presence = self._run_mesh(frame, rect, timings)
+            points, presence = self._run_mesh(frame, rect, timings)
         if presence < self.min_presence:
             return self._no_face(presence, detected, timings, t0)
 
-        iris = None
-        if self.iris is not None:
-            t = time.perf_counter()
-            iris = self.iris.run(frame, mesh)
-            timings["iris"] = (time.perf_counter() - t) * 1e3
+        extra: Landmarks = self.model.extras(frame, points, timings)
+        mesh = points[:NUM_VERTICES]
         ibug = mesh_to_ibug68(mesh)
 
         box = mesh_box(mesh)
@@ -241,7 +253,18 @@ class FaceTracker:
         self._box = box
         self._since_detect = 1 if detected else self._since_detect + 1
         timings["total"] = (time.perf_counter() - t0) * 1e3
-        return TrackResult(True, presence, mesh, iris, ibug, box, detected, timings)
+        return TrackResult(
+            True,
+            presence,
+            mesh,
+            extra.iris,
+            ibug,
+            box,
+            detected,
+            timings,
+            extra.mesh478,
+            extra.blendshapes,
+        )
 
     def _next_rect(self, current: CropRect, proposed: CropRect) -> CropRect:
         """Apply the crop hysteresis (see :data:`HOLD_SHIFT`)."""

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from tracker_fixtures import SAMPLE_EVERY, VIDEO, TrackedVideo
+from tracker_fixtures import SAMPLE_EVERY, VIDEO, TrackedByModel, TrackedVideo
 
 from services.points.tracker import FaceTracker, TrackResult
 from services.points.tracker.offline import iter_video_frames
@@ -20,6 +20,14 @@ def tracked_video() -> TrackedVideo:
         if i % SAMPLE_EVERY == 0:
             samples[i] = frame
     return TrackedVideo(results, samples)
+
+
+@pytest.fixture(scope="session")
+def tracked_by_model(tracked_video: TrackedVideo) -> TrackedByModel:
+    """The sample video tracked with each tracker model (``fast`` reuses ``tracked_video``)."""
+    tracked = TrackedByModel()
+    tracked._done["fast"] = tracked_video
+    return tracked
 
 
 @pytest.fixture(scope="session")

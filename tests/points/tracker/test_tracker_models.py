@@ -153,13 +153,13 @@ def test_backends_agree_on_real_frames(
         assert prev is not None
         rect = rect_from_mesh(prev)
         rgba = frame_to_rgba(frame)
-        m1, p1 = litert_tracker.mesh.run(rgba, rect)
-        m2, p2 = opencv_tracker.mesh.run(rgba, rect)
+        m1, p1 = litert_tracker.model.mesh(rgba, rect)
+        m2, p2 = opencv_tracker.model.mesh(rgba, rect)
         assert abs(p1 - p2) < 0.01
         mesh_err.append(np.linalg.norm(m1[:, :2] - m2[:, :2], axis=1).mean())
-        assert litert_tracker.iris is not None and opencv_tracker.iris is not None
-        i1 = litert_tracker.iris.run(rgba, m1)
-        i2 = opencv_tracker.iris.run(rgba, m1)
+        i1 = litert_tracker.model.extras(rgba, m1, {}).iris
+        i2 = opencv_tracker.model.extras(rgba, m1, {}).iris
+        assert i1 is not None and i2 is not None
         iris_err.append(np.linalg.norm(i1 - i2, axis=1).mean())
     assert max(mesh_err) < 0.05, mesh_err
     assert max(iris_err) < 0.05, iris_err

@@ -30,7 +30,8 @@ def test_track_video_writes_one_line_per_frame(
     assert [p.name for p in out.parent.iterdir()] == ["points.jsonl"]  # no temp file left
     for i, line in enumerate(lines):
         rec = json.loads(line)
-        assert list(rec) == ["frame", "face", "mesh", "iris", "ibug68", "presence"]
+        assert list(rec) == ["frame", "face", "mesh", "iris", "ibug68", "presence", "blendshapes"]
+        assert rec["blendshapes"] is None  # the fast model has none
         assert rec["frame"] == i and rec["face"] is True
         ref = tracked_video.results[i]
         assert rec["presence"] == round(float(ref.presence), 4)
@@ -46,7 +47,8 @@ def test_no_face_lines_are_null(tmp_path: Path, tracker: FaceTracker) -> None:
     line = result_to_line(7, r)
     assert line == TrackLine(frame=7, face=False, presence=0.0)
     assert encode_line(line) == (
-        b'{"frame":7,"face":false,"mesh":null,"iris":null,"ibug68":null,"presence":0.0}\n'
+        b'{"frame":7,"face":false,"mesh":null,"iris":null,"ibug68":null,"presence":0.0,'
+        b'"blendshapes":null}\n'
     )
 
 

@@ -147,7 +147,7 @@ def test_a_runtime_from_another_distribution_is_usable_from_the_cli(tmp_path: Pa
                                           "opencv-copy"])
         tracker = FaceTracker(backend=args.inference, iris=False)
         result = tracker.process(next(iter_video_frames({str(VIDEO)!r}, 1)))
-        print(tracker.backend, type(tracker.mesh.model).__name__, result.face)
+        print(tracker.backend, type(tracker.model.mesh_model.model).__name__, result.face)
         """,
         [tmp_path],
     )

@@ -11,7 +11,7 @@ from tracker_fixtures import VIDEO_FRAMES, TrackedVideo
 
 from services.points.tracker import FaceTracker, TrackResult
 
-TIMING_KEYS = {"detect", "mesh", "iris", "total"}
+TIMING_KEYS = {"detect", "mesh", "iris", "blendshapes", "total"}
 
 
 def _assert_face(r: TrackResult) -> None:
@@ -247,7 +247,7 @@ def test_eye_crops_are_oriented_as_the_iris_model_expects(
     from services.points.tracker.iris import EYE_CONTOUR_VERTICES
     from services.points.tracker.model_input import frame_to_rgba
 
-    iris = litert_tracker.iris
+    iris = getattr(litert_tracker.model, "iris", None)
     assert iris is not None
     for i, frame in tracked_video.samples.items():
         mesh = tracked_video.results[i].mesh

@@ -7,7 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
-from services.points.tracker import TrackResult
+from services.points.tracker import FaceTracker, TrackResult
+from services.points.tracker.offline import iter_video_frames
 
 REPO = Path(__file__).resolve().parents[3]
 VIDEO = REPO / "facesynth" / "app" / "data" / "WolfgangLanger_Pexels.mp4"
@@ -32,3 +33,22 @@ class TrackedVideo:
     def ibug(self) -> np.ndarray:
         """(frames, 68, 2) for frames with a face."""
         return np.stack([r.ibug68 for r in self.results if r.ibug68 is not None])
+
+
+class TrackedByModel:
+    """The sample video tracked once per tracker model (LiteRT), on first request."""
+
+    def __init__(self) -> None:
+        self._done: dict[str, TrackedVideo] = {}
+
+    def __getitem__(self, model: str) -> TrackedVideo:
+        if model not in self._done:
+            tracker = FaceTracker(backend="litert", model=model)
+            results: list[TrackResult] = []
+            samples: dict[int, np.ndarray] = {}
+            for i, frame in enumerate(iter_video_frames(VIDEO)):
+                results.append(tracker.process(frame))
+                if i % SAMPLE_EVERY == 0:
+                    samples[i] = frame
+            self._done[model] = TrackedVideo(results, samples)
+        return self._done[model]

@@ -42,7 +42,10 @@ def test_unknown_name_lists_available_profiles(
     monkeypatch.setenv("FACESYNTH_PROFILES", str(extra))
     with pytest.raises(ProfileError) as info:
         load_profile("nope")
-    assert str(info.value) == "no profile named 'nope' (available: alyx, head16, paper16, virtual)"
+    shipped = sorted(path.stem for path in profiles.PACKAGE_DIR.glob("*.toml"))
+    assert {"head16", "paper16", "virtual", "arkit52"} <= set(shipped)
+    available = ", ".join(sorted(["alyx", *shipped]))
+    assert str(info.value) == f"no profile named 'nope' (available: {available})"
 
 
 def test_non_utf8_file(tmp_path: Path) -> None:

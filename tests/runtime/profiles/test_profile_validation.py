@@ -38,6 +38,11 @@ def test_edge_values_are_valid(servo: dict[str, Any]) -> None:
         ([feature_servo(smoothing={"enabled": False})], {}),
         ([feature_servo(min_us=0, neutral_us=0, max_us=1000)], {"neutral_ramp_s": 0}),
         ([feature_servo(smoothing={"beta": 0.0})], {}),
+        ([feature_servo(feature=None, blendshape="mouthSmileLeft")], {}),
+        ([feature_servo(feature=None, mix={"mouthSmileLeft": 1.0, "mouthFrownLeft": -1.0})], {}),
+        ([feature_servo(feature=None, mix={"jawOpen": 0.5, "jaw_open": 0.5})], {}),
+        ([feature_servo(one_sided=True)], {}),
+        ([feature_servo(**{**POINTS, "blendshape": "jawOpen", "one_sided": True})], {}),
     ],
     ids=[
         "feature",
@@ -48,6 +53,11 @@ def test_edge_values_are_valid(servo: dict[str, Any]) -> None:
         "servo-smoothing-off",
         "zero-based-no-ramp",
         "beta-zero",
+        "blendshape",
+        "mix-of-blendshapes",
+        "mix-of-blendshape-and-feature",
+        "one-sided",
+        "one-sided-blendshape-with-fallback",
     ],
 )
 def test_valid_profiles(servos: list[dict[str, Any]], top: dict[str, Any]) -> None:
@@ -198,12 +208,44 @@ def test_invalid_structure_channels_limits_and_points(text: str, detail: str) ->
     [
         (
             profile_toml([feature_servo(feature=None)]),
-            "servo 'jaw': no points, feature or mix (give exactly one source)",
+            "servo 'jaw': no points, feature, blendshape or mix (give exactly one source)",
         ),
         (
             profile_toml([feature_servo(mix={"jaw_open": 1.0})]),
             "servo 'jaw': several sources (feature and mix); give exactly one "
-            "(points may accompany either as a fallback)",
+            "(points may accompany any of them as a fallback)",
+        ),
+        (
+            profile_toml([feature_servo(blendshape="jawOpen")]),
+            "servo 'jaw': several sources (feature and blendshape); give exactly one",
+        ),
+        (
+            profile_toml([feature_servo(feature=None, blendshape="mouthSmileLft")]),
+            "servo 'jaw': unknown blendshape 'mouthSmileLft' (did you mean 'mouthSmileLeft'?)",
+        ),
+        (
+            profile_toml([feature_servo(feature=None, blendshape="_neutral")]),
+            "servo 'jaw': unknown blendshape '_neutral' (one of the 51 ARKit names",
+        ),
+        (
+            profile_toml([feature_servo(feature=None, blendshape="jaw_open")]),
+            "servo 'jaw': 'jaw_open' is a feature, not a blendshape (use feature = 'jaw_open')",
+        ),
+        (
+            profile_toml([feature_servo(feature=None, blendshape="")]),
+            "servo 'jaw': unknown blendshape ''",
+        ),
+        (
+            profile_toml([feature_servo(feature=None, mix={"mouthSmileLeft": 1.0, "smileX": 1.0})]),
+            "servo 'jaw': mix: unknown feature 'smileX'",
+        ),
+        (
+            profile_toml([feature_servo(feature=None, blendshape=3)]),
+            "servo 'jaw': Expected `str | null`, got `int` - at `$.servos[0].blendshape`",
+        ),
+        (
+            profile_toml([feature_servo(one_sided="yes")]),
+            "servo 'jaw': Expected `bool`, got `str` - at `$.servos[0].one_sided`",
         ),
         (
             profile_toml([feature_servo(feature="jaw_opn")]),
@@ -337,6 +379,14 @@ def test_invalid_structure_channels_limits_and_points(text: str, detail: str) ->
     ids=[
         "no-source",
         "feature-and-mix",
+        "feature-and-blendshape",
+        "blendshape-misspelt",
+        "blendshape-neutral",
+        "blendshape-is-a-feature",
+        "blendshape-empty",
+        "mix-of-blendshapes-unknown",
+        "blendshape-not-a-string",
+        "one-sided-not-a-bool",
         "unknown-feature-close",
         "unknown-feature-far",
         "empty-mix",

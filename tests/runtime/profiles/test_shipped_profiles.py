@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
-from facesynth.runtime import profiles
+import pytest
+
+from facesynth.runtime import blendshapes, profiles
 from facesynth.runtime.feature_names import NAMES
 from facesynth.runtime.profiles import (
     FORMAT_REFERENCE,
@@ -142,5 +144,59 @@ def test_virtual_profile() -> None:
 
 def test_format_reference_is_a_valid_profile() -> None:
     profile = parse_profile(FORMAT_REFERENCE)
-    assert [s.name for s in profile.servos] == ["jaw", "brow_raise", "brow_lower"]
+    assert [s.name for s in profile.servos] == ["jaw", "brow_raise", "brow_lower", "smile"]
+    smile = profile.servo("smile")
+    assert smile.blendshape == "mouthSmileRight" and smile.one_sided
     assert profile.safety.exclusive[0].servos == ["brow_raise", "brow_lower"]
+
+
+HEAD16_CHEEKS = ("right_inner_cheek", "left_inner_cheek", "right_outer_cheek", "left_outer_cheek")
+
+
+@pytest.mark.parametrize(("variant", "base"), [("head16_bs", "head16"), ("virtual_bs", "virtual")])
+def test_blendshape_variants_differ_from_their_base_in_the_brows_only(
+    variant: str, base: str
+) -> None:
+    ours, theirs = profiles.load_profile(variant), profiles.load_profile(base)
+    assert [s.name for s in ours.servos] == [s.name for s in theirs.servos]
+    for mine, other in zip(ours.servos, theirs.servos, strict=True):
+        limits = (mine.channel, mine.min_us, mine.neutral_us, mine.max_us, mine.max_speed)
+        assert limits == (
+            other.channel,
+            other.min_us,
+            other.neutral_us,
+            other.max_us,
+            other.max_speed,
+        )
+        if "brow" in mine.name:
+            assert set(mine.weights() or {}) <= set(blendshapes.SHAPES)
+            assert "browInnerUp" in (mine.weights() or {})
+        else:
+            assert mine.weights() == other.weights() and mine.one_sided == other.one_sided
+
+
+def test_arkit52_is_one_control_per_blendshape() -> None:
+    profile = profiles.load_profile("arkit52")
+    assert [s.name for s in profile.servos] == list(blendshapes.SHAPES)
+    assert [s.channel for s in profile.servos] == list(range(51))
+    for spec in profile.servos:
+        assert spec.blendshape == spec.name and spec.one_sided
+        assert (spec.min_us, spec.neutral_us, spec.max_us) == (0, 0, 1000)
+        assert not spec.points and spec.max_speed == 0
+
+
+@pytest.mark.parametrize(
+    ("name", "servos"),
+    [
+        ("head16", {"jaw", "right_lower_lip", "left_lower_lip", *HEAD16_CHEEKS}),
+        ("head16_bs", {"jaw", "right_lower_lip", "left_lower_lip", *HEAD16_CHEEKS}),
+        ("paper16", {"jaw", "right_lower_lip", "left_lower_lip"}),
+        ("virtual", {"jaw", "lower_lip"}),
+        ("virtual_bs", {"jaw", "lower_lip"}),
+        ("arkit52", set(blendshapes.SHAPES)),
+    ],
+)
+def test_one_sided_actions_map_one_sided(name: str, servos: set[str]) -> None:
+    """The mouth's opening and (head16) the cheeks' raise have no opposite side."""
+    profile = profiles.load_profile(name)
+    assert {s.name for s in profile.servos if s.one_sided} == servos

@@ -24,6 +24,7 @@ from services.control.core import CommandInfo
 from services.control.drivers._extras import require
 from services.control.drivers.base import DriverError, ServoDriver
 from services.control.drivers.registry import DRIVERS
+from services.control.drivers.servo_map import ProfileLimits
 from services.control.drivers.virtual import wire
 from services.control.drivers.virtual.geometry import draws_face, face_geometry
 
@@ -82,6 +83,7 @@ class VirtualDriver(ServoDriver):
         self.config = config
         self.host, self.port = parse_address(config.http)
         self.profile = profile if profile is not None else load_profile("virtual")
+        self.limits = ProfileLimits(self.profile)
         names = [spec.name for spec in self.profile.servos]
         self.draws_face = draws_face(names)
         controls = [
@@ -127,6 +129,7 @@ class VirtualDriver(ServoDriver):
     async def send(self, positions: Mapping[str, float], info: CommandInfo) -> None:
         if self.server is None:
             raise DriverError("virtual driver is not connected")
+        positions = self.limits.clamp(positions)
         shapes = face_geometry(positions) if self.draws_face else None
         self.server.publish_face(
             wire.face(info.frame, info.face, positions, shapes, info.t_capture_ns)

@@ -1,4 +1,4 @@
-"""Inference runtimes for the three MediaPipe TFLite models, as registered plugins.
+"""Inference runtimes for the MediaPipe TFLite models, as registered plugins.
 
 Every runtime runs the same ``.tflite`` files and returns the same outputs by name. Each is one
 module of this package that registers its :class:`Model` subclass in :data:`RUNTIMES` with a
@@ -88,8 +88,8 @@ def load_model(
     """Load one model file with the chosen runtime.
 
     Args:
-        spec: which model (:data:`~services.points.tracker.model_files.DETECTOR`, ``MESH`` or
-            ``IRIS``).
+        spec: which model (:data:`~services.points.tracker.model_files.DETECTOR`, ``MESH``,
+            ``IRIS``, ``LANDMARKS_V2`` or ``BLENDSHAPES``).
         backend: ``"auto"`` or a runtime's name (:func:`backend_choices`).
         model_dir: folder holding ``spec.filename`` (default: the bundled ``models/``).
         num_threads: LiteRT interpreter threads (ignored by OpenCV; see :mod:`.opencv`).

@@ -19,7 +19,8 @@ __all__ = ["RUNTIMES", "Model", "runtime_class"]
 class Model(ABC):
     """A model loaded by one inference runtime, with a preallocated NHWC float32 input.
 
-    Fill :meth:`input_view` (shape (batch, S, S, 3), RGB, already scaled) and call :meth:`run`.
+    Fill :meth:`input_view` (shape (batch, S, S, 3), RGB, already scaled; (batch,
+    *spec.input_shape) for a non-image model) and call :meth:`run`.
 
     A runtime is a subclass registered in :data:`RUNTIMES` with an empty config struct tagged
     with the runtime's name (``tag_field="runtime"``), in a module of its own in this package; it

@@ -42,13 +42,13 @@ class LiteRTModel(Model):
         if len(inputs) != 1:
             raise ModelError(f"{spec.filename}: expected one input, found {len(inputs)}")
         self._in_idx = int(inputs[0]["index"])
-        s = spec.input_size
-        if list(inputs[0]["shape"]) != [1, s, s, 3]:
+        item = list(spec.item_shape)
+        if list(inputs[0]["shape"]) != [1, *item]:
             raise ModelError(
-                f"{spec.filename}: input shape {list(inputs[0]['shape'])}, expected [1,{s},{s},3]"
+                f"{spec.filename}: input shape {list(inputs[0]['shape'])}, expected {[1, *item]}"
             )
         if batch != 1:
-            self._interp.resize_tensor_input(self._in_idx, [batch, s, s, 3])
+            self._interp.resize_tensor_input(self._in_idx, [batch, *item])
         self._interp.allocate_tensors()
         by_name = {d["name"]: int(d["index"]) for d in self._interp.get_output_details()}
         missing = [n for n in spec.outputs if n not in by_name]

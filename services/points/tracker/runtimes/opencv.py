@@ -44,9 +44,10 @@ class OpenCVModel(Model):
         if missing:
             raise ModelError(f"{spec.filename}: outputs {missing} not found in {sorted(names)}")
         self._names = list(spec.outputs)
+        self._input = np.zeros((batch, *spec.item_shape), np.float32)
+        self._image = len(spec.item_shape) == 3
         s = spec.input_size
-        self._input = np.zeros((batch, s, s, 3), np.float32)
-        self._nchw = np.zeros((batch, 3, s, s), np.float32)
+        self._nchw = np.zeros((batch, 3, s, s), np.float32) if self._image else self._input
         # Fail now, not on the first frame, if the graph does not accept the input shape.
         self.run()
 
@@ -56,7 +57,8 @@ class OpenCVModel(Model):
 
     def run(self) -> dict[str, np.ndarray]:
         """See :meth:`Model.run`."""
-        np.copyto(self._nchw, self._input.transpose(0, 3, 1, 2))
+        if self._image:  # NHWC -> NCHW; other inputs go as they are
+            np.copyto(self._nchw, self._input.transpose(0, 3, 1, 2))
         self._net.setInput(self._nchw)
         outs = self._net.forward(self._names)
         return {
