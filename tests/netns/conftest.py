@@ -2,14 +2,12 @@
 
 from __future__ import annotations
 
-import os
-import signal
 import subprocess
-import sys
 from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
+from facesynth_processes import Processes
 from netns_hosts import Hosts, require_root_and_tools
 
 
@@ -20,37 +18,13 @@ def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
             item.add_marker(pytest.mark.timeout(600))
 
 
-class NsSpawner:
+class NsSpawner(Processes):
     """Starts ``python -m facesynth ARGS`` inside a namespace, logging to ``<name>.log``."""
 
-    def __init__(self, folder: Path) -> None:
-        self.folder = folder
-        self.procs: list[subprocess.Popen[bytes]] = []
+    def __call__(self, ns: str, *args: str, name: str) -> subprocess.Popen[bytes]:  # type: ignore[override]
+        return self.start(*args, name=name, prefix=("ip", "netns", "exec", ns))
 
-    def __call__(self, ns: str, *args: str, name: str) -> subprocess.Popen[bytes]:
-        with open(self.folder / f"{name}.log", "wb") as log:
-            proc = subprocess.Popen(
-                ["ip", "netns", "exec", ns, sys.executable, "-m", "facesynth", *args],
-                stdout=log,
-                stderr=subprocess.STDOUT,
-                env={**os.environ, "PYTHONUNBUFFERED": "1"},
-            )
-        self.procs.append(proc)
-        return proc
-
-    def log(self, name: str) -> str:
-        return (self.folder / f"{name}.log").read_text(errors="replace")
-
-    def stop_all(self) -> None:
-        for proc in self.procs:
-            if proc.poll() is None:
-                proc.send_signal(signal.SIGTERM)
-        for proc in self.procs:
-            try:
-                proc.wait(timeout=10)
-            except subprocess.TimeoutExpired:
-                proc.kill()
-                proc.wait()
+    stop_all = Processes.stop
 
 
 @pytest.fixture
