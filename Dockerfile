@@ -1,21 +1,42 @@
-# facesynth services image. The base image is a build argument so the image can be built from a
-# public Python image or from a locally made one (no registry reachable):
+# syntax=docker/dockerfile:1
+# facesynth services image. The base image is a build argument, so the image builds from a public
+# Python image or from a locally made one where no registry is reachable (deploy/base-image.sh):
 #   docker build --build-arg BASE_IMAGE=python:3.11-slim -t facesynth .
-# The base must provide python3 (>= 3.11) with pip.
+# The base must provide python3 (>= 3.11) with venv. EXTRAS="all" (tracker, uvloop, face page,
+# VMC, recording, certs); EXTRAS="fast" (or "") builds the servo-board image
+# (control, translator, features, router, status: no OpenCV, no inference runtime).
+# Behind a TLS-intercepting proxy, give pip the proxy's CA, which never enters the image: as a build
+# secret (docker build --secret id=pip_ca,src=/etc/ssl/certs/ca-certificates.crt .), or, for
+# docker-compose v1, which cannot pass build secrets, as deploy/build-ca/ca.crt (git-ignored).
 ARG BASE_IMAGE=python:3.11-slim
-FROM ${BASE_IMAGE}
 
-# Which extras to install: "all" (tracker + uvloop + face page and VMC) or "" for a servo-board-only image.
+FROM ${BASE_IMAGE} AS build
 ARG EXTRAS=all
-ENV PYTHONUNBUFFERED=1 PIP_NO_CACHE_DIR=1 PIP_DISABLE_PIP_VERSION_CHECK=1
-
+ENV PIP_NO_CACHE_DIR=1 PIP_DISABLE_PIP_VERSION_CHECK=1
 WORKDIR /src
 COPY pyproject.toml README.md LICENSE ./
 COPY facesynth ./facesynth
 COPY schemas ./schemas
 COPY services ./services
-RUN python3 -m pip install "./[${EXTRAS}]" && facesynth --version
+RUN --mount=type=secret,id=pip_ca --mount=type=bind,source=deploy/build-ca,target=/build-ca \
+    set -e; \
+    for ca in /run/secrets/pip_ca /build-ca/ca.crt; do if [ -s "$ca" ]; then export PIP_CERT="$ca"; fi; done; \
+    python3 -m venv /opt/facesynth; \
+    /opt/facesynth/bin/pip install "./${EXTRAS:+[$EXTRAS]}"; \
+    /opt/facesynth/bin/pip uninstall -q -y pip setuptools; \
+    find /opt/facesynth/lib -depth -type d -name tests -path '*/site-packages/*' -exec rm -rf {} +; \
+    /opt/facesynth/bin/facesynth --version
 
+FROM ${BASE_IMAGE}
+COPY --from=build /opt/facesynth /opt/facesynth
+# An unprivileged user (numeric, so the base image needs no useradd); it owns only its home and
+# the working directory, where a recorder writes unless given a mounted folder.
+RUN mkdir -p /home/facesynth /data && chown 10001:10001 /home/facesynth /data
+ENV PATH=/opt/facesynth/bin:$PATH HOME=/home/facesynth PYTHONUNBUFFERED=1
+USER 10001:10001
 WORKDIR /data
+# Healthy while this container's service holds its liveliness token on the rig's router
+# (the router's own container checks that it accepts sessions instead).
+HEALTHCHECK --interval=15s --timeout=10s --start-period=60s --retries=3 CMD ["facesynth", "health"]
 ENTRYPOINT ["facesynth"]
 CMD ["--help"]

@@ -4,7 +4,8 @@ VENV ?= .venv
 PYTHON ?= python3
 BIN := $(VENV)/bin
 
-.PHONY: demo test test-browser lint bench bench-drivers install clean firmware-test
+.PHONY: demo test test-browser lint bench bench-drivers install clean firmware-test test-deploy \
+	test-containers test-netns test-board
 
 $(BIN)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -21,12 +22,25 @@ demo: $(BIN)/.installed
 
 ## Lint, type-check, schema freshness, and the whole test suite (the browser group last).
 test: $(BIN)/.installed lint
-	$(BIN)/python -m pytest -q -m "not browser"
+	$(BIN)/python -m pytest -q -m "not browser and not containers and not netns and not board"
 	$(BIN)/python -m pytest -q -m browser
 
 ## The live face page in a real headless Chromium (Debian's chromium and chromium-driver).
 test-browser: $(BIN)/.installed
 	$(BIN)/python -m pytest -q -m browser
+
+## The deployment groups (root; .ci/run installs what they need): docker-compose on Podman,
+## services on separate hosts in network namespaces, the servo-board install.
+test-deploy: test-board test-netns test-containers
+
+test-containers: $(BIN)/.installed
+	$(BIN)/python -m pytest -q -s -m containers tests/containers
+
+test-netns: $(BIN)/.installed
+	$(BIN)/python -m pytest -q -s -m netns tests/netns
+
+test-board: $(BIN)/.installed
+	$(BIN)/python -m pytest -q -s -m board tests/board
 
 lint: $(BIN)/.installed
 	$(BIN)/ruff check .

@@ -180,6 +180,13 @@ class ServiceStats(msgspec.Struct, tag="service_stats", tag_field=TAG_FIELD, kw_
     peak_rss_mb: float = 0.0
     window: int = 0
     note: str = ""
+    #: Connected to a Zenoh router when the figures were taken (``None``: no router to lose,
+    #: e.g. a router's own session or an in-memory bus).
+    router_connected: bool | None = None
+    #: Times the service lost its last router since it started.
+    router_losses: int = 0
+    #: Seconds the service spent without a router since it first had one.
+    router_offline_s: float = 0.0
 
 
 #: Every message struct, in tag order, for schema export and generic decoding.

@@ -25,6 +25,8 @@ COMMANDS = [
     "calibrate",
     "firmware",
     "render",
+    "certs",
+    "health",
 ]
 
 
@@ -302,9 +304,21 @@ def test_a_taken_page_port_is_one_error_line(capsys: pytest.CaptureFixture[str])
         taken.bind(("127.0.0.1", 0))
         taken.listen()
         address = f"127.0.0.1:{taken.getsockname()[1]}"
-        argv = ["run", "--profile", "virtual", "--driver", "virtual", "--http", address,
-                "--ticks", "3", "--openface-csv", "facesynth/app/data/OpenFace_Test.csv",
-                "--listen", "tcp/127.0.0.1:0"]
+        argv = [
+            "run",
+            "--profile",
+            "virtual",
+            "--driver",
+            "virtual",
+            "--http",
+            address,
+            "--ticks",
+            "3",
+            "--openface-csv",
+            "facesynth/app/data/OpenFace_Test.csv",
+            "--listen",
+            "tcp/127.0.0.1:0",
+        ]
         assert main(argv) == 1
     err = capsys.readouterr().err
     assert f"facesynth run: error: cannot serve the live face page on {address}" in err

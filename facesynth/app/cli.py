@@ -153,9 +153,7 @@ def build_parser() -> argparse.ArgumentParser:
         "write the side-by-side video of a chain's input video: performer with landmarks | "
         "virtual face | servo bars, one output frame per input frame",
     )
-    p.add_argument(
-        "graph", nargs="?", metavar="GRAPH", help="graph file (default: the demo graph)"
-    )
+    p.add_argument("graph", nargs="?", metavar="GRAPH", help="graph file (default: the demo graph)")
     p.add_argument("--out", required=True, metavar="OUT.mp4", help="video file (.mp4, .avi, …)")
     p.add_argument(
         "--bars",
@@ -181,8 +179,73 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", metavar="FILE", help="write here (default: print it)")
     p.add_argument(
         "--graph-path",
-        default="/etc/facesynth/graph.toml",
-        help="where the graph is mounted in the containers (default /etc/facesynth/graph.toml)",
+        help="where the graph is seen in the containers (default: its place under deploy/, "
+        "mounted at /etc/facesynth, e.g. /etc/facesynth/graph.toml)",
+    )
+    p.add_argument(
+        "--secure",
+        action="store_true",
+        help="write the override that secures every link (mutual TLS, access control)",
+    )
+    p.add_argument(
+        "--override",
+        action="store_true",
+        help="write an override that runs this graph's nodes in place of the same-named "
+        "services (e.g. a control node with another driver)",
+    )
+
+    p = add(
+        "certs",
+        commands.cmd_certs,
+        "make a rig's CA, a certificate per service and the Zenoh configs of a secured rig "
+        "(mutual TLS, access control)",
+    )
+    p.add_argument("rig", metavar="RIG", help="rig name (the configs' access control is for it)")
+    p.add_argument("--out", default="certs", help="folder to write to (default ./certs)")
+    p.add_argument(
+        "--router-host",
+        action="append",
+        default=[],
+        metavar="NAME",
+        help="a host name or IP address clients reach the router by, put in its certificate "
+        "(repeatable; 'router', 'localhost' and 127.0.0.1 are always in)",
+    )
+    p.add_argument(
+        "--connect",
+        action="append",
+        metavar="ENDPOINT",
+        help="the router endpoint written into the service configs (repeatable; default "
+        "tls/localhost:7447)",
+    )
+    p.add_argument(
+        "--listen",
+        action="append",
+        metavar="ENDPOINT",
+        help="the endpoint written into the router config (default tls/0.0.0.0:7447)",
+    )
+    p.add_argument(
+        "--cert-dir",
+        metavar="PATH",
+        help="where the hosts will keep these files, as the configs name them "
+        "(default: --out, absolute)",
+    )
+    p.add_argument(
+        "--identity",
+        action="append",
+        metavar="NAME",
+        help="issue only these identities (repeatable; default all: sensor, points, features, "
+        "translator, control, observer, router)",
+    )
+    p.add_argument(
+        "--days", type=int, default=825, help="validity of the certificates (default 825 days)"
+    )
+    p.add_argument(
+        "--force", action="store_true", help="reissue certificates that exist (the CA is kept)"
+    )
+    p.add_argument(
+        "--configs-only",
+        action="store_true",
+        help="write only the Zenoh configs (no keys or certificates)",
     )
 
     p = add(
@@ -227,6 +290,25 @@ def build_parser() -> argparse.ArgumentParser:
         "--timeout", type=float, default=2.5, help="seconds to listen for stats (default 2.5)"
     )
 
+    p = add(
+        "health",
+        commands.cmd_health,
+        "exit 0 if a service of this host holds its liveliness token on the router (or, with "
+        "--router, if the router accepts sessions); 1 if not: a container health check",
+    )
+    _zenoh_arguments(p)
+    p.add_argument(
+        "--router", action="store_true", help="check that the router accepts a session instead"
+    )
+    p.add_argument(
+        "--host",
+        help="whose services to look for: instance ids start with this host name "
+        "(default: this host's)",
+    )
+    p.add_argument(
+        "--timeout", type=float, default=3.0, help="seconds to wait for answers (default 3)"
+    )
+
     p = add("profile", commands.cmd_profile, "list or check robot profiles")
     p.add_argument("action", choices=("list", "check", "show"))
     p.add_argument("name", nargs="?", help="profile name or TOML path (check, show)")
@@ -264,9 +346,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--encoding", choices=("jpeg", "raw"), default="jpeg", help="chain: frame encoding"
     )
     p.add_argument("--threads", type=int, default=1, help="chain: tracker inference threads")
-    p.add_argument(
-        "--profile", default="paper16", help="smoothing, drivers: profile to measure"
-    )
+    p.add_argument("--profile", default="paper16", help="smoothing, drivers: profile to measure")
     p.add_argument(
         "--track", help="smoothing: a facesynth track file to measure tracking noise from"
     )

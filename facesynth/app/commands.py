@@ -19,7 +19,7 @@ from facesynth.app.chain import (
     run_chain,
     run_single,
 )
-from facesynth.app.compose import compose_file
+from facesynth.app.compose import compose_file, override_file, secure_file
 from facesynth.app.control_tools import TEST_OPTIONS, cmd_control_tool
 from facesynth.app.graph import Graph, load_graph, select_node
 from facesynth.app.nodes import NODE_TYPES, SensorNode, stage_of
@@ -90,7 +90,7 @@ def cmd_run(args: argparse.Namespace) -> int:
 
     async def main() -> ChainResult:
         session, locators = await asyncio.to_thread(open_embedded, listen, options)
-        bus = ZenohBus(session)
+        bus = ZenohBus(session, mode="router")
         log.info("embedded Zenoh router on %s (rig %s)", ", ".join(locators), rig)
         freeze_startup_objects()
         try:
@@ -138,20 +138,58 @@ def cmd_render(args: argparse.Namespace) -> int:
             del graph.nodes[name]
             continue
         graph.nodes[name], configs[name] = apply_arguments(name, node, args)
-    summary = render_graph(
-        graph, configs, args.out, bars=args.bars, same_size=args.same_size
-    )
+    summary = render_graph(graph, configs, args.out, bars=args.bars, same_size=args.same_size)
     print(json.dumps(summary))
     return 0
 
 
 def cmd_compose(args: argparse.Namespace) -> int:
     """``facesynth compose GRAPH``: the docker-compose file for a graph."""
-    text = compose_file(load_graph(args.graph), args.graph, graph_path=args.graph_path)
+    graph = load_graph(args.graph)
+    if args.secure and args.override:
+        raise OptionError("choose one of --secure and --override")
+    if args.secure:
+        text = secure_file(graph, args.graph)
+    elif args.override:
+        text = override_file(graph, args.graph, graph_path=args.graph_path)
+    else:
+        text = compose_file(graph, args.graph, graph_path=args.graph_path)
     if args.out:
-        write_atomic(Path(args.out), text.encode())
+        write_atomic(Path(args.out), text.encode(), mode=0o644)
     else:
         print(text, end="")
+    return 0
+
+
+def cmd_certs(args: argparse.Namespace) -> int:
+    """``facesynth certs RIG``: a rig's CA, certificates and secured Zenoh configs."""
+    from facesynth.app.certs import CertRequest, describe, make_certs
+    from facesynth.app.secure import CertPaths, rig_configs
+
+    out = Path(args.out)
+    connect = endpoints(args.connect) or ["tls/localhost:7447"]
+    listen = endpoints(args.listen) or ["tls/0.0.0.0:7447"]
+    if args.configs_only:
+        paths = CertPaths(args.cert_dir or str(out.resolve()))
+        written = [
+            write_atomic(out / name, text, mode=0o644)
+            for name, text in rig_configs(args.rig, paths, connect=connect, listen=listen).items()
+        ]
+    else:
+        request = CertRequest(
+            rig=args.rig,
+            out=out,
+            router_names=args.router_host,
+            days=args.days,
+            force=args.force,
+            connect=connect,
+            listen=listen,
+            cert_dir=args.cert_dir,
+        )
+        if args.identity:
+            request.identities = args.identity
+        written = make_certs(request)
+    print(describe(written, out))
     return 0
 
 
@@ -217,7 +255,8 @@ def format_status(alive: list[str], stats: dict[str, Any]) -> str:
     by_instance = {keys.parse_service_key(k): s for k, s in stats.items()}
     header = (
         f"{'rig':<12} {'service':<11} {'instance':<28} {'rate Hz':>8} {'p50 ms':>8} "
-        f"{'p99 ms':>8} {'recv':>7} {'sent':>7} {'drop':>5} {'rej':>5} {'RSS MB':>7}  state"
+        f"{'p99 ms':>8} {'recv':>7} {'sent':>7} {'drop':>5} {'rej':>5} {'router':<21} "
+        f"{'RSS MB':>7}  state"
     )
     lines = [header]
     for key in alive:
@@ -232,12 +271,67 @@ def format_status(alive: list[str], stats: dict[str, Any]) -> str:
         p99 = f"{s.latency_p99_ms:.2f}" if s.latency_p99_ms is not None else "-"
         lines.append(
             f"{parsed[0]:<12} {parsed[1]:<11} {parsed[2]:<28} {s.rate_hz:>8.1f} {p50:>8} {p99:>8} "
-            f"{s.received:>7} {s.published:>7} {s.dropped:>5} {s.rejected:>5} {s.rss_mb:>7.1f}"
-            + (f"  {s.note}" if s.note else "")
+            f"{s.received:>7} {s.published:>7} {s.dropped:>5} {s.rejected:>5} "
+            f"{describe_link(s):<21} {s.rss_mb:>7.1f}" + (f"  {s.note}" if s.note else "")
         )
     if len(lines) == 1:
         lines.append("(no live services)")
     return "\n".join(lines)
+
+
+def cmd_health(args: argparse.Namespace) -> int:
+    """``facesynth health``: 0 when this host's service is live on the rig's router, else 1.
+
+    Unhealthy is exit status 1 whatever the reason (no router, no token), as container health
+    checks expect; the reason is printed.
+    """
+    from facesynth.runtime.bus.zenoh_bus import ZenohConfigError
+    from facesynth.runtime.service import host_id
+
+    options = wiring.zenoh_options(args)
+    # Give up on an absent router within the timeout, whatever the config file says.
+    options.overrides.update(
+        {"connect/timeout_ms": round(args.timeout * 1000), "connect/exit_on_failure": True}
+    )
+    host = args.host or host_id()
+
+    async def main() -> tuple[bool, str]:
+        try:
+            bus = await asyncio.to_thread(ZenohBus.open, options)
+        except ZenohConfigError as exc:
+            return False, str(exc)
+        try:
+            if args.router:
+                routers = [str(z) for z in bus.session.info.routers_zid()]
+                if routers:
+                    return True, f"router {routers[0][:8]} accepts sessions"
+                return False, "no router answered"
+            alive = await bus.alive(keys.health_pattern(args.rig), timeout=args.timeout)
+            mine = [
+                key
+                for key in alive
+                if (parsed := keys.parse_service_key(key)) and parsed[2].startswith(f"{host}-")
+            ]
+            if mine:
+                return True, " ".join(mine)
+            return False, f"no live service of host {host!r} on the router"
+        finally:
+            await bus.close()
+
+    healthy, reason = run_async(main())
+    print(f"{'healthy' if healthy else 'unhealthy'}: {reason}")
+    return 0 if healthy else 1
+
+
+def describe_link(stats: Any) -> str:
+    """A service's link to its router, from its stats: up, down, and how often it was lost."""
+    connected = getattr(stats, "router_connected", None)
+    if connected is None:
+        return "-"
+    state = "up" if connected else "down"
+    if stats.router_losses:  # how often it was lost, and the time spent without it
+        state += f", lost {stats.router_losses}x ({stats.router_offline_s:.1f} s)"
+    return state
 
 
 def cmd_profile(args: argparse.Namespace) -> int:

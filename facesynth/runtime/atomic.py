@@ -16,11 +16,13 @@ from typing import BinaryIO
 
 
 @contextlib.contextmanager
-def open_atomic(path: str | os.PathLike[str]) -> Iterator[BinaryIO]:
+def open_atomic(path: str | os.PathLike[str], mode: int | None = None) -> Iterator[BinaryIO]:
     """A binary file that replaces ``path`` when the ``with`` block ends without an exception.
 
     For contents written piece by piece (a track file, frame after frame); an exception in the
-    block leaves ``path`` untouched and no temporary file behind.
+    block leaves ``path`` untouched and no temporary file behind. The file is readable by its
+    owner only (0600) unless ``mode`` says otherwise; the mode is set before the file takes its
+    name, so it is never readable more widely (private keys stay 0600 throughout).
     """
     target = Path(path)
     target.parent.mkdir(parents=True, exist_ok=True)
@@ -30,6 +32,8 @@ def open_atomic(path: str | os.PathLike[str]) -> Iterator[BinaryIO]:
             yield handle
             handle.flush()
             os.fsync(handle.fileno())
+        if mode is not None:
+            os.chmod(tmp, mode)
         os.replace(tmp, target)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
@@ -42,9 +46,10 @@ def open_atomic(path: str | os.PathLike[str]) -> Iterator[BinaryIO]:
             os.close(folder)
 
 
-def write_atomic(path: str | os.PathLike[str], data: bytes | str) -> Path:
-    """Write ``data`` (text as UTF-8) to ``path`` atomically; returns the path written."""
+def write_atomic(path: str | os.PathLike[str], data: bytes | str, mode: int | None = None) -> Path:
+    """Write ``data`` (text as UTF-8) to ``path`` atomically, with file ``mode`` (default 0600);
+    returns the path written."""
     raw = data.encode() if isinstance(data, str) else data
-    with open_atomic(path) as handle:
+    with open_atomic(path, mode) as handle:
         handle.write(raw)
     return Path(path)

@@ -34,10 +34,15 @@ Body = Callable[["ServiceContext"], Awaitable[Any]]
 log = logging.getLogger("facesynth")
 
 
+def host_id() -> str:
+    """This host's name as it starts every instance id made here (see :func:`default_instance`)."""
+    host = "".join(c if c.isalnum() or c in "-_." else "-" for c in socket.gethostname())[:40]
+    return host or "host"
+
+
 def default_instance() -> str:
     """An instance id unique on this network: host name and process id."""
-    host = "".join(c if c.isalnum() or c in "-_." else "-" for c in socket.gethostname())[:40]
-    return f"{host or 'host'}-{os.getpid()}"
+    return f"{host_id()}-{os.getpid()}"
 
 
 @dataclass
@@ -122,7 +127,7 @@ class ServiceContext:
     def publish_stats(self, note: str = "") -> None:
         """Publish the current figures on this instance's stats key."""
         self.stats.dropped = self.dropped()
-        snapshot = self.stats.snapshot(self.clock.time_ns(), note=note)
+        snapshot = self.stats.snapshot(self.clock.time_ns(), note=note, link=self.bus.link())
         key = keys.stats_key(self.rig, self.service, self.instance)
         self.bus.publish(key, codec.encode(snapshot))
 

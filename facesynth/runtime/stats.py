@@ -10,6 +10,7 @@ import time
 
 import numpy as np
 
+from facesynth.runtime.bus.link import LinkFigures
 from schemas.messages import ServiceStats
 
 RATE_WINDOW_NS = 5_000_000_000
@@ -69,8 +70,10 @@ class StageStats:
         span = max(now_ns - times[0], 1)
         return (len(times) - 1) * 1e9 / span
 
-    def snapshot(self, now_ns: int | None = None, note: str = "") -> ServiceStats:
-        """The current figures as a :class:`ServiceStats` message."""
+    def snapshot(
+        self, now_ns: int | None = None, note: str = "", link: LinkFigures | None = None
+    ) -> ServiceStats:
+        """The current figures as a :class:`ServiceStats` message (with the router link's)."""
         now = time.time_ns() if now_ns is None else now_ns
         p50 = p99 = None
         if self.latencies_ms:
@@ -94,4 +97,7 @@ class StageStats:
             peak_rss_mb=peak,
             window=len(self.latencies_ms),
             note=note or self.note,
+            router_connected=None if link is None else link.connected,
+            router_losses=0 if link is None else link.losses,
+            router_offline_s=0.0 if link is None else round(link.offline_s, 3),
         )

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
-from facesynth.app.commands import format_status
+import msgspec
+
+from facesynth.app.commands import describe_link, format_status
 from schemas.messages import ServiceStats
 
 
@@ -30,3 +32,23 @@ def test_the_state_note_ends_its_line() -> None:
     assert header.endswith("RSS MB  state")
     assert line.startswith("r1") and line.endswith("  disconnected from /dev/ttyACM0 (3 attempts)")
     assert format_status(alive, {key: stats("")}).splitlines()[1].endswith("0.0")
+
+
+def test_the_router_column_says_how_the_link_fared() -> None:
+    key = "facesynth/r1/stats/control/host-1"
+    alive = ["facesynth/r1/health/control/host-1"]
+    lost = msgspec.structs.replace(
+        stats("driver ok"), router_connected=True, router_losses=4, router_offline_s=79.71
+    )
+    header, line = format_status(alive, {key: lost}).splitlines()
+    assert header.index("router") == line.index("up, lost 4x (79.7 s)")
+    assert line.endswith("  driver ok")
+    fresh = msgspec.structs.replace(stats(""), router_connected=True)
+    assert (
+        format_status(alive, {key: fresh})
+        .splitlines()[1][header.index("router") :]
+        .startswith("up ")
+    )
+    assert describe_link(stats("")) == "-"  # no router to lose (a router, an in-memory bus)
+    down = msgspec.structs.replace(stats(""), router_connected=False, router_losses=1)
+    assert describe_link(down) == "down, lost 1x (0.0 s)"

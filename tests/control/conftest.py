@@ -11,9 +11,9 @@ import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "firmware"))
 
+from facesynth_processes import Processes
 from fake_devices.maestro import FakeMaestro
 from fake_devices.ssc32 import FakeSSC32
-from spawned import Processes
 from uno_rig import UnoRig, firmware_ready
 
 __all__ = ["firmware_ready"]

@@ -20,8 +20,8 @@ from collections.abc import AsyncIterator, Iterator
 from pathlib import Path
 
 import pytest
+from facesynth_processes import Processes
 from profile_files import write_profile
-from spawned import Processes
 from uno_rig import UnoRig
 
 from facesynth.runtime import codec, keys

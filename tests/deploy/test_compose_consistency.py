@@ -2,16 +2,22 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterator, Mapping
 from pathlib import Path
+from typing import Annotated
 
+import msgspec
 import pytest
 import yaml
 import zenoh
 
 from facesynth.app.cli import build_parser
-from facesynth.app.compose import compose_file
+from facesynth.app.compose import compose_file, override_file, secure_file
 from facesynth.app.graph import load_graph
 from facesynth.app.nodes import stage_of
+from services.control.core import CommandInfo
+from services.control.drivers.base import ServoDriver
+from services.control.drivers.registry import DRIVERS
 
 ROOT = Path(__file__).resolve().parents[2]
 COMPOSE = yaml.safe_load((ROOT / "docker-compose.yml").read_text())
@@ -79,3 +85,128 @@ def test_dockerfile_takes_base_image_as_build_argument() -> None:
     assert "ARG BASE_IMAGE" in text and "FROM ${BASE_IMAGE}" in text
     build_args = {s["build"]["args"]["BASE_IMAGE"] for s in SERVICES.values() if "build" in s}
     assert build_args == {"${FACESYNTH_BASE_IMAGE:-python:3.11-slim}"}
+
+
+def test_secure_override_is_generated_from_the_graph() -> None:
+    generated = secure_file(GRAPH, "deploy/graph.toml")
+    assert (ROOT / "docker-compose.secure.yml").read_text() == generated, (
+        "docker-compose.secure.yml is stale: run facesynth compose deploy/graph.toml --secure "
+        "--out docker-compose.secure.yml"
+    )
+    secure = yaml.safe_load(generated)["services"]
+    assert set(secure) == set(SERVICES)
+    for name, service in secure.items():
+        if name == "router":
+            config = service["command"][service["command"].index("--zenoh-config") + 1]
+        else:
+            config = service["environment"]["ZENOH_CONFIG"]
+            assert Path(config).stem == stage_of(GRAPH.nodes[name])
+        assert (ROOT / "deploy" / "secure" / Path(config).name).is_file()
+        assert service["volumes"] == ["./certs:/etc/facesynth-certs:ro"]
+
+
+def test_secure_override_needs_the_rig_of_deploy_secure() -> None:
+    other = load_graph(ROOT / "deploy" / "graph.toml")
+    other.rig = "lab"
+    with pytest.raises(ValueError, match="deploy/secure is written for rig 'default'"):
+        secure_file(other, "g.toml")
+
+
+def test_tracker_stages_use_the_full_image_and_the_rest_the_board_image() -> None:
+    images = {name: service["image"] for name, service in SERVICES.items()}
+    assert images == {
+        "router": "facesynth-board:latest",
+        "sensor": "facesynth:latest",
+        "points": "facesynth:latest",
+        "features": "facesynth-board:latest",
+        "translator": "facesynth-board:latest",
+        "control": "facesynth-board:latest",
+    }
+    extras = {s["image"]: s["build"]["args"]["EXTRAS"] for s in SERVICES.values()}
+    assert extras == {"facesynth:latest": "all", "facesynth-board:latest": "fast,face"}
+    for service in SERVICES.values():
+        assert service["user"] == "${FACESYNTH_UID:-10001}:${FACESYNTH_GID:-10001}"
+    health = SERVICES["router"]["healthcheck"]["test"]
+    assert health[:2] == ["CMD", "facesynth"] and build_parser().parse_args(health[2:]).router
+
+
+class PortConfig(
+    msgspec.Struct, tag="porty", tag_field="driver", kw_only=True, forbid_unknown_fields=True
+):
+    """A test driver naming a serial device."""
+
+    port: Annotated[str, msgspec.Meta(description="serial device")]
+    log: Annotated[str, msgspec.Meta(description="log file")] = "/recordings/porty.jsonl"
+
+
+class PortDriver(ServoDriver):
+    def __init__(self, config: PortConfig, profile: object) -> None:
+        pass
+
+    async def connect(self) -> None:
+        pass
+
+    async def send(self, positions: Mapping[str, float], info: CommandInfo) -> None:
+        pass
+
+    async def close(self) -> None:
+        pass
+
+
+@pytest.fixture
+def port_driver() -> Iterator[None]:
+    DRIVERS.register(PortConfig)(PortDriver)
+    yield
+    DRIVERS.unregister("porty")
+
+
+def test_a_controller_override_passes_its_device_through(port_driver: None, tmp_path: Path) -> None:
+    folder = tmp_path / "deploy" / "controllers"
+    folder.mkdir(parents=True)
+    graph_file = folder / "serial.toml"
+    graph_file.write_text(
+        '[nodes.control]\nstage = "control"\nprofile = "paper16"\n'
+        'driver = { driver = "porty", port = "/dev/ttyACM0" }\n'
+    )
+    # the graph lies under a folder named deploy: the containers see it under /etc/facesynth
+    text = override_file(load_graph(graph_file), str(graph_file))
+    control = yaml.safe_load(text)["services"]["control"]
+    assert control["command"] == [
+        "control",
+        "--graph",
+        "/etc/facesynth/controllers/serial.toml",
+        "--node",
+        "control",
+    ]
+    assert control["devices"] == ["/dev/ttyACM0:/dev/ttyACM0"]
+    assert control["group_add"] == ["${FACESYNTH_DEVICE_GID:-20}"]
+    assert control["volumes"] == ["./deploy:/etc/facesynth:ro", "./recordings:/recordings"]
+    assert "build" not in control and "image" not in control
+
+
+def test_a_node_called_router_is_refused() -> None:
+    graph = load_graph(ROOT / "deploy" / "graph.toml")
+    graph.nodes["router"] = graph.nodes.pop("features")
+    with pytest.raises(ValueError, match="may not be called 'router'"):
+        compose_file(graph, "g.toml")
+
+
+@pytest.mark.parametrize(
+    "graph_file", sorted((ROOT / "deploy" / "controllers").glob("*.toml")), ids=lambda p: p.stem
+)
+def test_controller_overrides_are_generated_from_their_graphs(graph_file: Path) -> None:
+    relative = graph_file.relative_to(ROOT).as_posix()
+    generated = override_file(load_graph(graph_file), relative)
+    target = ROOT / f"docker-compose.{graph_file.stem}.yml"
+    assert target.is_file() and target.read_text() == generated, (
+        f"{target.name} is stale: run facesynth compose {relative} --override --out {target.name}"
+    )
+    for name, service in yaml.safe_load(generated)["services"].items():
+        assert name in SERVICES, "an override replaces services of the main compose file"
+        args = build_parser().parse_args(service["command"])
+        assert args.graph == f"/etc/facesynth/controllers/{graph_file.name}"
+
+
+def test_a_server_on_every_interface_is_published_on_the_hosts_loopback() -> None:
+    virtual = yaml.safe_load((ROOT / "docker-compose.virtual.yml").read_text())["services"]
+    assert virtual["control"]["ports"] == ["127.0.0.1:${FACESYNTH_PORT_8080:-8080}:8080"]

@@ -22,6 +22,8 @@ from dataclasses import dataclass
 from types import TracebackType
 from typing import Self
 
+from facesynth.runtime.bus.link import LinkFigures
+
 
 @dataclass(frozen=True, slots=True)
 class Sample:
@@ -233,6 +235,11 @@ class Bus(abc.ABC):
     @abc.abstractmethod
     async def alive(self, key_expr: str, timeout: float = 1.0) -> list[str]:
         """Keys of the liveliness tokens currently matching ``key_expr``."""
+
+    def link(self, now_ns: int | None = None) -> LinkFigures | None:
+        """How the link to the router has fared (at ``now_ns``, monotonic, default now), or
+        ``None`` where there is no router to lose (an in-memory bus, a router's own session)."""
+        return None
 
     @abc.abstractmethod
     async def close(self) -> None:

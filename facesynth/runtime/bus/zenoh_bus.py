@@ -11,7 +11,9 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import json
+import logging
 import os
+import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -19,10 +21,13 @@ from typing import Any
 import zenoh
 
 from facesynth.runtime.bus.base import Bus, Subscription, Token
+from facesynth.runtime.bus.link import LinkFigures, RouterLink, short_id
 
 #: Where services look for a router when given no --connect (``facesynth router``'s default).
 DEFAULT_ROUTER = "tcp/127.0.0.1:7447"
 MODES = ("peer", "client", "router")
+
+log = logging.getLogger("facesynth.link")
 
 
 class ZenohConfigError(ValueError):
@@ -45,10 +50,19 @@ class ZenohOptions:
     listen: list[str] = field(default_factory=list)
     config_file: str | None = None
     scouting: bool = False
+    #: Further settings by config path, e.g. ``{"connect/timeout_ms": 3000}``; applied last.
+    overrides: dict[str, Any] = field(default_factory=dict)
 
     def config_file_path(self) -> str | None:
         """The config file in force: ``config_file``, else ``$ZENOH_CONFIG``, else none."""
         return self.config_file or os.environ.get("ZENOH_CONFIG") or None
+
+    def effective_mode(self) -> str:
+        """The session mode these options give (``mode``, else the config file's, else peer)."""
+        try:
+            return str(json.loads(self.build().get_json("mode")) or "peer")
+        except (ZenohConfigError, ValueError, TypeError):
+            return self.mode or "peer"
 
     def build(self) -> zenoh.Config:
         """The ``zenoh.Config`` these options describe."""
@@ -69,6 +83,8 @@ class ZenohOptions:
             if not self.scouting:
                 config.insert_json5("scouting/multicast/enabled", "false")
             config.insert_json5("adminspace/enabled", "true")
+            for path, value in self.overrides.items():
+                config.insert_json5(path, json.dumps(value))
         except Exception as exc:
             raise ZenohConfigError(f"invalid Zenoh option: {exc}") from None
         return config
@@ -131,21 +147,76 @@ class _ZenohToken(Token):
                 token.undeclare()
 
 
-class ZenohBus(Bus):
-    """A bus over one Zenoh session; several buses may share a session (``owns_session``)."""
+class _TransportWatch:
+    """Logs the session's transports opening and closing, and follows its link to routers.
 
-    def __init__(self, session: zenoh.Session, *, owns_session: bool = True) -> None:
+    Zenoh reports transport events on its own thread; the handler only updates a
+    :class:`RouterLink` and logs. A router's own session logs the sessions it serves instead.
+    """
+
+    def __init__(self, session: zenoh.Session, *, is_router: bool) -> None:
+        self.link = RouterLink()
+        self.is_router = is_router
+        self._listener: Any = None
+        try:
+            self._listener = session.info.declare_transport_events_listener(
+                self._on_event, history=True
+            )
+        except Exception as exc:  # pragma: no cover - a Zenoh without transport events
+            log.debug("transport events unavailable: %s", exc)
+
+    def _on_event(self, event: Any) -> None:
+        now = time.monotonic_ns()
+        transport = event.transport
+        zid = str(transport.zid)
+        whatami = str(transport.whatami).rsplit(".", 1)[-1].lower()
+        opened = event.kind == zenoh.SampleKind.PUT
+        if self.is_router:
+            state = "connected" if opened else "disconnected"
+            log.info("%s %s %s", whatami, short_id(zid), state)
+            return
+        if whatami != "router":
+            log.debug("%s %s %s", whatami, short_id(zid), "opened" if opened else "closed")
+            return
+        line = self.link.opened(zid, now) if opened else self.link.closed(zid, now)
+        if line:
+            log.log(logging.INFO if opened else logging.WARNING, "%s", line)
+
+    def close(self) -> None:
+        listener, self._listener = self._listener, None
+        if listener is not None:
+            with contextlib.suppress(Exception):  # the session is already closed
+                listener.undeclare()
+
+
+class ZenohBus(Bus):
+    """A bus over one Zenoh session; several buses may share a session (``owns_session``).
+
+    It logs losing and regaining the router (``facesynth.link``) and reports it in
+    :meth:`link`, which services publish in their stats.
+    """
+
+    def __init__(
+        self, session: zenoh.Session, *, owns_session: bool = True, mode: str | None = None
+    ) -> None:
         self.session = session
         self._owns_session = owns_session
         self._publishers: dict[str, Any] = {}
         self._subscriptions: list[Subscription] = []
         self._tokens: list[Token] = []
         self._closed = False
+        self._watch = _TransportWatch(session, is_router=mode == "router")
+
+    def link(self, now_ns: int | None = None) -> LinkFigures | None:
+        """The link to the router (``None`` for a router's own session); monotonic time."""
+        if self._watch.is_router:
+            return None
+        return self._watch.link.figures(time.monotonic_ns() if now_ns is None else now_ns)
 
     @classmethod
     def open(cls, options: ZenohOptions) -> ZenohBus:
         """Open a session from ``options`` and wrap it."""
-        return cls(open_session(options))
+        return cls(open_session(options), mode=options.effective_mode())
 
     def publish(self, key: str, payload: bytes) -> None:
         publisher = self._publishers.get(key)
@@ -188,6 +259,7 @@ class ZenohBus(Bus):
             with contextlib.suppress(Exception):  # the session is already closed
                 publisher.undeclare()
         self._publishers.clear()
+        self._watch.close()
         if self._owns_session:
             await asyncio.to_thread(self.session.close)
 

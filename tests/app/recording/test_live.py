@@ -10,7 +10,7 @@ from pathlib import Path
 
 import aiohttp
 import pytest
-from conftest import Processes
+from facesynth_processes import Processes
 from foxglove_client import FoxgloveClient, connect
 from mcap.records import Schema
 from mcap_protobuf.decoder import DecoderFactory

@@ -11,7 +11,7 @@ import sys
 import time
 from pathlib import Path
 
-from conftest import Processes, free_port, run_facesynth
+from facesynth_processes import Processes, free_port, run_facesynth
 
 from facesynth.app.recording.reader import Recording
 from facesynth.runtime import codec, keys

@@ -1,0 +1,65 @@
+"""Helpers for the container tests: the engine's environment, free ports, project names."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import socket
+import subprocess
+import uuid
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def require(*tools: str) -> None:
+    """Fail (never skip) with the missing tools named."""
+    missing = [tool for tool in tools if shutil.which(tool) is None]
+    if missing:
+        pytest.fail(
+            f"the container tests need {', '.join(missing)} (apt-get install podman runc "
+            "docker-compose debootstrap uidmap slirp4netns fuse-overlayfs; .ci/run does)"
+        )
+    if os.geteuid() != 0:
+        pytest.fail("the container tests run a rootful Podman: run them as root")
+
+
+def free_port() -> int:
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return int(probe.getsockname()[1])
+
+
+@dataclass
+class Engine:
+    """Podman's Docker API on a private socket, and the environment compose needs."""
+
+    env: dict[str, str]
+
+    def run(
+        self, *argv: str, cwd: Path | None = None, timeout: float = 600, check: bool = True
+    ) -> subprocess.CompletedProcess[str]:
+        result = subprocess.run(
+            list(argv), cwd=cwd, env=self.env, capture_output=True, text=True, timeout=timeout
+        )
+        if check and result.returncode != 0:
+            raise AssertionError(
+                f"{' '.join(argv)} failed ({result.returncode}):\n"
+                f"{result.stdout[-3000:]}\n{result.stderr[-3000:]}"
+            )
+        return result
+
+
+def writable_by_services(path: Path) -> Path:
+    """A folder the containers' user (10001) owns."""
+    path.mkdir(parents=True, exist_ok=True)
+    os.chown(path, 10001, 10001)
+    return path
+
+
+def project_name() -> str:
+    """A compose project name no other run uses."""
+    return f"fs{uuid.uuid4().hex[:8]}"

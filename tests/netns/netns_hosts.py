@@ -1,0 +1,143 @@
+"""Separate "hosts" on one machine: network namespaces joined through an IP router namespace.
+
+::
+
+    tracker (10.233.1.2) ── veth ── iprouter (10.233.1.1 | 10.233.2.1) ── veth ── board (10.233.2.2)
+
+Addresses exist only inside the namespaces made here; nothing is sent anywhere else. The link
+between the IP router and the board can be taken down (``ip link set down``) or made to drop
+every packet silently (``iptables -j DROP`` in the router's FORWARD chain).
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import uuid
+from dataclasses import dataclass, field
+
+import pytest
+
+TRACKER_IP = "10.233.1.2"
+BOARD_IP = "10.233.2.2"
+
+
+def require_root_and_tools() -> None:
+    """Fail (never skip) naming what is missing."""
+    missing = [tool for tool in ("ip", "iptables") if shutil.which(tool) is None]
+    if missing:
+        pytest.fail(
+            f"the separate-hosts tests need {', '.join(missing)} "
+            "(apt-get install iproute2 iptables; .ci/run does)"
+        )
+    if os.geteuid() != 0:
+        pytest.fail("the separate-hosts tests create network namespaces: run them as root")
+
+
+def _ip(*args: str) -> None:
+    result = subprocess.run(["ip", *args], capture_output=True, text=True, timeout=30)
+    if result.returncode != 0:
+        raise AssertionError(f"ip {' '.join(args)}: {result.stderr.strip()}")
+
+
+@dataclass
+class Hosts:
+    """Three namespaces; ``tracker`` and ``board`` reach each other through ``iprouter``."""
+
+    prefix: str = field(default_factory=lambda: f"fs{uuid.uuid4().hex[:6]}")
+
+    @property
+    def tracker(self) -> str:
+        return f"{self.prefix}-tracker"
+
+    @property
+    def iprouter(self) -> str:
+        return f"{self.prefix}-iprouter"
+
+    @property
+    def board(self) -> str:
+        return f"{self.prefix}-board"
+
+    #: The IP router's interface towards the board (the one a cut takes down).
+    board_link = "toboard"
+
+    def create(self) -> None:
+        for ns in (self.tracker, self.iprouter, self.board):
+            _ip("netns", "add", ns)
+            _ip("-n", ns, "link", "set", "lo", "up")
+        _ip(
+            "link",
+            "add",
+            "name",
+            "eth0tr",
+            "netns",
+            self.tracker,
+            "type",
+            "veth",
+            "peer",
+            "name",
+            "totracker",
+            "netns",
+            self.iprouter,
+        )
+        _ip(
+            "link",
+            "add",
+            "name",
+            "eth0bd",
+            "netns",
+            self.board,
+            "type",
+            "veth",
+            "peer",
+            "name",
+            self.board_link,
+            "netns",
+            self.iprouter,
+        )
+        for ns, dev, addr, gateway in (
+            (self.tracker, "eth0tr", f"{TRACKER_IP}/24", "10.233.1.1"),
+            (self.board, "eth0bd", f"{BOARD_IP}/24", "10.233.2.1"),
+        ):
+            _ip("-n", ns, "addr", "add", addr, "dev", dev)
+            _ip("-n", ns, "link", "set", dev, "up")
+            _ip("-n", ns, "route", "add", "default", "via", gateway)
+        for dev, addr in (("totracker", "10.233.1.1/24"), (self.board_link, "10.233.2.1/24")):
+            _ip("-n", self.iprouter, "addr", "add", addr, "dev", dev)
+            _ip("-n", self.iprouter, "link", "set", dev, "up")
+        self.run(self.iprouter, "sysctl", "-qw", "net.ipv4.ip_forward=1")
+
+    def destroy(self) -> None:
+        for ns in (self.tracker, self.iprouter, self.board):
+            subprocess.run(["ip", "netns", "del", ns], capture_output=True, timeout=30)
+
+    def run(self, ns: str, *argv: str) -> str:
+        result = subprocess.run(
+            ["ip", "netns", "exec", ns, *argv], capture_output=True, text=True, timeout=60
+        )
+        if result.returncode != 0:
+            raise AssertionError(f"{' '.join(argv)} in {ns}: {result.stderr.strip()}")
+        return result.stdout
+
+    def link_down(self) -> None:
+        _ip("-n", self.iprouter, "link", "set", self.board_link, "down")
+
+    def link_up(self) -> None:
+        _ip("-n", self.iprouter, "link", "set", self.board_link, "up")
+
+    def drop_start(self) -> None:
+        self.run(self.iprouter, "iptables", "-I", "FORWARD", "-j", "DROP")
+
+    def drop_stop(self) -> None:
+        self.run(self.iprouter, "iptables", "-D", "FORWARD", "-j", "DROP")
+
+    def board_bytes(self) -> int:
+        """Bytes through the board's interface so far, both directions."""
+        stats = self.run(
+            self.board,
+            "cat",
+            "/sys/class/net/eth0bd/statistics/rx_bytes",
+            "/sys/class/net/eth0bd/statistics/tx_bytes",
+        )
+        return sum(int(v) for v in stats.split())
