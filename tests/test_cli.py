@@ -2,12 +2,13 @@
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import pytest
 
 from facesynth.app.cli import build_parser, main
-from facesynth.app.data import sample_openface_csv
+from facesynth.app.data import sample_openface_csv, sample_video
 
 COMMANDS = [
     "run",
@@ -63,7 +64,14 @@ def _files(tmp: Path) -> dict[str, Path]:
     }
     for name, text in files.items():
         (tmp / name).write_text(text)
-    return {name: tmp / name for name in files}
+    paths = {name: tmp / name for name in files}
+    # The bundled video cut at 5 % of its bytes: its container announces 472 frames, 17 decode.
+    truncated = tmp / "truncated.mp4"
+    video = sample_video().read_bytes()
+    truncated.write_bytes(video[: len(video) // 20])
+    folder = tmp / "a-folder"
+    folder.mkdir()
+    return {**paths, "truncated.mp4": truncated, "a-folder": folder}
 
 
 CASES = [
@@ -120,9 +128,92 @@ CASES = [
         "cannot load Zenoh config",
     ),
     (
-        "unreachable router",
-        ["features", "--mode", "client", "--connect", "tcp/127.0.0.1:9"],
+        "unreachable router, no waiting",
+        ["features", "--mode", "client", "--connect", "tcp/127.0.0.1:9", "--router-timeout", "0"],
         "cannot open a Zenoh client session",
+    ),
+    (
+        "truncated video",
+        [
+            "run",
+            "--video",
+            "{truncated.mp4}",
+            "--openface-csv",
+            str(sample_openface_csv()),
+            "--fast",
+            "--listen",
+            "tcp/127.0.0.1:0",
+            "--out",
+            "{a-folder}/c.jsonl",
+        ],
+        "video truncated or corrupt: decoded 17 of 472 frames from",
+    ),
+    (
+        "truncated video, calibrating",
+        [
+            "calibrate",
+            "alice",
+            "--video",
+            "{truncated.mp4}",
+            "--out",
+            "{a-folder}/a.json",
+            "--schedule",
+            "neutral=0-2",
+        ],
+        "video truncated or corrupt: decoded 17 of 472 frames",
+    ),
+    (
+        "record file is a directory",
+        ["control", "--out", "{a-folder}"],
+        "is a directory, not a file",
+    ),
+    (
+        "record file in an unwritable place",
+        ["control", "--out", "/proc/facesynth/commands.jsonl"],
+        "cannot write record file /proc/facesynth/commands.jsonl: /proc is not writable",
+    ),
+    (
+        "record file under a file",
+        ["run", "--out", "{bad.toml}/c.jsonl", "--listen", "tcp/127.0.0.1:0"],
+        "bad.toml is not a directory",
+    ),
+    (
+        "run renders to an unwritable place",
+        ["run", "--render", "/proc/side.mp4", "--listen", "tcp/127.0.0.1:0", "--out", "x"],
+        "cannot write video /proc/side.mp4: /proc is not writable",
+    ),
+    (
+        "run renders to a text file",
+        ["run", "--render", "side.txt", "--listen", "tcp/127.0.0.1:0", "--out", "x"],
+        "use a .mp4, .mov, .mkv, .avi file",
+    ),
+    (
+        "run records over a file",
+        ["run", "--record", "{bad.toml}", "--listen", "tcp/127.0.0.1:0", "--out", "x"],
+        "exists (a session file is never overwritten)",
+    ),
+    ("render into a folder", ["render", "--out", "{a-folder}"], "use a .mp4"),
+    ("render to /proc", ["render", "--out", "/proc/o.mp4"], "/proc is not writable"),
+    (
+        "track to an unwritable place",
+        ["track", "{garbage.mp4}", "--out", "/proc/track.jsonl"],
+        "cannot write track file /proc/track.jsonl",
+    ),
+    (
+        "calibration to an unwritable place",
+        ["calibrate", "alice", "--ticks", "3", "--out", "/proc/alice.json"],
+        "cannot write calibration /proc/alice.json",
+    ),
+    ("performer not a file name", ["features", "--performer", "../x"], "cannot name a state file"),
+    (
+        "media motion time for hardware",
+        ["control", "--driver", "ssc32", "--port", "/dev/null", "--motion-time", "media"],
+        "not for the ssc32 driver: it moves a real head",
+    ),
+    (
+        "unknown motion time",
+        ["control", "--out", "x", "--motion-time", "sideways"],
+        "--motion-time",
     ),
     ("profile check broken", ["profile", "check", "{bad.toml}"], "not valid TOML"),
     ("missing graph", ["run", "/nonexistent/g.toml"], "graph /nonexistent/g.toml does not exist"),
@@ -239,7 +330,7 @@ def test_bad_input_gives_one_clear_error(
     argv: list[str], expected: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     files = _files(tmp_path)
-    argv = [files[a[1:-1]].as_posix() if a.startswith("{") else a for a in argv]
+    argv = [re.sub(r"\{([^}]+)\}", lambda m: files[m.group(1)].as_posix(), a) for a in argv]
     assert main(argv) == 2
     err = capsys.readouterr().err
     assert f"facesynth {argv[0]}: error: " in err

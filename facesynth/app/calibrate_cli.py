@@ -24,6 +24,7 @@ from facesynth.app.wiring import build_backend, build_source
 from facesynth.runtime.calibration import CALIBRATIONS, save_calibration
 from facesynth.runtime.frames import encode_frame
 from facesynth.runtime.keys import check_name
+from facesynth.runtime.outputs import check_output
 from schemas.messages import Frame
 from services.features.calibrate import (
     PROMPTS,
@@ -82,6 +83,7 @@ def run_calibration(args: argparse.Namespace, out: TextIO | None = None) -> Path
     """Record and save a calibration; return its path. Progress goes to ``out`` (stdout)."""
     out = out if out is not None else sys.stdout
     check_name(args.name, "calibration")
+    check_output(Path(args.out) if args.out else default_path(args.name), "calibration")
     _, backend_config = apply_arguments("points", PointsNode(), args)
     _, source_config = apply_arguments("sensor", SensorNode(), args)
     backend = build_backend(backend_config)

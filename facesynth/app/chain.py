@@ -10,6 +10,7 @@ from __future__ import annotations
 import asyncio
 import gc
 import logging
+import threading
 import time
 from collections.abc import Awaitable, Callable
 from dataclasses import dataclass
@@ -48,8 +49,9 @@ async def run_single(
     instance: str | None = None,
     stats_interval: float = 1.0,
 ) -> Any:
-    """Open a bus, run one service until it ends or a signal arrives, close the bus."""
-    bus = await asyncio.to_thread(ZenohBus.open, options)
+    """Open a bus (waiting for the router if the options say so: see :func:`open_waiting`),
+    run one service until it ends or a signal arrives, close the bus."""
+    bus = await open_waiting(options)
     freeze_startup_objects()
     try:
         ctx = ServiceContext(bus, rig, service, stats_interval=stats_interval)
@@ -58,6 +60,53 @@ async def run_single(
         return await until_signalled(run_service(ctx, body))
     finally:
         await bus.close()
+
+
+#: After this long without a router, a service says once that it is waiting for it.
+WAIT_NOTICE_S = 1.0
+
+
+async def open_waiting(options: ZenohOptions) -> ZenohBus:
+    """Open a bus on a thread of its own (a daemon: Ctrl-C is not held up by a session still
+    waiting for its router); after ``WAIT_NOTICE_S`` without it, say once that it waits."""
+    loop = asyncio.get_running_loop()
+    opened: asyncio.Future[ZenohBus] = loop.create_future()
+
+    def open_bus() -> None:
+        try:
+            bus = ZenohBus.open(options)
+        except BaseException as exc:  # handed to the loop, raised there
+            loop.call_soon_threadsafe(_settle, opened, None, exc)
+        else:
+            loop.call_soon_threadsafe(_settle, opened, bus, None)
+
+    started = time.monotonic()
+    threading.Thread(target=open_bus, name="zenoh-open", daemon=True).start()
+    done, _ = await asyncio.wait({opened}, timeout=WAIT_NOTICE_S)
+    if done:
+        return opened.result()
+    where = ", ".join(options.connect) or "the configured endpoints"
+    log.info(
+        "waiting for the Zenoh router at %s (retrying with backoff; start one with: "
+        "facesynth router)",
+        where,
+    )
+    bus = await opened
+    log.info("connected to the router after %.1f s", time.monotonic() - started)
+    return bus
+
+
+def _settle(
+    future: asyncio.Future[ZenohBus], bus: ZenohBus | None, exc: BaseException | None
+) -> None:
+    if future.done():  # nobody waits any more (cancelled): close what was opened
+        if bus is not None:
+            threading.Thread(target=bus.session.close, daemon=True).start()
+        return
+    if exc is not None:
+        future.set_exception(exc)
+    else:
+        future.set_result(bus)  # type: ignore[arg-type]
 
 
 def freeze_startup_objects() -> None:

@@ -36,6 +36,16 @@ STAGE_HELP = {
 }
 
 
+def _router_timeout(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number of seconds: {text!r}") from None
+    if not 0 <= value <= 86400:
+        raise argparse.ArgumentTypeError(f"must be from 0 to 86400 seconds, not {text}")
+    return value
+
+
 def _zenoh_arguments(parser: argparse.ArgumentParser) -> None:
     group = parser.add_argument_group("Zenoh")
     group.add_argument(
@@ -63,6 +73,13 @@ def _zenoh_arguments(parser: argparse.ArgumentParser) -> None:
         "--zenoh-config",
         metavar="FILE",
         help="Zenoh JSON5 config file (default: $ZENOH_CONFIG); options above override it",
+    )
+    group.add_argument(
+        "--router-timeout",
+        type=_router_timeout,
+        metavar="S",
+        help="services: seconds to wait for the router at start (default: as long as it "
+        "takes, retrying with backoff; 0: fail at once)",
     )
     group.add_argument(
         "--scouting",

@@ -30,6 +30,7 @@ from facesynth.app.wiring import OptionError, build_node, replay_frames_of
 from facesynth.runtime import keys
 from facesynth.runtime.atomic import write_atomic
 from facesynth.runtime.bus.zenoh_bus import ZenohBus, endpoints, open_session, router_locators
+from facesynth.runtime.outputs import check_output
 from facesynth.runtime.service import default_instance, run_async, until_signalled
 from services.control.drivers.registry import DRIVERS
 
@@ -65,7 +66,7 @@ def cmd_stage(args: argparse.Namespace) -> int:
             node.wait_for = sorted(others)
         replay_frames = replay_frames_of(graph)
     parts = build_node(name, node, graph, config, replay_frames=replay_frames, standalone=True)
-    options = wiring.zenoh_options(args)
+    options = wiring.zenoh_options(args, wait_for_router=True)
     rig = args.rig or graph.rig
     instance = None if name == stage else f"{default_instance()}-{name}"
     run_async(
@@ -83,6 +84,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     for name, node in list(graph.nodes.items()):
         graph.nodes[name], configs[name] = apply_arguments(name, node, args)
     rig = args.rig or graph.rig
+    check_run_outputs(args)
     parts = build_chain(graph, configs)
     listen = endpoints(args.listen) or ["tcp/127.0.0.1:7447"]
     options = wiring.zenoh_options(args, default_mode="router")
@@ -125,6 +127,19 @@ def cmd_run(args: argparse.Namespace) -> int:
         summary["render"] = render_graph(graph, configs, args.render)
     print(json.dumps(summary))
     return 130 if result.interrupted else 0
+
+
+def check_run_outputs(args: argparse.Namespace) -> None:
+    """``run --render`` and ``--record`` paths, checked before the chain starts."""
+    if args.render:
+        from facesynth.app.render.video import check_render_out
+
+        check_render_out(args.render)
+    record = getattr(args, "record", None)
+    if record:
+        if Path(record).exists():
+            raise OptionError(f"--record {record} exists (a session file is never overwritten)")
+        check_output(record, "session file")
 
 
 def cmd_render(args: argparse.Namespace) -> int:
@@ -467,6 +482,7 @@ def cmd_track(args: argparse.Namespace) -> int:
     from services.points.tracker.landmarkers import model_config
     from services.points.tracker.offline import track_video
 
+    check_output(args.out, "track file")
     options = {"blendshapes": args.blendshapes} if args.model == "full" else {}
     model = model_config(args.model, **options)
     summary = track_video(args.video, args.out, backend=args.inference, model=model)

@@ -52,13 +52,24 @@ class OptionError(ValueError):
     """Options or nodes that do not fit together."""
 
 
-def zenoh_options(args: argparse.Namespace, *, default_mode: str = "client") -> ZenohOptions:
+#: How a service retries its router while waiting for it (Zenoh's connect/retry, in ms).
+ROUTER_RETRY = {"period_init_ms": 100, "period_max_ms": 1000, "period_increase_factor": 2}
+
+
+def zenoh_options(
+    args: argparse.Namespace, *, default_mode: str = "client", wait_for_router: bool = False
+) -> ZenohOptions:
     """Zenoh options from ``--mode/--connect/--listen/--zenoh-config/--scouting``.
 
     A config file (``--zenoh-config`` or ``$ZENOH_CONFIG``) keeps its own mode and endpoints
     unless options override them; without one, a client connects to the default local router.
     Clients send everything through the router: one fixed path per message, so nothing is lost
     while peers would be opening direct links to each other mid-stream.
+
+    With ``wait_for_router`` (the services), a client started before its router waits for it,
+    retrying with backoff (0.1 s, doubling up to 1 s), as ``timeout_ms: -1`` does in the
+    ``deploy/`` configs; ``--router-timeout S`` bounds the wait (0: fail at once), and also
+    applies over a config file's own setting.
     """
     options = ZenohOptions(
         mode=args.mode,
@@ -67,10 +78,21 @@ def zenoh_options(args: argparse.Namespace, *, default_mode: str = "client") -> 
         config_file=args.zenoh_config,
         scouting=args.scouting,
     )
+    timeout = getattr(args, "router_timeout", None)
     if options.config_file_path() is None:
         options.mode = options.mode or default_mode
         if options.mode != "router" and not options.connect and not options.listen:
             options.connect = [DEFAULT_ROUTER]
+        if wait_for_router and options.mode == "client" and timeout is None:
+            timeout = -1.0
+    if wait_for_router and timeout is not None:
+        options.overrides.update(
+            {
+                "connect/timeout_ms": -1 if timeout < 0 else round(timeout * 1000),
+                "connect/exit_on_failure": False,
+                "connect/retry": dict(ROUTER_RETRY),
+            }
+        )
     return options
 
 

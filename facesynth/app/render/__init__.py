@@ -15,7 +15,13 @@ import msgspec
 
 from facesynth.app.graph import Graph, plugin_config
 from facesynth.app.nodes import FeaturesNode, SensorNode, TranslatorNode
-from facesynth.app.render.video import Progress, RenderChain, RenderError, render_video
+from facesynth.app.render.video import (
+    Progress,
+    RenderChain,
+    RenderError,
+    check_render_out,
+    render_video,
+)
 from facesynth.app.wiring import (
     build_backend,
     build_calibration,
@@ -49,6 +55,7 @@ def render_graph(
     progress: Progress | None = None,
 ) -> dict[str, Any]:
     """Render the graph's input video side by side with the virtual face (and bars)."""
+    check_render_out(out)
     sensor_name, sensor = _one(graph, "sensor")
     assert isinstance(sensor, SensorNode)
     source_config = configs.get(sensor_name) or plugin_config(sensor, f"node {sensor_name}")

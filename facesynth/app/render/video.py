@@ -36,6 +36,7 @@ from facesynth.app.render.draw import (
     panel,
 )
 from facesynth.runtime.frames import encode_frame
+from facesynth.runtime.outputs import OutputError, check_output
 from schemas.messages import Points
 from services.control.core import Arrival, ControlCore
 from services.control.drivers.virtual.geometry import FACE_HEIGHT, FACE_WIDTH, face_geometry
@@ -50,6 +51,18 @@ CODECS = {".mp4": "mp4v", ".mov": "mp4v", ".mkv": "mp4v", ".avi": "MJPG"}
 
 class RenderError(ValueError):
     """A video that cannot be rendered or written; one line."""
+
+
+def check_render_out(out: str | Path) -> Path:
+    """``out`` if the renderer can write a video there (a known container, a writable place),
+    else :class:`RenderError`: checked before anything is tracked or run."""
+    target = Path(out)
+    if CODECS.get(target.suffix.lower()) is None:
+        raise RenderError(f"--out {target}: use a {', '.join(CODECS)} file")
+    try:
+        return check_output(target, "video")
+    except OutputError as exc:
+        raise RenderError(str(exc)) from None
 
 
 @dataclass
@@ -194,10 +207,8 @@ def render_video(
     ``same_size`` scales each side-by-side frame down into the input's own size (letterboxed);
     otherwise the performer keeps its size and the panels are added beside it.
     """
-    target = Path(out)
-    codec = CODECS.get(target.suffix.lower())
-    if codec is None:
-        raise RenderError(f"--out {target}: use a {', '.join(CODECS)} file")
+    target = check_render_out(out)
+    codec = CODECS[target.suffix.lower()]
     if source.info.live:
         raise RenderError("the renderer needs a recording (a video file), not a live camera")
     fps = source.info.fps

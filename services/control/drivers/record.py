@@ -20,9 +20,10 @@ from typing import IO, Annotated
 
 import msgspec
 
+from facesynth.runtime.outputs import OutputError, check_output
 from facesynth.runtime.profiles import Profile
 from services.control.core import CommandInfo
-from services.control.drivers.base import DriverError, ServoDriver
+from services.control.drivers.base import DriverConfigError, DriverError, ServoDriver
 from services.control.drivers.registry import DRIVERS
 from services.control.drivers.servo_map import ProfileLimits
 
@@ -72,7 +73,10 @@ class RecordDriver(ServoDriver):
     moves_hardware = False
 
     def __init__(self, config: RecordConfig, profile: Profile | None = None) -> None:
-        self.path = Path(config.out)
+        try:  # before the service connects or waits for its router: say it now
+            self.path = check_output(config.out, "record file")
+        except OutputError as exc:
+            raise DriverConfigError(str(exc)) from None
         self._file: IO[bytes] | None = None
         self._encoder = msgspec.json.Encoder()
         self.count = 0
