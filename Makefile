@@ -5,7 +5,7 @@ PYTHON ?= python3
 BIN := $(VENV)/bin
 
 .PHONY: demo test test-browser lint bench bench-drivers install clean firmware-test test-deploy \
-	test-containers test-netns test-board
+	test-containers test-netns test-board test-faults test-fuzz
 
 $(BIN)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -24,6 +24,15 @@ demo: $(BIN)/.installed
 test: $(BIN)/.installed lint
 	$(BIN)/python -m pytest -q -m "not browser and not containers and not netns and not board"
 	$(BIN)/python -m pytest -q -m browser
+
+## Faults: each process and the router killed and restarted mid-stream, a flood on every key,
+## oversized messages; the servos' speed limits checked on the record file.
+test-faults: $(BIN)/.installed
+	$(BIN)/python -m pytest -q -s -m faults tests/faults
+
+## Fuzz: 10,000 hypothesis cases for every decoder, loader and protocol parser.
+test-fuzz: $(BIN)/.installed
+	$(BIN)/python -m pytest -q -s -m fuzz tests/fuzz
 
 ## The live face page in a real headless Chromium (Debian's chromium and chromium-driver).
 test-browser: $(BIN)/.installed

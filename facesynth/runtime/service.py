@@ -84,11 +84,16 @@ class ServiceContext:
         """This rig's key for ``stage``."""
         return keys.stage_key(self.rig, stage)
 
-    def subscribe(self, stage: keys.Stage, maxsize: int) -> Subscription:
+    def subscribe(
+        self, stage: keys.Stage, maxsize: int, message: type[Any] | None = None
+    ) -> Subscription:
         """Subscribe to a stage: latest-only when ``maxsize`` is 1, else queued.
 
         Payloads over the stage's size limit (:mod:`facesynth.runtime.limits`) are refused on
-        arrival, undecoded, and counted as rejected.
+        arrival, undecoded; with ``message`` (the stage's message type) every payload is also
+        decoded and checked on arrival (:func:`codec.decode`, on the transport's thread), so
+        only valid messages enter the queue, as ``Sample.message``: a flood of bad messages
+        never crowds the stream out. Refusals are counted as rejected and logged.
         """
         key = self.key(stage)
         if maxsize <= 1:
@@ -97,14 +102,18 @@ class ServiceContext:
             subscription = self.bus.subscribe_queued(key, maxsize)
         limit = limits.stage_limit(stage)
 
-        def refused(count: int, largest: int) -> None:
+        def refused(count: int, reason: str) -> None:
+            self.stats.received += count  # received, and refused at once
             self.stats.rejected += count - 1  # reject() counts one
-            self.reject(
-                f"{key}: {count} message(s) over the {limit}-byte limit (largest {largest} "
-                "bytes) refused undecoded"
-            )
+            self.reject(f"{key}: {count} message(s) refused on arrival, the last: {reason}")
 
-        subscription.limit(limit, refused)
+        screen = None
+        if message is not None:
+
+            def screen(payload: bytes) -> Any:
+                return codec.decode(payload, message)
+
+        subscription.guard(limit, screen, refused)
         self.subscriptions.append(subscription)
         return subscription
 
@@ -141,12 +150,14 @@ async def serve_transform(
     maxsize: int,
 ) -> None:
     """Decode each input, transform it, publish the result; reject what cannot be used."""
-    subscription = ctx.subscribe(in_stage, maxsize)
+    subscription = ctx.subscribe(in_stage, maxsize, in_type)
     ctx.ready()
     async for sample in subscription:
         ctx.stats.received += 1
         try:
-            message = codec.decode(sample.payload, in_type)  # type: ignore[type-var]
+            message = sample.message  # decoded and checked on arrival
+            if message is None:
+                message = codec.decode(sample.payload, in_type)  # type: ignore[type-var]
             result = transform(message)
         except ValueError as exc:
             ctx.reject(f"{sample.key}: {exc}")

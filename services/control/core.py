@@ -65,11 +65,13 @@ class CommandError(ValueError):
 
 @dataclass(frozen=True, slots=True)
 class CommandInfo:
-    """Where a set of positions came from, for drivers that log it."""
+    """Where a set of positions came from, for drivers that log it; ``t_ns`` is the control
+    interface's wall clock when it decided them (``None`` when a caller does not say)."""
 
     frame: int | None
     t_capture_ns: int | None
     face: bool
+    t_ns: int | None = None
 
 
 #: What drivers are told about a move of the controller's own.

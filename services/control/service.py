@@ -12,6 +12,7 @@ media time: a ``--fast`` replay to a file or a virtual face).
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import itertools
 import logging
 import socket
@@ -67,7 +68,7 @@ class ControlService:
                 await self._stop(ctx, clock)
 
     async def _serve_commands(self, ctx: ServiceContext, clock: Clock) -> None:
-        subscription = ctx.subscribe("servo_commands", self.queue)
+        subscription = ctx.subscribe("servo_commands", self.queue, ServoCommands)
         ctx.ready()
         ctx.log.info(
             "control interface on %s (profile %s, %s, speed limits on %s time)",
@@ -93,7 +94,7 @@ class ControlService:
                 return
             ctx.stats.received += 1
             try:
-                commands = codec.decode(sample.payload, ServoCommands)
+                commands = sample.message or codec.decode(sample.payload, ServoCommands)
                 arrival = Arrival(sample.t_received_ns, clock.monotonic_ns())
                 move, verdict = self.core.command(commands, arrival)
             except ValueError as exc:
@@ -133,7 +134,8 @@ class ControlService:
             if move.kind == "start" or (move.kind == "stop" and at_neutral):
                 await self._guarded(self.driver.neutral(move.positions))
             else:
-                await self._guarded(self.driver.send(move.positions, move.info))
+                info = dataclasses.replace(move.info, t_ns=ctx.clock.time_ns())
+                await self._guarded(self.driver.send(move.positions, info))
         last = self.core.last_command
         state = ServoCommands(
             seq=last.seq if last is not None else 0,

@@ -57,6 +57,10 @@ async def wait_for_services(ctx: ServiceContext, services: list[str], timeout: f
         await clock.sleep(0.05)
 
 
+def _decode_ack(payload: bytes) -> ServoCommands:
+    return codec.decode(payload, ServoCommands)
+
+
 class SensorService:
     """Publishes the frames of one source; ``last_seq`` is the last frame sent."""
 
@@ -71,13 +75,11 @@ class SensorService:
     async def _watch_acks(self, ctx: ServiceContext, stage: keys.Stage) -> None:
         # Only the newest ack matters: overwritten ones are not data loss, so not in the stats.
         subscription = ctx.bus.subscribe_latest(ctx.key(stage))
-        subscription.limit(limits.stage_limit(stage))
+        # Screened on arrival: a flood of bad messages cannot overwrite the newest ack.
+        subscription.guard(limits.stage_limit(stage), _decode_ack)
         try:
             async for sample in subscription:
-                try:
-                    state = codec.decode(sample.payload, ServoCommands)
-                except ValueError:
-                    continue
+                state = sample.message
                 if state.move != "command":  # the controller moving on its own acknowledges nothing
                     continue
                 seq = state.seq

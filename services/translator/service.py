@@ -59,10 +59,14 @@ class ServoStateWatch:
         return self.positions
 
     async def follow(self, subscription: Subscription) -> None:
-        """Keep up with the reports until the subscription closes."""
+        """Keep up with the reports until the subscription closes (screened on arrival)."""
         async for sample in subscription:
-            with contextlib.suppress(ValueError):
-                self.see(codec.decode(sample.payload, ServoCommands))
+            if sample.message is not None:
+                self.see(sample.message)
+
+
+def _decode_state(payload: bytes) -> ServoCommands:
+    return codec.decode(payload, ServoCommands)
 
 
 async def serve_translator(
@@ -75,9 +79,9 @@ async def serve_translator(
     watch = ServoStateWatch(translator.profile.name)
     # Newest report only; an overwritten report is no data lost, so not in the service's stats.
     states = ctx.bus.subscribe_latest(ctx.key("servo_state"))
-    states.limit(limits.stage_limit("servo_state"))
+    states.guard(limits.stage_limit("servo_state"), _decode_state)
     follower = asyncio.create_task(watch.follow(states), name="servo-state-watch")
-    subscription = ctx.subscribe("features", queue)
+    subscription = ctx.subscribe("features", queue, Features)
     ctx.ready()
     ctx.log.info("translator on %s (profile %s)", ctx.key("features"), translator.profile.name)
     sender = f"{ctx.instance}/{secrets.token_hex(3)}"
@@ -88,7 +92,7 @@ async def serve_translator(
         async for sample in subscription:
             ctx.stats.received += 1
             try:
-                features = codec.decode(sample.payload, Features)
+                features = sample.message or codec.decode(sample.payload, Features)
             except ValueError as exc:
                 ctx.reject(f"{sample.key}: {exc}")
                 continue

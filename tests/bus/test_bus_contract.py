@@ -221,8 +221,8 @@ async def test_oversized_payloads_are_refused_on_arrival_and_reported_in_batches
 ) -> None:
     sender, receiver = make_bus(), make_bus()
     subscription = receiver.subscribe_queued(f"{key_prefix}/big", 64)
-    reports: list[tuple[int, int]] = []
-    subscription.limit(1000, lambda count, largest: reports.append((count, largest)))
+    reports: list[tuple[int, str]] = []
+    subscription.guard(1000, on_refused=lambda count, reason: reports.append((count, reason)))
     await settle(receiver)
     for i in range(20):
         sender.publish(f"{key_prefix}/big", b"x" * (1001 + i) if i % 2 else b"ok")
@@ -232,11 +232,38 @@ async def test_oversized_payloads_are_refused_on_arrival_and_reported_in_batches
         for _ in range(11)
     ]
     assert got == [b"ok"] * 10 + [b"x" * 1000]
-    for _ in range(100):
-        if sum(count for count, _ in reports) == 10:
-            break
-        await asyncio.sleep(0.02)
+    await _wait_reported(reports, 10)
     assert subscription.refused == 10 and subscription.received == 11
-    assert sum(count for count, _ in reports) == 10
-    assert max(largest for _, largest in reports) == 1001 + 19
+    assert reports[-1][1] == "1020 bytes, over the limit of 1000"
     assert len(reports) <= 10  # batched: at most one report pending at a time
+
+
+async def test_a_screen_keeps_refused_payloads_out_of_the_mailbox(
+    make_bus: Factory, key_prefix: str
+) -> None:
+    def screen(payload: bytes) -> int:
+        if not payload.isdigit():
+            raise ValueError(f"{payload!r} is not a number")
+        return int(payload)
+
+    sender, receiver = make_bus(), make_bus()
+    latest = receiver.subscribe_latest(f"{key_prefix}/n")
+    reports: list[tuple[int, str]] = []
+    latest.guard(100, screen, lambda count, reason: reports.append((count, reason)))
+    await settle(receiver)
+    sender.publish(f"{key_prefix}/n", b"42")
+    for _ in range(200):  # a flood of bad messages after the good one
+        sender.publish(f"{key_prefix}/n", b"garbage")
+    await _wait_reported(reports, 200)
+    sample = await asyncio.wait_for(latest.receive(), DELIVERY_TIMEOUT)
+    assert (sample.payload, sample.message) == (b"42", 42)  # the flood displaced nothing
+    assert latest.dropped == 0 and latest.refused == 200
+    assert reports[-1][1] == "b'garbage' is not a number"
+
+
+async def _wait_reported(reports: list[tuple[int, str]], count: int) -> None:
+    for _ in range(int(DELIVERY_TIMEOUT / 0.01)):
+        if sum(n for n, _ in reports) >= count:
+            return
+        await asyncio.sleep(0.01)
+    raise AssertionError(f"only {sum(n for n, _ in reports)} of {count} refusals reported")

@@ -94,7 +94,8 @@ async def test_starts_at_neutral_and_applies_clamped_commands() -> None:
         await run.advance(0.2)
         await run.send("servo_commands", commands(1, jaw=2600.0, right_eyebrow=900.0))
         expected = {**NEUTRAL, "jaw": 2000.0, "right_eyebrow": 1000.0}
-        assert driver.sent[-1] == (200 * MS, expected, CommandInfo(1, 1, True))
+        wall = run.clock.time_ns()  # the step's wall-clock time goes to the driver too
+        assert driver.sent[-1] == (200 * MS, expected, CommandInfo(1, 1, True, wall))
         applied = [p for p in run.on("servo_state") if p.message.move == "command"]
         assert [(p.t_ns, p.message.seq, p.message.positions) for p in applied][-1] == (
             200 * MS,

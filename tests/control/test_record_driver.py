@@ -12,7 +12,7 @@ import pytest
 from facesynth.runtime.plugins import PluginError
 from facesynth.runtime.profiles import load_profile
 from services.control.core import CommandInfo
-from services.control.drivers.base import DriverError
+from services.control.drivers.base import DriverConfigError, DriverError
 from services.control.drivers.record import (
     RecordConfig,
     RecordDriver,
@@ -176,15 +176,27 @@ async def test_send_after_close(tmp_path: Path) -> None:
         await driver.send({"jaw": 1500.0}, CommandInfo(0, 0, True))
 
 
-async def test_unopenable_record_file(tmp_path: Path) -> None:
+async def test_an_unwritable_record_path_is_refused_before_anything_connects(
+    tmp_path: Path,
+) -> None:
     folder = tmp_path / "a-folder"
     folder.mkdir()
-    with pytest.raises(DriverError, match=f"cannot open record file {re.escape(str(folder))}"):
-        await RecordDriver(RecordConfig(out=str(folder))).connect()
+    with pytest.raises(DriverConfigError, match=f"record file {re.escape(str(folder))} is a dir"):
+        RecordDriver(RecordConfig(out=str(folder)))
     blocker = tmp_path / "file"
     blocker.write_text("")
-    with pytest.raises(DriverError, match="cannot open record file"):
-        await RecordDriver(RecordConfig(out=str(blocker / "sub" / "x.jsonl"))).connect()
+    with pytest.raises(DriverConfigError, match="file is not a directory"):
+        RecordDriver(RecordConfig(out=str(blocker / "sub" / "x.jsonl")))
+    with pytest.raises(DriverConfigError, match="/proc is not writable"):
+        RecordDriver(RecordConfig(out="/proc/facesynth/x.jsonl"))
+
+
+async def test_a_path_that_breaks_after_the_check_fails_at_connect(tmp_path: Path) -> None:
+    out = tmp_path / "later"
+    driver = RecordDriver(RecordConfig(out=str(out)))
+    out.mkdir()  # someone made it a folder meanwhile
+    with pytest.raises(DriverError, match=f"cannot open record file {re.escape(str(out))}"):
+        await driver.connect()
 
 
 # --- configuration ----------------------------------------------------------------------------

@@ -20,18 +20,20 @@ import time
 from collections.abc import AsyncIterator, Callable
 from dataclasses import dataclass
 from types import TracebackType
-from typing import Self
+from typing import Any, Self
 
 from facesynth.runtime.bus.link import LinkFigures
 
 
 @dataclass(frozen=True, slots=True)
 class Sample:
-    """One received payload, with the key it was published on and when it arrived."""
+    """One received payload, with the key it was published on and when it arrived; ``message``
+    is what a subscription's screen decoded it to (``None`` without a screen)."""
 
     key: str
     payload: bytes
     t_received_ns: int
+    message: Any = None
 
 
 class SubscriptionClosed(Exception):
@@ -54,11 +56,12 @@ class Subscription:
         self._loop = asyncio.get_running_loop()
         #: Payloads over this many bytes are refused before they are copied or queued.
         self.max_bytes: int | None = None
-        #: Payloads refused for their size.
+        #: Payloads refused on arrival (too big, or refused by the screen).
         self.refused = 0
-        self._on_refused: Callable[[int, int], None] | None = None
+        self._screen: Callable[[bytes], Any] | None = None
+        self._on_refused: Callable[[int, str], None] | None = None
         self._refusals = 0  # refused since the last report to ``on_refused``
-        self._largest = 0
+        self._reason = ""
         self._report_pending = False
 
     @property
@@ -66,39 +69,75 @@ class Subscription:
         """Whether :meth:`close` was called (pending samples can no longer be received)."""
         return self._closed
 
-    def limit(self, max_bytes: int, on_refused: Callable[[int, int], None] | None = None) -> None:
-        """Refuse payloads over ``max_bytes`` on arrival, before they are copied or queued.
+    def guard(
+        self,
+        max_bytes: int,
+        screen: Callable[[bytes], Any] | None = None,
+        on_refused: Callable[[int, str], None] | None = None,
+    ) -> None:
+        """Refuse, on arrival, payloads over ``max_bytes`` (before they are copied out of the
+        transport) and, with ``screen``, payloads it refuses by raising ``ValueError`` (its
+        result becomes the sample's ``message``). A refused payload never enters the mailbox:
+        it neither displaces a good one nor wakes the reader, so a flood of bad messages
+        cannot crowd out the stream.
 
-        ``on_refused(count, largest)`` is called on the event loop with how many were refused
-        since its last call and the largest size: at most one call is pending at a time, so a
-        flood of oversized messages costs the loop nothing per message.
+        ``on_refused(count, reason)`` is called on the event loop with how many were refused
+        since its last call and why the latest was; at most one call is pending at a time, so
+        a flood costs the loop nothing per message.
         """
         self.max_bytes = max_bytes
+        self._screen = screen
         self._on_refused = on_refused
+
+    def limit(self, max_bytes: int) -> None:
+        """Refuse payloads over ``max_bytes`` on arrival (see :meth:`guard`)."""
+        self.guard(max_bytes, self._screen, self._on_refused)
 
     def too_big(self, size: int) -> bool:
         """Whether a payload of ``size`` bytes is refused (and count it); any thread."""
         if self.max_bytes is None or size <= self.max_bytes:
             return False
+        self._refuse(f"{size} bytes, over the limit of {self.max_bytes}")
+        return True
+
+    def _admit(self, payload: bytes) -> tuple[bool, Any]:
+        """Whether ``payload`` may enter the mailbox, and its screened message; any thread."""
+        if self.too_big(len(payload)):
+            return False, None
+        if self._screen is None:
+            return True, None
+        try:
+            return True, self._screen(payload)
+        except ValueError as exc:
+            self._refuse(str(exc))
+            return False, None
+
+    def _refuse(self, reason: str) -> None:
         self.refused += 1
         self._refusals += 1
-        self._largest = max(self._largest, size)
+        self._reason = reason
         if self._on_refused is not None and not self._report_pending:
             self._report_pending = True
             with contextlib.suppress(RuntimeError):  # the loop is closed: nobody to tell
                 self._loop.call_soon_threadsafe(self._report_refusals)
-        return True
 
     def _report_refusals(self) -> None:
-        count, largest = self._refusals, self._largest
-        self._refusals, self._largest, self._report_pending = 0, 0, False
+        count, reason = self._refusals, self._reason
+        self._refusals, self._report_pending = 0, False
         if count and self._on_refused is not None:
-            self._on_refused(count, largest)
+            self._on_refused(count, reason)
 
     def deliver(self, sample: Sample) -> None:
-        """Add a sample; call on the subscription's event loop thread only."""
-        if self._closed or self.too_big(len(sample.payload)):
+        """Add a sample (screened, unless it comes screened from :meth:`deliver_threadsafe`);
+        call on the subscription's event loop thread only."""
+        if self._closed:
             return
+        if sample.message is None and (self.max_bytes is not None or self._screen is not None):
+            admitted, message = self._admit(sample.payload)
+            if not admitted:
+                return
+            if message is not None:
+                sample = Sample(sample.key, sample.payload, sample.t_received_ns, message)
         self.received += 1
         if len(self._items) >= self.maxsize:
             self._items.popleft()
@@ -109,10 +148,12 @@ class Subscription:
             waiter.set_result(None)
 
     def deliver_threadsafe(self, key: str, payload: bytes) -> None:
-        """Hand a sample over from any thread without blocking it."""
-        if self.too_big(len(payload)):
+        """Screen a sample on the calling (transport) thread, then hand it over without
+        blocking."""
+        admitted, message = self._admit(payload)
+        if not admitted:
             return
-        sample = Sample(key, payload, time.time_ns())
+        sample = Sample(key, payload, time.time_ns(), message)
         # A closed loop means the service is shutting down: the sample is not needed.
         with contextlib.suppress(RuntimeError):
             self._loop.call_soon_threadsafe(self.deliver, sample)

@@ -114,7 +114,7 @@ class RecordDriver(ServoDriver):
             seq=self.count,
             frame=info.frame,
             t_capture_ns=info.t_capture_ns,
-            t_sent_ns=time.time_ns(),
+            t_sent_ns=info.t_ns if info.t_ns is not None else time.time_ns(),
             face=info.face,
             servos={name: round(value, 3) for name, value in checked.items()},
         )
