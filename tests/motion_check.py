@@ -12,6 +12,7 @@ the servos there; those boundaries are reported separately, not counted as steps
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -56,8 +57,9 @@ def check_motion(path: Path, profile: Profile, slack_s: float = SLACK_S) -> Moti
                 if name in lines[0].servos and name in previous_last.servos
             }
             if any(value > 1.0 for value in moved.values()):
-                report.boundary_jumps.append(f"a new session started {max(moved.values()):.0f} µs away")
-        for before, after in zip(lines, lines[1:], strict=False):
+                jump = max(moved.values())
+                report.boundary_jumps.append(f"a new session started {jump:.0f} µs away")
+        for before, after in itertools.pairwise(lines):
             dt = (after.t_sent_ns - before.t_sent_ns) / 1e9
             for name, spec in specs.items():
                 if name not in before.servos or name not in after.servos:
