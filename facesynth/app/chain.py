@@ -22,7 +22,7 @@ import msgspec
 from facesynth.app.graph import Graph
 from facesynth.app.nodes import stage_of
 from facesynth.app.wiring import OptionError, StageParts, build_node, check_blendshapes
-from facesynth.runtime import codec, keys
+from facesynth.runtime import codec, keys, limits
 from facesynth.runtime.bus.base import Bus
 from facesynth.runtime.bus.zenoh_bus import (
     ZenohBus,
@@ -31,6 +31,7 @@ from facesynth.runtime.bus.zenoh_bus import (
     open_session,
     router_locators,
 )
+from facesynth.runtime.memory import return_big_allocations
 from facesynth.runtime.service import ServiceContext, run_service, until_signalled
 from schemas.messages import ServoCommands
 from services.points.backends.base import PointsBackend
@@ -53,7 +54,10 @@ async def run_single(
     """Open a bus (waiting for the router if the options say so: see :func:`open_waiting`),
     run one service until it ends or a signal arrives, close the bus."""
     sys.setswitchinterval(SWITCH_INTERVAL_S)
-    bus = await open_waiting(options)
+    return_big_allocations()
+    bus = await open_waiting(
+        options.with_message_limit(limits.session_limit(keys.CONSUMES.get(service)))
+    )
     freeze_startup_objects()
     try:
         ctx = ServiceContext(bus, rig, service, stats_interval=stats_interval)

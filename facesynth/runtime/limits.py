@@ -51,6 +51,25 @@ STAGE_LIMITS: Final[dict[str, int]] = {
 STATS_LIMIT: Final = 16 * KIB
 
 
+#: What a Zenoh message carries beyond its payload (key expression, attachment, framing), and more.
+MESSAGE_SLACK: Final = 64 * KIB
+
+
+def session_limit(consumes: keys.Stage | None) -> int:
+    """The largest Zenoh message a service consuming ``consumes`` accepts (bytes).
+
+    Set as the session's ``transport/link/rx/max_message_size``: Zenoh then stops reassembling
+    a bigger message at this size and drops it, instead of holding all of it in buffers that it
+    keeps for reuse afterwards (measured: a subscriber's memory grew 40 MB after a burst of
+    22 MB messages without it, and not at all with it). Every service also takes
+    ``servo_state`` and stats messages.
+    """
+    largest = max(STAGE_LIMITS["servo_state"], STATS_LIMIT)
+    if consumes is not None:
+        largest = max(largest, STAGE_LIMITS[consumes])
+    return largest + MESSAGE_SLACK
+
+
 def stage_limit(stage: keys.Stage) -> int:
     """The payload limit of ``stage``'s key, in bytes."""
     return STAGE_LIMITS[stage]

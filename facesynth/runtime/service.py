@@ -85,7 +85,11 @@ class ServiceContext:
         return keys.stage_key(self.rig, stage)
 
     def subscribe(
-        self, stage: keys.Stage, maxsize: int, message: type[Any] | None = None
+        self,
+        stage: keys.Stage,
+        maxsize: int,
+        message: type[Any] | None = None,
+        check: Callable[[Any], object] | None = None,
     ) -> Subscription:
         """Subscribe to a stage: latest-only when ``maxsize`` is 1, else queued.
 
@@ -93,7 +97,9 @@ class ServiceContext:
         arrival, undecoded; with ``message`` (the stage's message type) every payload is also
         decoded and checked on arrival (:func:`codec.decode`, on the transport's thread), so
         only valid messages enter the queue, as ``Sample.message``: a flood of bad messages
-        never crowds the stream out. Refusals are counted as rejected and logged.
+        never crowds the stream out. ``check`` (pure, thread-safe: it runs on the transport's
+        thread) may refuse a decoded message too, by raising ``ValueError``. Refusals are
+        counted as rejected and logged.
         """
         key = self.key(stage)
         if maxsize <= 1:
@@ -111,7 +117,10 @@ class ServiceContext:
         if message is not None:
 
             def screen(payload: bytes) -> Any:
-                return codec.decode(payload, message)
+                decoded = codec.decode(payload, message)
+                if check is not None:
+                    check(decoded)
+                return decoded
 
         subscription.guard(limit, screen, refused)
         self.subscriptions.append(subscription)

@@ -80,12 +80,14 @@ OWN_MOVE = CommandInfo(frame=None, t_capture_ns=None, face=False)
 
 @dataclass(frozen=True, slots=True)
 class Move:
-    """Positions to send now (``send``) and report on ``…/servo_state``, and why."""
+    """Positions to send now (``send``) and report on ``…/servo_state``, and why; ``t_ns`` is
+    the (monotonic) instant the speed limits stepped them to."""
 
     kind: MoveKind
     positions: dict[str, float]
     info: CommandInfo = OWN_MOVE
     send: bool = True
+    t_ns: int = 0
 
     @property
     def command(self) -> bool:
@@ -209,7 +211,7 @@ class ControlCore:
         """The face at neutral as the controller starts."""
         self._last_step_ns = self._last_report_ns = now_ns
         self.motion.catch_up()
-        return Move("start", self.positions)
+        return Move("start", self.positions, t_ns=now_ns)
 
     def command(self, commands: ServoCommands, arrival: Arrival) -> tuple[Move, Verdict]:
         """Take a command (checked, fresh) and step toward it; raise ``ValueError`` subclasses
@@ -234,7 +236,7 @@ class ControlCore:
         self.watchdog.feed(arrival.mono_ns)
         self.last_command = commands
         info = CommandInfo(commands.seq, commands.t_capture_ns, commands.face)
-        return Move("command", positions, info), verdict
+        return Move("command", positions, info, t_ns=arrival.mono_ns), verdict
 
     # --- moves of its own ---------------------------------------------------------------------
 
@@ -320,7 +322,7 @@ class ControlCore:
         dt_ns = now_ns - self._step_origin(now_ns)
         positions = self.motion.step(self.targets, dt_ns / 1e9)
         self._last_step_ns = self._last_report_ns = now_ns
-        return Move(kind, positions)
+        return Move(kind, positions, t_ns=now_ns)
 
     def _report_due(self) -> int:
         last = self._last_report_ns if self._last_report_ns is not None else 0
@@ -330,4 +332,4 @@ class ControlCore:
         if now_ns < self._report_due():
             return None
         self._last_report_ns = now_ns
-        return Move("report", self.positions, send=False)
+        return Move("report", self.positions, send=False, t_ns=now_ns)

@@ -68,7 +68,11 @@ class ControlService:
                 await self._stop(ctx, clock)
 
     async def _serve_commands(self, ctx: ServiceContext, clock: Clock) -> None:
-        subscription = ctx.subscribe("servo_commands", self.queue, ServoCommands)
+        # Decoded and checked against the profile on arrival: commands for another profile or
+        # for servos it does not have never take a place in the queue.
+        subscription = ctx.subscribe(
+            "servo_commands", self.queue, ServoCommands, check=self.core.check
+        )
         ctx.ready()
         ctx.log.info(
             "control interface on %s (profile %s, %s, speed limits on %s time)",
@@ -134,7 +138,9 @@ class ControlService:
             if move.kind == "start" or (move.kind == "stop" and at_neutral):
                 await self._guarded(self.driver.neutral(move.positions))
             else:
-                info = dataclasses.replace(move.info, t_ns=ctx.clock.time_ns())
+                # The wall-clock instant of the step (not of this call, which may come later).
+                offset = ctx.clock.time_ns() - ctx.clock.monotonic_ns()
+                info = dataclasses.replace(move.info, t_ns=move.t_ns + offset)
                 await self._guarded(self.driver.send(move.positions, info))
         last = self.core.last_command
         state = ServoCommands(

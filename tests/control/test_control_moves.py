@@ -109,7 +109,7 @@ def test_silence_returns_to_neutral_in_even_steps_exactly_after_watchdog_plus_ra
     assert {m.kind for _, m in moves} == {"return"}
     jaw = [m.positions["jaw"] for _, m in moves]
     assert jaw == pytest.approx([2000.0 - 500.0 * i / STEPS for i in range(1, STEPS + 1)])
-    assert moves[-1] == (2000 * MS, Move("return", {"jaw": 1500.0, "brow": 1500.0}))
+    assert moves[-1] == (2000 * MS, Move("return", {"jaw": 1500.0, "brow": 1500.0}, t_ns=2000 * MS))
     assert core.mode == "idle"
 
 

@@ -10,13 +10,14 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import dataclasses
 import json
 import logging
 import os
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Final
 
 import zenoh
 
@@ -34,6 +35,10 @@ log = logging.getLogger("facesynth.link")
 
 class ZenohConfigError(ValueError):
     """A Zenoh configuration that cannot be used (bad file, bad endpoint, bad mode)."""
+
+
+#: Zenoh's setting for the largest message a session reassembles and delivers.
+MESSAGE_LIMIT_PATH: Final = "transport/link/rx/max_message_size"
 
 
 @dataclass
@@ -54,6 +59,13 @@ class ZenohOptions:
     scouting: bool = False
     #: Further settings by config path, e.g. ``{"connect/timeout_ms": 3000}``; applied last.
     overrides: dict[str, Any] = field(default_factory=dict)
+
+    def with_message_limit(self, size: int) -> ZenohOptions:
+        """These options with Zenoh's ``transport/link/rx/max_message_size`` at ``size`` bytes,
+        unless the overrides already set it (see :func:`facesynth.runtime.limits.session_limit`).
+        """
+        overrides = {MESSAGE_LIMIT_PATH: size, **self.overrides}
+        return dataclasses.replace(self, overrides=overrides)
 
     def config_file_path(self) -> str | None:
         """The config file in force: ``config_file``, else ``$ZENOH_CONFIG``, else none."""
