@@ -47,12 +47,13 @@ async def run_single(
     *,
     instance: str | None = None,
     stats_interval: float = 1.0,
+    robot: str | None = None,
 ) -> Any:
     """Open a bus, run one service until it ends or a signal arrives, close the bus."""
     bus = await asyncio.to_thread(ZenohBus.open, options)
     freeze_startup_objects()
     try:
-        ctx = ServiceContext(bus, rig, service, stats_interval=stats_interval)
+        ctx = ServiceContext(bus, rig, service, stats_interval=stats_interval, robot=robot)
         if instance:
             ctx.instance = instance
         return await until_signalled(run_service(ctx, body))
@@ -143,14 +144,11 @@ async def run_chain(
     contexts: dict[str, ServiceContext] = {}
     tasks: list[asyncio.Task[Any]] = []
     started = time.monotonic()
-    progress = ServoStateWatch(bus, keys.stage_key(rig, "servo_state"))
+    progress = ServoStateWatch(bus, keys.robots_pattern(rig, "servo_state"))
 
     def context(part: StageParts) -> ServiceContext:
-        ctx = ServiceContext(bus, rig, part.stage, stats_interval=stats_interval)
-        if part.name != part.stage:
-            ctx.instance = f"{ctx.instance}-{part.name}"
-        contexts[part.name] = ctx
-        return ctx
+        contexts[part.name] = node_context(bus, rig, part, stats_interval)
+        return contexts[part.name]
 
     for part in others:
         tasks.append(asyncio.create_task(run_service(context(part), part.body), name=part.name))
@@ -191,8 +189,56 @@ async def run_chain(
     )
 
 
+def node_context(bus: Bus, rig: str, part: StageParts, stats_interval: float) -> ServiceContext:
+    """The service context of one node of a graph run in one process."""
+    ctx = ServiceContext(bus, rig, part.stage, stats_interval=stats_interval, robot=part.robot)
+    if part.name != part.stage:
+        ctx.instance = f"{ctx.instance}-{part.name}"
+    return ctx
+
+
+def build_nodes(graph: Graph, configs: dict[str, msgspec.Struct | None]) -> list[StageParts]:
+    """Every node of a graph without a sensor, built, for one process (for instance a robot
+    host's translators and control interfaces, fed by a performer's chain elsewhere)."""
+    if graph.of_stage("sensor"):
+        raise OptionError("build_nodes is for graphs without a sensor (see build_chain)")
+    parts = [build_node(name, node, graph, configs.get(name)) for name, node in graph.nodes.items()]
+    check_blendshapes(parts)
+    return parts
+
+
+async def serve_nodes(
+    bus: Bus, rig: str, parts: list[StageParts], *, stats_interval: float = 1.0
+) -> ChainResult:
+    """Run nodes that need no sensor of their own until a signal arrives or one of them fails."""
+    started = time.monotonic()
+    contexts = {part.name: node_context(bus, rig, part, stats_interval) for part in parts}
+    tasks = [
+        asyncio.create_task(run_service(contexts[part.name], part.body), name=part.name)
+        for part in parts
+    ]
+    outcome = await until_signalled(asyncio.wait(tasks, return_when=asyncio.FIRST_EXCEPTION))
+    for task in tasks:
+        task.cancel()
+    results = await asyncio.gather(*tasks, return_exceptions=True)
+    for result in results:
+        if isinstance(result, BaseException) and not isinstance(result, asyncio.CancelledError):
+            raise result
+    controls = [contexts[p.name] for p in parts if p.stage == "control"]
+    return ChainResult(
+        frames=0,
+        commands=sum(ctx.stats.published for ctx in controls),
+        last_frame=-1,
+        rejected={name: ctx.stats.rejected for name, ctx in contexts.items()},
+        dropped={name: ctx.dropped() for name, ctx in contexts.items()},
+        seconds=time.monotonic() - started,
+        interrupted=outcome is None,
+    )
+
+
 class ServoStateWatch:
-    """Follows ``…/servo_state`` on the bus: the last frame a control interface applied."""
+    """Follows ``…/servo_state`` (``key`` may match every robot's) on the bus: the last frame
+    a control interface applied."""
 
     def __init__(self, bus: Bus, key: str) -> None:
         self.last_seq = -1

@@ -149,9 +149,7 @@ def build_parser() -> argparse.ArgumentParser:
         "write the side-by-side video of a chain's input video: performer with landmarks | "
         "virtual face | servo bars, one output frame per input frame",
     )
-    p.add_argument(
-        "graph", nargs="?", metavar="GRAPH", help="graph file (default: the demo graph)"
-    )
+    p.add_argument("graph", nargs="?", metavar="GRAPH", help="graph file (default: the demo graph)")
     p.add_argument("--out", required=True, metavar="OUT.mp4", help="video file (.mp4, .avi, …)")
     p.add_argument(
         "--bars",
@@ -207,6 +205,20 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = add("router", commands.cmd_router, "run a Zenoh router (for hosts without zenohd)")
     _zenoh_arguments(p)
+    group = p.add_argument_group("scheduling (as a node's realtime, nice, cpus)")
+    group.add_argument(
+        "--realtime",
+        type=int,
+        metavar="PRIORITY",
+        help="real-time priority (SCHED_FIFO 1-99; needs CAP_SYS_NICE or ulimit -r)",
+    )
+    group.add_argument("--nice", type=int, help="niceness -20..19 (negative needs CAP_SYS_NICE)")
+    group.add_argument(
+        "--cpus",
+        type=lambda text: [int(cpu) for cpu in text.split(",") if cpu.strip()],
+        metavar="0,1",
+        help="cores the router may run on",
+    )
     p.set_defaults(mode="router")
 
     p = add("status", commands.cmd_status, "list live services and their stats")
@@ -227,14 +239,16 @@ def build_parser() -> argparse.ArgumentParser:
         "page, expression fidelity",
     )
     p.add_argument(
-        "what", choices=("chain", "tracker", "smoothing", "recording", "face", "fidelity")
+        "what",
+        choices=("chain", "fanout", "tracker", "smoothing", "recording", "face", "fidelity"),
     )
     p.add_argument("video", nargs="?", help="video (default: the bundled performer video)")
     p.add_argument(
         "--seconds",
         type=float,
         default=None,
-        help="chain: seconds of real-time input (default 15); face: seconds per row (default 3)",
+        help="chain: seconds of real-time input (default 15); fanout: per run (default 10); "
+        "face: seconds per row (default 3)",
     )
     p.add_argument(
         "--rate", type=float, default=100.0, help="face: commands per second (default 100)"
@@ -249,23 +263,66 @@ def build_parser() -> argparse.ArgumentParser:
         "--frames", type=int, help="tracker: frames to measure (default: the whole video)"
     )
     p.add_argument(
-        "--encoding", choices=("jpeg", "raw"), default="jpeg", help="chain: frame encoding"
+        "--encoding",
+        default="jpeg",
+        metavar="A,B",
+        help="chain: frame encodings to compare, jpeg and/or raw (default jpeg; raw frames go "
+        "through Zenoh's shared memory between processes on one host)",
     )
-    p.add_argument("--threads", type=int, default=1, help="chain: tracker inference threads")
+    p.add_argument(
+        "--threads", default="1", metavar="N,M", help="chain: tracker inference threads to compare"
+    )
+    p.add_argument(
+        "--robots",
+        default="1,4,8,16,32",
+        metavar="N,M",
+        help="fanout: robot counts to sweep (default 1,4,8,16,32)",
+    )
+    p.add_argument(
+        "--layout",
+        default="processes,shared",
+        metavar="A,B",
+        help="fanout: processes (a process per translator and per control interface) and/or "
+        "shared (every robot's nodes in one process); default both",
+    )
+    p.add_argument(
+        "--sched",
+        default="normal",
+        metavar="A,B",
+        help="chain, fanout: scheduling of every process to compare: normal and/or realtime "
+        "(SCHED_FIFO priority 10; needs CAP_SYS_NICE)",
+    )
+    p.add_argument(
+        "--runs",
+        type=int,
+        default=1,
+        metavar="N",
+        help="chain: N interleaved runs of every variant (default 1; the goals ask for 3)",
+    )
+    p.add_argument(
+        "--hops",
+        action="store_true",
+        help="chain: also time each hop and show which hops grow in the slowest frames "
+        "(the observer then receives every stage's messages, which costs some CPU)",
+    )
     p.add_argument("--profile", default="paper16", help="smoothing: profile to measure")
     p.add_argument(
         "--track", help="smoothing: a facesynth track file to measure tracking noise from"
     )
     p.add_argument(
-        "--mode", choices=("client", "peer"), default="client", help="chain: Zenoh mode of services"
+        "--mode",
+        default="client",
+        metavar="A,B",
+        help="chain: Zenoh modes of the services to compare, client and/or peer (default client)",
     )
     p.add_argument(
         "--backends", default="litert,opencv", help="tracker: inference backends to compare"
     )
     p.add_argument(
         "--models",
-        default="fast,full",
-        help="tracker, fidelity: tracker models to compare (default fast,full)",
+        metavar="A,B",
+        help="tracker models to compare (tracker, fidelity: default fast,full; chain, fanout: "
+        "default full)",
     )
     p.add_argument(
         "--profiles",

@@ -7,6 +7,7 @@ import asyncio
 import json
 import logging
 import time
+from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
@@ -14,10 +15,12 @@ from facesynth.app import wiring
 from facesynth.app.chain import (
     ChainResult,
     build_chain,
+    build_nodes,
     freeze_startup_objects,
     open_embedded,
     run_chain,
     run_single,
+    serve_nodes,
 )
 from facesynth.app.compose import compose_file
 from facesynth.app.graph import Graph, load_graph, select_node
@@ -25,6 +28,7 @@ from facesynth.app.nodes import NODE_TYPES, SensorNode, stage_of
 from facesynth.app.plugin_help import describe_plugins
 from facesynth.app.recording.attach import attached
 from facesynth.app.stage_args import apply_arguments
+from facesynth.app.tuning import Scheduling, apply_scheduling, combined, keep_buffers
 from facesynth.app.wiring import OptionError, build_node, replay_frames_of
 from facesynth.runtime import keys
 from facesynth.runtime.atomic import write_atomic
@@ -53,6 +57,7 @@ def cmd_stage(args: argparse.Namespace) -> int:
         graph = Graph(nodes={name: node})
     node, config = apply_arguments(name, node, args)
     graph.nodes[name] = node
+    tune_process([node])
     replay_frames = None
     if isinstance(node, SensorNode) and args.graph:
         if not node.wait_for:  # started from a graph: wait for the graph's other stages
@@ -65,7 +70,13 @@ def cmd_stage(args: argparse.Namespace) -> int:
     instance = None if name == stage else f"{default_instance()}-{name}"
     run_async(
         run_single(
-            options, rig, stage, parts.body, instance=instance, stats_interval=args.stats_interval
+            options,
+            rig,
+            stage,
+            parts.body,
+            instance=instance,
+            stats_interval=args.stats_interval,
+            robot=parts.robot,
         )
     )
     return 0
@@ -78,6 +89,9 @@ def cmd_run(args: argparse.Namespace) -> int:
     for name, node in list(graph.nodes.items()):
         graph.nodes[name], configs[name] = apply_arguments(name, node, args)
     rig = args.rig or graph.rig
+    tune_process(graph.nodes.values())
+    if not graph.of_stage("sensor"):
+        return _serve_graph(args, graph, configs, rig)
     parts = build_chain(graph, configs)
     listen = endpoints(args.listen) or ["tcp/127.0.0.1:7447"]
     options = wiring.zenoh_options(args, default_mode="router")
@@ -122,6 +136,42 @@ def cmd_run(args: argparse.Namespace) -> int:
     return 130 if result.interrupted else 0
 
 
+def _serve_graph(args: argparse.Namespace, graph: Graph, configs: dict[str, Any], rig: str) -> int:
+    """``facesynth run`` of a graph without a sensor: its nodes (say, a robot host's translators
+    and control interfaces) in one process, fed from the bus, until a signal arrives.
+
+    As a router by default (listening where ``run`` does); ``--mode client|peer`` joins the
+    router or peers given by ``--connect`` instead, like a stage command; exits 0 when
+    signalled, as a stage command does."""
+    parts = build_nodes(graph, configs)
+    options = wiring.zenoh_options(args, default_mode="router")
+    if options.mode == "router" and not options.listen and options.config_file_path() is None:
+        options.listen = ["tcp/127.0.0.1:7447"]
+
+    async def main() -> ChainResult:
+        bus = ZenohBus(await asyncio.to_thread(open_session, options))
+        log.info("%d nodes of %s on rig %s", len(parts), args.graph, rig)
+        freeze_startup_objects()
+        try:
+            return await serve_nodes(bus, rig, parts, stats_interval=args.stats_interval)
+        finally:
+            await bus.close()
+
+    result = run_async(main())
+    print(
+        json.dumps(
+            {
+                "nodes": [part.name for part in parts],
+                "commands": result.commands,
+                "seconds": round(result.seconds, 2),
+                "rejected": result.rejected,
+                "dropped": result.dropped,
+            }
+        )
+    )
+    return 0  # like a stage command, it ends when told to
+
+
 def cmd_render(args: argparse.Namespace) -> int:
     """``facesynth render [GRAPH] --out OUT.mp4``: the side-by-side video of a graph's input."""
     from facesynth.app.render import render_graph
@@ -133,9 +183,7 @@ def cmd_render(args: argparse.Namespace) -> int:
             del graph.nodes[name]
             continue
         graph.nodes[name], configs[name] = apply_arguments(name, node, args)
-    summary = render_graph(
-        graph, configs, args.out, bars=args.bars, same_size=args.same_size
-    )
+    summary = render_graph(graph, configs, args.out, bars=args.bars, same_size=args.same_size)
     print(json.dumps(summary))
     return 0
 
@@ -150,8 +198,22 @@ def cmd_compose(args: argparse.Namespace) -> int:
     return 0
 
 
+def tune_process(nodes: Iterable[Any]) -> None:
+    """Set this process up for the nodes it runs: buffer reuse, and their scheduling requests
+    (the most demanding of each kind, see :mod:`facesynth.app.tuning`)."""
+    keep_buffers()
+    request = combined(Scheduling(node.nice, node.realtime, tuple(node.cpus)) for node in nodes)
+    if request.requested:
+        apply_scheduling(request)
+        log.info("scheduling: %s", request.describe())
+
+
 def cmd_router(args: argparse.Namespace) -> int:
     """``facesynth router``: a Zenoh router in Python."""
+    keep_buffers()
+    request = Scheduling(args.nice, args.realtime, tuple(args.cpus or ()))
+    if request.requested:
+        apply_scheduling(request)
     options = wiring.zenoh_options(args, default_mode="router")
     options.mode = "router"
     if not options.listen and options.config_file_path() is None:
@@ -289,28 +351,15 @@ def cmd_bench(args: argparse.Namespace) -> int:
         print(format_face(bench_face(seconds=args.seconds or 3.0, rate=args.rate)))
         return 0
     if args.what == "chain":
-        from facesynth.app.bench.chain import bench_chain, format_chain_bench
-
-        print(
-            format_chain_bench(
-                bench_chain(
-                    video=args.video,
-                    seconds=args.seconds or 15.0,
-                    fps=args.fps,
-                    openface_csv=args.openface_csv,
-                    encoding=args.encoding,
-                    threads=args.threads,
-                    mode=args.mode,
-                )
-            )
-        )
-        return 0
+        return _bench_chain(args)
+    if args.what == "fanout":
+        return _bench_fanout(args)
     from facesynth.app.bench.tracker import bench_tracker, format_bench
     from facesynth.app.data import sample_video
     from services.points.tracker.landmarkers import model_names
 
     backends = tuple(b for b in args.backends.split(",") if b)
-    models = tuple(m for m in args.models.split(",") if m)
+    models = tuple(m for m in (args.models or "fast,full").split(",") if m)
     unknown = [m for m in models if m not in model_names()]
     if unknown or not models:
         choices = ", ".join(model_names())
@@ -328,6 +377,90 @@ def cmd_bench(args: argparse.Namespace) -> int:
     return 0
 
 
+def _choices(value: str, flag: str, allowed: tuple[str, ...]) -> list[str]:
+    """A comma-separated list of choices (``jpeg,raw``), each checked."""
+    chosen = [item.strip() for item in value.split(",") if item.strip()]
+    unknown = [item for item in chosen if item not in allowed]
+    if unknown or not chosen:
+        raise OptionError(
+            f"{flag}: unknown {', '.join(unknown) or 'empty list'}; "
+            f"choose from {', '.join(allowed)}"
+        )
+    return chosen
+
+
+def _bench_chain(args: argparse.Namespace) -> int:
+    """``facesynth bench chain``: the variants asked for, side by side, ``--runs`` times."""
+    from facesynth.app.bench.chain import SCHEDULES, bench_chain, variants
+    from facesynth.app.bench.chain_report import format_chain_bench
+    from services.points.tracker.landmarkers import model_names
+
+    if args.runs < 1:
+        raise OptionError("--runs must be at least 1")
+    threads = [int(t) for t in _choices(args.threads, "--threads", tuple(map(str, range(1, 9))))]
+    chosen = variants(
+        encodings=_choices(args.encoding, "--encoding", ("jpeg", "raw")),
+        models=_choices(args.models or "full", "--models", tuple(model_names())),
+        threads=threads,
+        modes=_choices(args.mode, "--mode", ("client", "peer")),
+        scheds=_choices(args.sched, "--sched", SCHEDULES),
+    )
+    figures = bench_chain(
+        chosen,
+        runs=args.runs,
+        video=args.video,
+        seconds=args.seconds or 15.0,
+        fps=args.fps,
+        openface_csv=args.openface_csv,
+        hops=args.hops,
+    )
+    print(format_chain_bench(figures))
+    return 0
+
+
+def _bench_fanout(args: argparse.Namespace) -> int:
+    """``facesynth bench fanout``: one performer, N robots, in each layout, side by side."""
+    from facesynth.app.bench.chain import REALTIME_PRIORITY, SCHEDULES
+    from facesynth.app.bench.fanout import LAYOUTS, bench_fanout
+    from facesynth.app.bench.fanout_report import format_fanout
+    from services.points.tracker.landmarkers import model_names
+
+    try:
+        counts = [int(n) for n in args.robots.split(",") if n.strip()]
+    except ValueError:
+        raise OptionError(f"--robots: not a list of numbers: {args.robots!r}") from None
+    if not counts or min(counts) < 1:
+        raise OptionError("--robots: give one or more counts of at least 1, e.g. 1,4,8,16,32")
+    if args.runs < 1:
+        raise OptionError("--runs must be at least 1")
+    (model,) = _single(args.models or "full", "--models", tuple(model_names()))
+    (encoding,) = _single(args.encoding, "--encoding", ("jpeg", "raw"))
+    (mode,) = _single(args.mode, "--mode", ("client", "peer"))
+    (sched,) = _single(args.sched, "--sched", SCHEDULES)
+    figures = bench_fanout(
+        counts,
+        _choices(args.layout, "--layout", LAYOUTS),
+        runs=args.runs,
+        video=args.video,
+        seconds=args.seconds or 10.0,
+        fps=args.fps,
+        model=model,
+        encoding=encoding,
+        mode=mode,
+        realtime=REALTIME_PRIORITY if sched == "realtime" else None,
+    )
+    print(format_fanout(figures, model=model, encoding=encoding, mode=mode, sched=sched))
+    return 0
+
+
+def _single(value: str, flag: str, allowed: tuple[str, ...]) -> list[str]:
+    """One choice (``fanout`` compares layouts and robot counts, not these)."""
+    chosen = _choices(value, flag, allowed)
+    if len(chosen) != 1:
+        raise OptionError(f"{flag}: bench fanout takes one value, not {value!r}")
+    return chosen
+
+
 def _bench_fidelity(args: argparse.Namespace) -> int:
     """``facesynth bench fidelity``: synthetic expressions through every profile and model."""
     from facesynth.app.bench.fidelity import PROFILES, bench_fidelity, format_fidelity
@@ -335,7 +468,7 @@ def _bench_fidelity(args: argparse.Namespace) -> int:
     from facesynth.runtime.profiles import resolve_profile
     from services.points.tracker.landmarkers import model_names
 
-    models = tuple(m for m in args.models.split(",") if m)
+    models = tuple(m for m in (args.models or "fast,full").split(",") if m)
     unknown = [m for m in models if m not in model_names()]
     if unknown or not models:
         choices = ", ".join(model_names())

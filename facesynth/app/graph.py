@@ -82,8 +82,11 @@ def check_graph(graph: Graph, where: str, *, plugins: bool = True) -> Graph:
         raise GraphError(f"{where}: a graph needs at least one node")
     try:
         keys.check_name(graph.rig)
-        for name in graph.nodes:
+        for name, node in graph.nodes.items():
             keys.check_name(name, "node")
+            robot = getattr(node, "robot", None)
+            if robot is not None:
+                keys.check_name(robot, "robot")
     except keys.KeyNameError as exc:
         raise GraphError(f"{where}: {exc}") from None
     if plugins:

@@ -70,7 +70,8 @@ class SensorService:
 
     async def _watch_acks(self, ctx: ServiceContext, stage: keys.Stage) -> None:
         # Only the newest ack matters: overwritten ones are not data loss, so not in the stats.
-        subscription = ctx.bus.subscribe_latest(ctx.key(stage))
+        # Every robot's commands or state: a rig may drive several robots (keys.ROBOT_STAGES).
+        subscription = ctx.bus.subscribe_latest(keys.robots_pattern(ctx.rig, stage))
         try:
             async for sample in subscription:
                 try:

@@ -291,4 +291,3 @@ def format_fidelity(rows: Sequence[FidelityRow]) -> str:
                 f"{_cell(r.cross_talk):28} {_cell(r.own_region):28}"
             )
     return "\n".join(lines)
-

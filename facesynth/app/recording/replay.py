@@ -104,7 +104,8 @@ class Replayer:
         self._acked = asyncio.Event()
 
     async def _watch_acks(self, ctx: ServiceContext, stage: keys.Stage) -> None:
-        subscription = ctx.bus.subscribe_latest(ctx.key(stage))
+        # Every robot's commands or state: a rig may drive several robots (keys.ROBOT_STAGES).
+        subscription = ctx.bus.subscribe_latest(keys.robots_pattern(ctx.rig, stage))
         try:
             async for sample in subscription:
                 try:
