@@ -29,6 +29,7 @@ from facesynth.runtime.bus.zenoh_bus import (
     open_session,
     router_locators,
 )
+from facesynth.runtime.gc_watch import GcWatch
 from facesynth.runtime.service import ServiceContext, run_service, until_signalled
 from schemas.messages import ServoCommands
 from services.points.backends.base import PointsBackend
@@ -52,12 +53,16 @@ async def run_single(
     """Open a bus, run one service until it ends or a signal arrives, close the bus."""
     bus = await asyncio.to_thread(ZenohBus.open, options)
     freeze_startup_objects()
+    watch = GcWatch()
+    watch.start()
     try:
         ctx = ServiceContext(bus, rig, service, stats_interval=stats_interval, robot=robot)
         if instance:
             ctx.instance = instance
         return await until_signalled(run_service(ctx, body))
     finally:
+        watch.stop()
+        log.info("%s after start-up", watch.summary())
         await bus.close()
 
 
@@ -212,6 +217,8 @@ async def serve_nodes(
 ) -> ChainResult:
     """Run nodes that need no sensor of their own until a signal arrives or one of them fails."""
     started = time.monotonic()
+    watch = GcWatch()
+    watch.start()
     contexts = {part.name: node_context(bus, rig, part, stats_interval) for part in parts}
     tasks = [
         asyncio.create_task(run_service(contexts[part.name], part.body), name=part.name)
@@ -221,6 +228,8 @@ async def serve_nodes(
     for task in tasks:
         task.cancel()
     results = await asyncio.gather(*tasks, return_exceptions=True)
+    watch.stop()
+    log.info("%s after start-up", watch.summary())
     for result in results:
         if isinstance(result, BaseException) and not isinstance(result, asyncio.CancelledError):
             raise result

@@ -282,8 +282,9 @@ def build_parser() -> argparse.ArgumentParser:
         "--layout",
         default="processes,shared",
         metavar="A,B",
-        help="fanout: processes (a process per translator and per control interface) and/or "
-        "shared (every robot's nodes in one process); default both",
+        help="fanout: how robots' nodes share processes, compared side by side: processes (one "
+        "per translator and per control interface), robot (one per robot), shared (one for all "
+        "robots), shared:K (K processes); default processes,shared",
     )
     p.add_argument(
         "--sched",

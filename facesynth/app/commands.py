@@ -421,7 +421,7 @@ def _bench_chain(args: argparse.Namespace) -> int:
 def _bench_fanout(args: argparse.Namespace) -> int:
     """``facesynth bench fanout``: one performer, N robots, in each layout, side by side."""
     from facesynth.app.bench.chain import REALTIME_PRIORITY, SCHEDULES
-    from facesynth.app.bench.fanout import LAYOUTS, bench_fanout
+    from facesynth.app.bench.fanout import bench_fanout, check_layout
     from facesynth.app.bench.fanout_report import format_fanout
     from services.points.tracker.landmarkers import model_names
 
@@ -437,9 +437,16 @@ def _bench_fanout(args: argparse.Namespace) -> int:
     (encoding,) = _single(args.encoding, "--encoding", ("jpeg", "raw"))
     (mode,) = _single(args.mode, "--mode", ("client", "peer"))
     (sched,) = _single(args.sched, "--sched", SCHEDULES)
+    layouts = [item.strip() for item in args.layout.split(",") if item.strip()]
+    try:
+        layouts = [check_layout(layout) for layout in layouts]
+    except ValueError as exc:
+        raise OptionError(f"--layout: {exc}") from None
+    if not layouts:
+        raise OptionError("--layout: give one or more layouts")
     figures = bench_fanout(
         counts,
-        _choices(args.layout, "--layout", LAYOUTS),
+        layouts,
         runs=args.runs,
         video=args.video,
         seconds=args.seconds or 10.0,

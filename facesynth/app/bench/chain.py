@@ -111,6 +111,8 @@ class ChainFigures:
     #: With hops: per hop p50/p99 (ms), and per hop median over all vs the slowest 1 %.
     hops: dict[str, tuple[float, float]] = field(default_factory=dict)
     tail: dict[str, tuple[float, float]] = field(default_factory=dict)
+    #: Garbage-collector passes after start-up per process: passes, generation 2, longest ms.
+    gc: dict[str, tuple[int, int, float]] = field(default_factory=dict)
 
     @property
     def cpu_total_ms(self) -> float:
@@ -237,6 +239,7 @@ def chain_figures(
         machine_busy=result.machine_busy,
         others_busy=result.others_busy,
         load=(result.load_before, result.load_after),
+        gc=result.gc,
     )
     by_service = {stats.service: stats for stats in result.stats.values()}
     for name in STAGES:

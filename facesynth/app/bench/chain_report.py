@@ -66,6 +66,12 @@ def format_run(figures: ChainFigures) -> str:
             f"  {machine_line(figures)}",
         )
     )
+    if figures.gc:
+        passes = ", ".join(
+            f"{name} {n} ({oldest} gen 2, longest {longest:.1f} ms)"
+            for name, (n, oldest, longest) in figures.gc.items()
+        )
+        lines.append(f"  garbage collector after start-up (whole run): {passes}")
     if figures.hops:
         lines.append(
             f"  {'hop':<22} {'p50 ms':>8} {'p99 ms':>8}   {'median, all':>12} "

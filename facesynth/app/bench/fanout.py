@@ -3,12 +3,9 @@
 One sensor, one point streamer and one feature processor; then, per robot, a translator and a
 control interface (record driver) with that robot's profile, the shipped profiles in turn, on
 the robot's own command keys (``…/servo_commands/<robot>``, ``…/servo_state/<robot>``: see
-:mod:`facesynth.runtime.keys`). Robots are laid out one of two ways, compared side by side:
-
-* ``processes``: every translator and control interface is a process of its own (separate
-  robots, each with its own controller host, all squeezed onto this machine);
-* ``shared``: every robot's translator and control interface run in one process (one
-  ``facesynth run`` of a graph without a sensor: a robot host serving many robots).
+:mod:`facesynth.runtime.keys`). The robots' nodes are spread over processes in the layouts
+asked for (:func:`robot_groups`), compared side by side; a process running several nodes is a
+``facesynth run`` of a graph without a sensor (a robot host serving several robots).
 
 For each number of robots it reports capture → command p50/p99 per robot and over every robot's
 commands together, the commands that arrived, and CPU per frame: the performer's side (sensor,
@@ -36,7 +33,38 @@ from facesynth.runtime.profiles import available_profiles, load_profile
 #: The goal: this many robots at capture → command p99 within GOAL_P99_MS on 2 cores.
 GOAL_ROBOTS = 32
 GOAL_P99_MS = 20.0
-LAYOUTS = ("processes", "shared")
+#: How robots' nodes are spread over processes (see :func:`robot_groups`).
+LAYOUTS = ("processes", "robot", "shared", "shared:2")
+
+
+def check_layout(layout: str) -> str:
+    """``layout`` if it is one of :data:`LAYOUTS` or ``shared:K`` (K ≥ 1), else ValueError."""
+    name, _, count = layout.partition(":")
+    if layout in ("processes", "robot", "shared") or (
+        name == "shared" and count.isdigit() and int(count) >= 1
+    ):
+        return layout
+    raise ValueError(f"unknown layout {layout!r} (use processes, robot, shared or shared:K)")
+
+
+def robot_groups(layout: str, robots: int) -> dict[str, list[str]] | None:
+    """The processes of a layout, by name, and the robot nodes each runs (``None``: one
+    process per node): ``processes`` gives every translator and control interface a process;
+    ``robot`` one process per robot (its translator and control interface, as on a robot's
+    own controller host); ``shared`` one process for every robot; ``shared:K`` K processes,
+    the robots dealt out in turn."""
+    check_layout(layout)
+    if layout == "processes" or robots == 0:
+        return None
+    names = [robot_name(i) for i in range(robots)]
+    if layout == "robot":
+        return {f"robot_{r}": [f"translator_{r}", f"control_{r}"] for r in names}
+    count = 1 if layout == "shared" else int(layout.partition(":")[2])
+    count = min(count, robots)
+    return {
+        f"robots{k}": [n for r in names[k::count] for n in (f"translator_{r}", f"control_{r}")]
+        for k in range(count)
+    }
 
 
 def uses_blendshapes(name: str) -> bool:
@@ -188,9 +216,7 @@ def bench_fanout_once(
     mode: str = "client",
     realtime: int | None = None,
 ) -> FanoutFigures:
-    """One run with ``robots`` robots laid out as ``layout`` (``processes`` or ``shared``)."""
-    if layout not in LAYOUTS:
-        raise ValueError(f"unknown layout {layout!r} (use {', '.join(LAYOUTS)})")
+    """One run with ``robots`` robots laid out as ``layout`` (see :func:`robot_groups`)."""
     frames = max(1, int(seconds * fps))
     with tempfile.TemporaryDirectory(prefix="facesynth-fanout-") as tmp:
         graph = fanout_graph(
@@ -204,13 +230,12 @@ def bench_fanout_once(
             rig=f"fanout{os.getpid()}",
             realtime=realtime,
         )
-        robot_nodes = [name for name in graph.nodes if name.startswith(("translator_", "control_"))]
         options = RunOptions(
             frames=frames,
             fps=fps,
             mode=mode,
             steady_after_s=STEADY_AFTER_S,
-            groups={"robots": robot_nodes} if layout == "shared" and robots > 0 else None,
+            groups=robot_groups(layout, robots),
             router_args=["--realtime", str(realtime)] if realtime else [],
             progress_robot=robot_name(0),
         )
@@ -220,7 +245,7 @@ def bench_fanout_once(
 
 def bench_fanout(
     counts: Sequence[int],
-    layouts: Sequence[str] = LAYOUTS,
+    layouts: Sequence[str] = ("processes", "shared"),
     *,
     runs: int = 1,
     **options: object,

@@ -27,6 +27,7 @@ from facesynth.app.graph import Graph, graph_to_toml
 from facesynth.app.nodes import ControlNode, stage_of
 from facesynth.runtime import keys
 from facesynth.runtime.bus.zenoh_bus import ZenohBus, ZenohOptions
+from facesynth.runtime.gc_watch import parse_summary
 from facesynth.runtime.stats import memory_mb
 from schemas.messages import ServiceStats
 from services.control.drivers.record import RecordLine, read_record
@@ -65,6 +66,9 @@ class RigRun:
     steady_from: int = 0
     #: Process name → the nodes it ran.
     processes: dict[str, list[str]] = field(default_factory=dict)
+    #: Garbage-collector passes of each process after its start-up, from its log: passes,
+    #: generation-2 passes, longest pause (ms).
+    gc: dict[str, tuple[int, int, float]] = field(default_factory=dict)
 
 
 def process_layout(
@@ -133,6 +137,10 @@ def run_graph(graph: Graph, options: RunOptions) -> RigRun:
             if failed := group.failed(others):
                 name, log = next(iter(failed.items()))
                 raise BenchRunError(f"{name} failed:\n{log}")
+            for name in group.procs:
+                summary = parse_summary(group.log(name).read_text(errors="replace"))
+                if summary is not None:
+                    run.gc[name] = summary
             run.records = {
                 name: [
                     line
