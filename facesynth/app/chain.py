@@ -30,7 +30,12 @@ from facesynth.runtime.bus.zenoh_bus import (
     router_locators,
 )
 from facesynth.runtime.gc_watch import GcWatch
-from facesynth.runtime.service import ServiceContext, run_service, until_signalled
+from facesynth.runtime.service import (
+    ServiceContext,
+    default_instance,
+    run_service,
+    until_signalled,
+)
 from schemas.messages import ServoCommands
 from services.points.backends.base import PointsBackend
 from services.sensor.service import SensorService
@@ -56,9 +61,14 @@ async def run_single(
     watch = GcWatch()
     watch.start()
     try:
-        ctx = ServiceContext(bus, rig, service, stats_interval=stats_interval, robot=robot)
-        if instance:
-            ctx.instance = instance
+        ctx = ServiceContext(
+            bus,
+            rig,
+            service,
+            instance=instance or default_instance(),
+            stats_interval=stats_interval,
+            robot=robot,
+        )
         return await until_signalled(run_service(ctx, body))
     finally:
         watch.stop()
@@ -196,10 +206,13 @@ async def run_chain(
 
 def node_context(bus: Bus, rig: str, part: StageParts, stats_interval: float) -> ServiceContext:
     """The service context of one node of a graph run in one process."""
-    ctx = ServiceContext(bus, rig, part.stage, stats_interval=stats_interval, robot=part.robot)
+    instance = default_instance()
     if part.name != part.stage:
-        ctx.instance = f"{ctx.instance}-{part.name}"
-    return ctx
+        instance = f"{instance}-{part.name}"
+    # The instance is given at construction: the stats messages carry it too.
+    return ServiceContext(
+        bus, rig, part.stage, instance=instance, stats_interval=stats_interval, robot=part.robot
+    )
 
 
 def build_nodes(graph: Graph, configs: dict[str, msgspec.Struct | None]) -> list[StageParts]:

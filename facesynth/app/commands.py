@@ -23,7 +23,7 @@ from facesynth.app.chain import (
     serve_nodes,
 )
 from facesynth.app.compose import compose_file
-from facesynth.app.graph import Graph, load_graph, select_node
+from facesynth.app.graph import Graph, check_node, load_graph, select_node
 from facesynth.app.nodes import NODE_TYPES, SensorNode, stage_of
 from facesynth.app.plugin_help import describe_plugins
 from facesynth.app.recording.attach import attached
@@ -56,6 +56,7 @@ def cmd_stage(args: argparse.Namespace) -> int:
         name, node = stage, NODE_TYPES[stage]()
         graph = Graph(nodes={name: node})
     node, config = apply_arguments(name, node, args)
+    check_node(name, node, args.graph or "command line")
     graph.nodes[name] = node
     tune_process([node])
     replay_frames = None
@@ -88,6 +89,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     configs = {}
     for name, node in list(graph.nodes.items()):
         graph.nodes[name], configs[name] = apply_arguments(name, node, args)
+        check_node(name, graph.nodes[name], args.graph or "command line")
     rig = args.rig or graph.rig
     tune_process(graph.nodes.values())
     if not graph.of_stage("sensor"):

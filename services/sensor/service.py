@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 from facesynth.runtime import codec, keys
 from facesynth.runtime.service import ServiceContext
 from schemas.messages import Frame, ServoCommands
-from services.sensor.core import FlowWindow, Pacer
+from services.sensor.core import FlowWindow, Pacer, SlowestCredit
 from services.sensor.sources import FrameSource
 
 #: A nominal image size for frames without pixels (ticks).
@@ -69,16 +69,19 @@ class SensorService:
         self.stalls = 0
 
     async def _watch_acks(self, ctx: ServiceContext, stage: keys.Stage) -> None:
-        # Only the newest ack matters: overwritten ones are not data loss, so not in the stats.
-        # Every robot's commands or state: a rig may drive several robots (keys.ROBOT_STAGES).
-        subscription = ctx.bus.subscribe_latest(keys.robots_pattern(ctx.rig, stage))
+        # Every robot's commands or state (a rig may drive several robots, keys.ROBOT_STAGES):
+        # the slowest robot still answering gives the credit. Acks are not data: a full
+        # mailbox only drops old ones, so they stay out of the stats.
+        subscription = ctx.bus.subscribe_queued(keys.robots_pattern(ctx.rig, stage), 64)
+        credit = SlowestCredit(round(self.options.ack_timeout * 1e9))
         try:
             async for sample in subscription:
                 try:
                     seq = codec.decode(sample.payload, ServoCommands).seq
                 except ValueError:
                     continue
-                self.flow.ack(seq)
+                robot = keys.robot_of(sample.key) or ""
+                self.flow.acked = credit.heard(robot, seq, ctx.clock.monotonic_ns())
                 self._acked.set()
         finally:
             subscription.close()

@@ -27,7 +27,7 @@ from facesynth.app.recording.reader import Recording
 from facesynth.runtime import codec, keys
 from facesynth.runtime.service import ServiceContext
 from schemas.messages import ServoCommands
-from services.sensor.core import FlowWindow, Pacer
+from services.sensor.core import FlowWindow, Pacer, SlowestCredit
 from services.sensor.service import wait_for_services
 
 
@@ -104,15 +104,18 @@ class Replayer:
         self._acked = asyncio.Event()
 
     async def _watch_acks(self, ctx: ServiceContext, stage: keys.Stage) -> None:
-        # Every robot's commands or state: a rig may drive several robots (keys.ROBOT_STAGES).
-        subscription = ctx.bus.subscribe_latest(keys.robots_pattern(ctx.rig, stage))
+        # Every robot's commands or state (a rig may drive several robots, keys.ROBOT_STAGES):
+        # the slowest robot still answering gives the credit, as for the sensor's --fast.
+        subscription = ctx.bus.subscribe_queued(keys.robots_pattern(ctx.rig, stage), 64)
+        credit = SlowestCredit(round(self.options.ack_timeout * 1e9))
         try:
             async for sample in subscription:
                 try:
                     seq = codec.decode(sample.payload, ServoCommands).seq
                 except ValueError:
                     continue
-                self.flow.ack(seq)
+                robot = keys.robot_of(sample.key) or ""
+                self.flow.acked = credit.heard(robot, seq, time.monotonic_ns())
                 self._acked.set()
         finally:
             subscription.close()
