@@ -67,8 +67,9 @@ class StageRun:
 
     ``body`` is what ``run_service`` would run (e.g. ``control.serve`` or
     ``lambda ctx: serve_features(ctx, processor)``); ``service`` names it (its keys and
-    stats), ``robot`` the robot whose command keys it uses, if any. Use as ``async with``: entering starts the body and lets it reach its first wait;
-    leaving cancels it (like SIGTERM) and closes the bus.
+    stats), ``robot`` the robot whose command keys it uses, if any. Use as ``async with``:
+    entering starts the body and lets it reach its first wait; leaving cancels it (like
+    SIGTERM) and closes the bus.
     """
 
     def __init__(
