@@ -294,6 +294,12 @@ def build_parser() -> argparse.ArgumentParser:
         "(SCHED_FIFO priority 10; needs CAP_SYS_NICE)",
     )
     p.add_argument(
+        "--baseline",
+        metavar="DIR",
+        help="chain: also run each variant (without realtime) from this facesynth source tree, "
+        "e.g. an older version: git archive v1 | tar -x -C DIR",
+    )
+    p.add_argument(
         "--runs",
         type=int,
         default=1,

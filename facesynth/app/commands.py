@@ -406,6 +406,7 @@ def _bench_chain(args: argparse.Namespace) -> int:
         threads=threads,
         modes=_choices(args.mode, "--mode", ("client", "peer")),
         scheds=_choices(args.sched, "--sched", SCHEDULES),
+        baseline=_baseline(args.baseline),
     )
     figures = bench_chain(
         chosen,
@@ -460,6 +461,15 @@ def _bench_fanout(args: argparse.Namespace) -> int:
     )
     print(format_fanout(figures, model=model, encoding=encoding, mode=mode, sched=sched))
     return 0
+
+
+def _baseline(path: str | None) -> str:
+    """``--baseline DIR``: a source tree holding another facesynth package, or ``""``."""
+    if not path:
+        return ""
+    if not (Path(path) / "facesynth" / "__main__.py").is_file():
+        raise OptionError(f"--baseline {path}: no facesynth source tree there (facesynth/ missing)")
+    return path
 
 
 def _single(value: str, flag: str, allowed: tuple[str, ...]) -> list[str]:

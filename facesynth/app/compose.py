@@ -66,6 +66,9 @@ def compose_file(graph: Graph, graph_file: str, *, graph_path: str) -> str:
                 f"    command: [{', '.join(_quote(part) for part in command)}]",
             ]
         )
+        if node.realtime is not None or (node.nice is not None and node.nice < 0):
+            # Real-time priority or a negative niceness needs the capability in the container.
+            lines.append("    cap_add: [SYS_NICE]")
         if stage == "control":  # what a recorder writes stays on the host
             lines.extend(
                 [

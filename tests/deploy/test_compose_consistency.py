@@ -79,3 +79,22 @@ def test_dockerfile_takes_base_image_as_build_argument() -> None:
     assert "ARG BASE_IMAGE" in text and "FROM ${BASE_IMAGE}" in text
     build_args = {s["build"]["args"]["BASE_IMAGE"] for s in SERVICES.values() if "build" in s}
     assert build_args == {"${FACESYNTH_BASE_IMAGE:-python:3.11-slim}"}
+
+
+def test_a_node_asking_for_priority_gets_the_capability_in_its_container() -> None:
+    from facesynth.app.graph import parse_graph
+
+    graph = parse_graph(
+        {
+            "nodes": {
+                "points": {"stage": "points", "realtime": 20},
+                "features": {"stage": "features", "nice": -5},
+                "translator": {"stage": "translator", "nice": 5},
+            }
+        }
+    )
+    text = compose_file(graph, "g.toml", graph_path="/etc/facesynth/graph.toml")
+    blocks = {block.split(":")[0].strip(): block for block in text.split("\n\n  ")[1:]}
+    assert "cap_add: [SYS_NICE]" in blocks["points"]
+    assert "cap_add: [SYS_NICE]" in blocks["features"]
+    assert "cap_add" not in blocks["translator"]

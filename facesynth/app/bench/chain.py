@@ -55,12 +55,16 @@ class ChainVariant:
     threads: int = 1
     mode: str = "client"
     sched: str = "normal"
+    #: Another facesynth source tree to run the processes from (a baseline), if any.
+    source: str = ""
 
     def label(self) -> str:
-        """A short name, e.g. ``raw fast client`` or ``jpeg full peer realtime``."""
+        """A short name, e.g. ``raw fast client``, ``jpeg full peer realtime`` or
+        ``jpeg full client [/src/old]``."""
         threads = f" {self.threads} threads" if self.threads != 1 else ""
         sched = f" {self.sched}" if self.sched != "normal" else ""
-        return f"{self.encoding} {self.model}{threads} {self.mode}{sched}"
+        source = f" [{Path(self.source).name or self.source}]" if self.source else ""
+        return f"{self.encoding} {self.model}{threads} {self.mode}{sched}{source}"
 
     @property
     def realtime(self) -> int | None:
@@ -78,12 +82,17 @@ def variants(
     threads: Sequence[int] = (1,),
     modes: Sequence[str] = ("client",),
     scheds: Sequence[str] = ("normal",),
+    baseline: str = "",
 ) -> list[ChainVariant]:
-    """Every combination of the options, in the order given."""
-    return [
-        ChainVariant(*combination)
-        for combination in itertools.product(encodings, models, threads, modes, scheds)
-    ]
+    """Every combination of the options, in the order given; with ``baseline`` (another
+    facesynth source tree), each combination without real-time scheduling also runs from it,
+    right after the same combination from this one."""
+    out = []
+    for combination in itertools.product(encodings, models, threads, modes, scheds):
+        out.append(ChainVariant(*combination))
+        if baseline and out[-1].sched == "normal":
+            out.append(ChainVariant(*combination, source=baseline))
+    return out
 
 
 @dataclass
@@ -198,6 +207,7 @@ def bench_chain_once(
                 steady_after_s=STEADY_AFTER_S,
                 hops=hops,
                 router_args=variant.router_args(),
+                source=variant.source or None,
             ),
         )
     return chain_figures(

@@ -76,12 +76,22 @@ class CpuWindow:
 
 
 class ProcessGroup:
-    """A router and facesynth commands started as child processes; all stopped on exit."""
+    """A router and facesynth commands started as child processes; all stopped on exit.
 
-    def __init__(self, folder: Path) -> None:
+    With ``source``, the processes run the facesynth of that source tree (a checkout of
+    another version, put first on ``PYTHONPATH``) instead of this one, for before/after
+    comparisons in one benchmark run.
+    """
+
+    def __init__(self, folder: Path, source: str | None = None) -> None:
         self.folder = folder
         self.procs: dict[str, subprocess.Popen[bytes]] = {}
         self.locator = ""
+        self.env = {**os.environ, "PYTHONUNBUFFERED": "1"}
+        if source:
+            self.env["PYTHONPATH"] = os.pathsep.join(
+                [source, *filter(None, [os.environ.get("PYTHONPATH")])]
+            )
 
     def start(self, name: str, *args: str) -> subprocess.Popen[bytes]:
         """Start ``python -m facesynth ARGS`` with its output in ``<folder>/<name>.log``."""
@@ -90,7 +100,7 @@ class ProcessGroup:
                 [sys.executable, "-m", "facesynth", *args],
                 stdout=out,
                 stderr=subprocess.STDOUT,
-                env={**os.environ, "PYTHONUNBUFFERED": "1"},
+                env=self.env,
             )
         self.procs[name] = proc
         return proc

@@ -99,6 +99,8 @@ class RunOptions:
     router_args: Sequence[str] = ()
     #: The robot whose applied commands time the CPU window (default: every robot's).
     progress_robot: str | None = None
+    #: Another facesynth source tree the processes run instead of this one (see ProcessGroup).
+    source: str | None = None
 
 
 def run_graph(graph: Graph, options: RunOptions) -> RigRun:
@@ -109,7 +111,7 @@ def run_graph(graph: Graph, options: RunOptions) -> RigRun:
         raise BenchRunError("the benchmark graph needs one sensor node, in a process of its own")
     sensor = sensors[0]
     with tempfile.TemporaryDirectory(prefix="facesynth-bench-") as tmp:
-        group = ProcessGroup(Path(tmp))
+        group = ProcessGroup(Path(tmp), options.source)
         try:
             locator = group.start_router(*options.router_args)
             starts = _commands(graph, layout, Path(tmp), locator, options.mode)
