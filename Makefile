@@ -22,7 +22,7 @@ demo: $(BIN)/.installed
 
 ## Lint, type-check, schema freshness, and the whole test suite (the browser group last).
 test: $(BIN)/.installed lint
-	$(BIN)/python -m pytest -q -m "not browser and not containers and not netns and not board"
+	$(BIN)/python -m pytest -q -m "not browser and not containers and not netns and not board and not faults and not fuzz"
 	$(BIN)/python -m pytest -q -m browser
 
 ## Faults: each process and the router killed and restarted mid-stream, a flood on every key,

@@ -57,6 +57,7 @@ def _files(tmp: Path) -> dict[str, Path]:
         "nodriver.toml": '[nodes.c]\nstage = "control"\ndriver = { driver = "record" }\n',
         "badgraph.toml": "[nodes.x\n",
         "features.toml": '[nodes.f]\nstage = "features"\n',
+        "robotgraph.toml": '[nodes.t]\nstage = "translator"\nrobot = "a b"\n',
         "noavatar.toml": (
             'name = "noavatar"\n[[servos]]\nname = "tail"\nchannel = 0\nfeature = "jaw_open"\n'
             "min_us = 1000\nneutral_us = 1500\nmax_us = 2000\n"
@@ -322,6 +323,29 @@ CASES = [
         ["control", "--driver", "vmc", "--profile", "{noavatar.toml}"],
         "has no control the vmc driver can send",
     ),
+    (
+        "bench chain encoding",
+        ["bench", "chain", "--encoding", "jpeg,png"],
+        "--encoding: unknown png",
+    ),
+    ("bench chain runs", ["bench", "chain", "--runs", "0"], "--runs must be at least 1"),
+    ("bench chain sched", ["bench", "chain", "--sched", "fifo"], "--sched: unknown fifo"),
+    ("bench chain mode", ["bench", "chain", "--mode", "router"], "--mode: unknown router"),
+    ("bench chain model", ["bench", "chain", "--models", "tiny"], "--models: unknown tiny"),
+    ("bench fanout robots", ["bench", "fanout", "--robots", "a,b"], "--robots: not a list"),
+    ("bench fanout no robots", ["bench", "fanout", "--robots", "0"], "counts of at least 1"),
+    ("bench fanout layout", ["bench", "fanout", "--layout", "threads"], "unknown layout 'threads'"),
+    (
+        "bench fanout one model",
+        ["bench", "fanout", "--models", "fast,full"],
+        "--models: bench fanout takes one value",
+    ),
+    ("robot name", ["translator", "--robot", "a/b"], "invalid robot name 'a/b'"),
+    ("robot name in a graph", ["run", "{robotgraph.toml}"], "node t: invalid robot name"),
+    ("unknown core", ["features", "--cpus", "4096"], "--cpus 4096: no core 4096 here"),
+    ("nice range", ["features", "--nice", "30"], "--nice: Expected `int` <= 19"),
+    ("realtime range", ["points", "--realtime", "0"], "--realtime: Expected `int` >= 1"),
+    ("router realtime range", ["router", "--realtime", "200"], "--realtime 200: must be within"),
 ]
 
 

@@ -31,8 +31,14 @@ from facesynth.runtime.bus.zenoh_bus import (
     open_session,
     router_locators,
 )
+from facesynth.runtime.gc_watch import GcWatch
 from facesynth.runtime.memory import return_big_allocations
-from facesynth.runtime.service import ServiceContext, run_service, until_signalled
+from facesynth.runtime.service import (
+    ServiceContext,
+    default_instance,
+    run_service,
+    until_signalled,
+)
 from schemas.messages import ServoCommands
 from services.points.backends.base import PointsBackend
 from services.sensor.service import SensorService
@@ -50,6 +56,7 @@ async def run_single(
     *,
     instance: str | None = None,
     stats_interval: float = 1.0,
+    robot: str | None = None,
 ) -> Any:
     """Open a bus (waiting for the router if the options say so: see :func:`open_waiting`),
     run one service until it ends or a signal arrives, close the bus."""
@@ -59,12 +66,21 @@ async def run_single(
         options.with_message_limit(limits.session_limit(keys.CONSUMES.get(service)))
     )
     freeze_startup_objects()
+    watch = GcWatch()
+    watch.start()
     try:
-        ctx = ServiceContext(bus, rig, service, stats_interval=stats_interval)
-        if instance:
-            ctx.instance = instance
+        ctx = ServiceContext(
+            bus,
+            rig,
+            service,
+            instance=instance or default_instance(),
+            stats_interval=stats_interval,
+            robot=robot,
+        )
         return await until_signalled(run_service(ctx, body))
     finally:
+        watch.stop()
+        log.info("%s after start-up", watch.summary())
         await bus.close()
 
 
@@ -202,14 +218,11 @@ async def run_chain(
     contexts: dict[str, ServiceContext] = {}
     tasks: list[asyncio.Task[Any]] = []
     started = time.monotonic()
-    progress = ServoStateWatch(bus, keys.stage_key(rig, "servo_state"))
+    progress = ServoStateWatch(bus, keys.robots_pattern(rig, "servo_state"))
 
     def context(part: StageParts) -> ServiceContext:
-        ctx = ServiceContext(bus, rig, part.stage, stats_interval=stats_interval)
-        if part.name != part.stage:
-            ctx.instance = f"{ctx.instance}-{part.name}"
-        contexts[part.name] = ctx
-        return ctx
+        contexts[part.name] = node_context(bus, rig, part, stats_interval)
+        return contexts[part.name]
 
     for part in others:
         tasks.append(asyncio.create_task(run_service(context(part), part.body), name=part.name))
@@ -250,8 +263,63 @@ async def run_chain(
     )
 
 
+def node_context(bus: Bus, rig: str, part: StageParts, stats_interval: float) -> ServiceContext:
+    """The service context of one node of a graph run in one process."""
+    instance = default_instance()
+    if part.name != part.stage:
+        instance = f"{instance}-{part.name}"
+    # The instance is given at construction: the stats messages carry it too.
+    return ServiceContext(
+        bus, rig, part.stage, instance=instance, stats_interval=stats_interval, robot=part.robot
+    )
+
+
+def build_nodes(graph: Graph, configs: dict[str, msgspec.Struct | None]) -> list[StageParts]:
+    """Every node of a graph without a sensor, built, for one process (for instance a robot
+    host's translators and control interfaces, fed by a performer's chain elsewhere)."""
+    if graph.of_stage("sensor"):
+        raise OptionError("build_nodes is for graphs without a sensor (see build_chain)")
+    parts = [build_node(name, node, graph, configs.get(name)) for name, node in graph.nodes.items()]
+    check_blendshapes(parts)
+    return parts
+
+
+async def serve_nodes(
+    bus: Bus, rig: str, parts: list[StageParts], *, stats_interval: float = 1.0
+) -> ChainResult:
+    """Run nodes that need no sensor of their own until a signal arrives or one of them fails."""
+    started = time.monotonic()
+    watch = GcWatch()
+    watch.start()
+    contexts = {part.name: node_context(bus, rig, part, stats_interval) for part in parts}
+    tasks = [
+        asyncio.create_task(run_service(contexts[part.name], part.body), name=part.name)
+        for part in parts
+    ]
+    outcome = await until_signalled(asyncio.wait(tasks, return_when=asyncio.FIRST_EXCEPTION))
+    for task in tasks:
+        task.cancel()
+    results = await asyncio.gather(*tasks, return_exceptions=True)
+    watch.stop()
+    log.info("%s after start-up", watch.summary())
+    for result in results:
+        if isinstance(result, BaseException) and not isinstance(result, asyncio.CancelledError):
+            raise result
+    controls = [contexts[p.name] for p in parts if p.stage == "control"]
+    return ChainResult(
+        frames=0,
+        commands=sum(ctx.stats.published for ctx in controls),
+        last_frame=-1,
+        rejected={name: ctx.stats.rejected for name, ctx in contexts.items()},
+        dropped={name: ctx.dropped() for name, ctx in contexts.items()},
+        seconds=time.monotonic() - started,
+        interrupted=outcome is None,
+    )
+
+
 class ServoStateWatch:
-    """Follows ``…/servo_state`` on the bus: the last frame a control interface applied."""
+    """Follows ``…/servo_state`` (``key`` may match every robot's) on the bus: the last frame
+    a control interface applied."""
 
     def __init__(self, bus: Bus, key: str) -> None:
         self.last_seq = -1

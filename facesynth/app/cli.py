@@ -15,6 +15,8 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 from facesynth import __version__
+from facesynth.app import status
+from facesynth.app.bench.command import add_bench_arguments, cmd_bench
 from facesynth.app.control_tools import add_tool_arguments
 from facesynth.app.firmware import add_firmware_arguments, cmd_firmware
 from facesynth.app.recording.attach import add_attach_arguments
@@ -298,9 +300,23 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = add("router", commands.cmd_router, "run a Zenoh router (for hosts without zenohd)")
     _zenoh_arguments(p)
+    group = p.add_argument_group("scheduling (as a node's realtime, nice, cpus)")
+    group.add_argument(
+        "--realtime",
+        type=int,
+        metavar="PRIORITY",
+        help="real-time priority (SCHED_FIFO 1-99; needs CAP_SYS_NICE or ulimit -r)",
+    )
+    group.add_argument("--nice", type=int, help="niceness -20..19 (negative needs CAP_SYS_NICE)")
+    group.add_argument(
+        "--cpus",
+        type=lambda text: [int(cpu) for cpu in text.split(",") if cpu.strip()],
+        metavar="0,1",
+        help="cores the router may run on",
+    )
     p.set_defaults(mode="router")
 
-    p = add("status", commands.cmd_status, "list live services and their stats")
+    p = add("status", status.cmd_status, "list live services and their stats")
     _zenoh_arguments(p)
     p.add_argument("--all-rigs", action="store_true", help="every rig, not just --rig")
     p.add_argument(
@@ -309,7 +325,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = add(
         "health",
-        commands.cmd_health,
+        status.cmd_health,
         "exit 0 if a service of this host holds its liveliness token on the router (or, with "
         "--router, if the router accepts sessions); 1 if not: a container health check",
     )
@@ -332,78 +348,11 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = add(
         "bench",
-        commands.cmd_bench,
+        cmd_bench,
         "benchmarks: the five-process chain, the tracker, smoothing, recording, the live face "
         "page, expression fidelity, servo drivers on the wire",
     )
-    p.add_argument(
-        "what",
-        choices=("chain", "tracker", "smoothing", "recording", "face", "fidelity", "drivers"),
-    )
-    p.add_argument("video", nargs="?", help="video (default: the bundled performer video)")
-    p.add_argument(
-        "--seconds",
-        type=float,
-        default=None,
-        help="chain: seconds of real-time input (default 15); face: seconds per row (default 3)",
-    )
-    p.add_argument(
-        "--rate", type=float, default=100.0, help="face: commands per second (default 100)"
-    )
-    p.add_argument(
-        "--fps", type=float, default=30.0, help="chain, recording: frame rate (default 30)"
-    )
-    p.add_argument(
-        "--openface-csv", metavar="PATH", help="chain: replay these landmarks instead of tracking"
-    )
-    p.add_argument(
-        "--frames", type=int, help="tracker: frames to measure (default: the whole video)"
-    )
-    p.add_argument(
-        "--encoding", choices=("jpeg", "raw"), default="jpeg", help="chain: frame encoding"
-    )
-    p.add_argument("--threads", type=int, default=1, help="chain: tracker inference threads")
-    p.add_argument("--profile", default="paper16", help="smoothing, drivers: profile to measure")
-    p.add_argument(
-        "--track", help="smoothing: a facesynth track file to measure tracking noise from"
-    )
-    p.add_argument(
-        "--mode", choices=("client", "peer"), default="client", help="chain: Zenoh mode of services"
-    )
-    p.add_argument(
-        "--backends", default="litert,opencv", help="tracker: inference backends to compare"
-    )
-    p.add_argument(
-        "--models",
-        default="fast,full",
-        help="tracker, fidelity: tracker models to compare (default fast,full)",
-    )
-    p.add_argument(
-        "--profiles",
-        metavar="A,B",
-        help="fidelity: profiles to measure (default: every shipped one)",
-    )
-    p.add_argument(
-        "--repeat",
-        type=int,
-        default=1,
-        metavar="N",
-        help="tracker: N interleaved runs, medians reported (default 1; shared machines: 5)",
-    )
-    p.add_argument(
-        "--mediapipe-python",
-        metavar="PATH",
-        help="tracker: also time MediaPipe's own trackers with this Python (a venv with "
-        "mediapipe==0.10.21; see facesynth/app/bench/mediapipe_helper.py)",
-    )
-    p.add_argument(
-        "--mediapipe-task",
-        metavar="PATH",
-        help="tracker: the face_landmarker.task bundle for --mediapipe-python",
-    )
-    p.add_argument(
-        "--minutes", type=float, default=10.0, help="recording: session length (default 10)"
-    )
+    add_bench_arguments(p)
 
     p = add(
         "track", commands.cmd_track, "track a video offline: one JSON line of landmarks per frame"

@@ -156,6 +156,9 @@ def _service(name: str, node: Any, graph_path: str, *, anchor: bool) -> list[str
     if anchor:
         lines.append(f"    <<: *{'tracker' if stage in TRACKER_STAGES else 'board'}")
     lines.append(f"    command: [{', '.join(_quote(part) for part in command)}]")
+    if node.realtime is not None or (node.nice is not None and node.nice < 0):
+        # Real-time priority or a negative niceness needs the capability in the container.
+        lines.append("    cap_add: [SYS_NICE]")
     volumes, devices, ports = _mounts(node, name)
     if volumes:
         lines += ["    volumes:", f"      - ./deploy:{MOUNT}:ro"]

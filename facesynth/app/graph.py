@@ -76,16 +76,27 @@ def plugin_config(node: Any, where: str) -> msgspec.Struct | None:
         raise GraphError(str(exc)) from None
 
 
+def check_node(name: str, node: Any, where: str) -> None:
+    """Check a node's name and its robot's (they become parts of keys)."""
+    try:
+        keys.check_name(name, "node")
+        robot = getattr(node, "robot", None)
+        if robot is not None:
+            keys.check_name(robot, "robot")
+    except keys.KeyNameError as exc:
+        raise GraphError(f"{where}: node {name}: {exc}") from None
+
+
 def check_graph(graph: Graph, where: str, *, plugins: bool = True) -> Graph:
     """Check names and (unless ``plugins`` is false) plugin tables; returns ``graph``."""
     if not graph.nodes:
         raise GraphError(f"{where}: a graph needs at least one node")
     try:
         keys.check_name(graph.rig)
-        for name in graph.nodes:
-            keys.check_name(name, "node")
     except keys.KeyNameError as exc:
         raise GraphError(f"{where}: {exc}") from None
+    for name, node in graph.nodes.items():
+        check_node(name, node, where)
     if plugins:
         for name, node in graph.nodes.items():
             plugin_config(node, f"{where}: node {name}")

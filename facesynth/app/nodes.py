@@ -21,9 +21,39 @@ PLUGIN_FIELDS = ("source", "backend", "driver")
 
 
 class _Node(msgspec.Struct, kw_only=True, forbid_unknown_fields=True, tag_field="stage"):
-    """Options every node may have."""
+    """Options every node may have: a description, and how its process is scheduled
+    (:mod:`facesynth.app.tuning`; ``facesynth run`` gives its one process the most demanding
+    request of its nodes)."""
 
     description: Annotated[str, Meta(extra={"cli": False})] = ""
+    realtime: (
+        Annotated[
+            int,
+            Meta(
+                ge=1,
+                le=99,
+                description="run the node's process at this real-time priority (SCHED_FIFO "
+                "1-99; ahead of every normal program: keeps latency on a busy machine; needs "
+                "CAP_SYS_NICE or ulimit -r)",
+            ),
+        ]
+        | None
+    ) = None
+    nice: (
+        Annotated[
+            int,
+            Meta(
+                ge=-20,
+                le=19,
+                description="niceness of the node's process (-20..19; negative needs "
+                "CAP_SYS_NICE or ulimit -e)",
+            ),
+        ]
+        | None
+    ) = None
+    cpus: Annotated[
+        list[int], Meta(description="cores the node's process may run on, e.g. 1 or 0,1")
+    ] = []
 
 
 class SensorNode(_Node, tag="sensor"):
@@ -126,6 +156,17 @@ class TranslatorNode(_Node, tag="translator"):
         Annotated[str, Meta(description="performer calibration (neutral + ranges): NAME or PATH")]
         | None
     ) = None
+    robot: (
+        Annotated[
+            str,
+            Meta(
+                description="robot name, when one performer drives several robots: commands on "
+                "…/servo_commands/ROBOT and state on …/servo_state/ROBOT (default: the rig's "
+                "single-robot keys)"
+            ),
+        ]
+        | None
+    ) = None
     queue: Annotated[int, Meta(ge=1, description="input queue length; 1 = latest only")] = 8
 
 
@@ -143,6 +184,17 @@ class ControlNode(_Node, tag="control"):
         float,
         Meta(gt=0, description="seconds without commands before the face returns to neutral"),
     ] = 0.5
+    robot: (
+        Annotated[
+            str,
+            Meta(
+                description="robot name, when one performer drives several robots: commands on "
+                "…/servo_commands/ROBOT and state on …/servo_state/ROBOT (default: the rig's "
+                "single-robot keys)"
+            ),
+        ]
+        | None
+    ) = None
     queue: Annotated[int, Meta(ge=1, description="input queue length; 1 = latest only")] = 8
     motion_time: Annotated[
         Literal["real", "media"] | None,

@@ -5,8 +5,8 @@ common name is its *identity*: one of the five stages, ``observer`` (``facesynth
 ``facesynth health``, read only) or ``router``. The router refuses a link without a certificate
 from the rig's CA, and its access-control policy lets each identity do only its stage's part:
 
-- only ``translator`` may publish ``facesynth/<rig>/servo_commands``, and only ``control`` may
-  subscribe to it (or receive it);
+- only ``translator`` may publish ``facesynth/<rig>/servo_commands`` (and each robot's
+  ``…/servo_commands/<robot>``), and only ``control`` may subscribe to it (or receive it);
 - each stage publishes its own key, its stats and its liveliness token, and subscribes to the
   key it consumes; nothing else is allowed (``default_permission: deny``).
 
@@ -65,6 +65,11 @@ class CertPaths:
         return str(PurePath(self.folder) / f"{identity}.key")
 
 
+def _key_expr(prefix: str, key: str) -> str:
+    """A role's key: a robot stage's covers the bare key and every robot's (``…/head1``)."""
+    return f"{prefix}/{key}/**" if key in keys.ROBOT_STAGES else f"{prefix}/{key}"
+
+
 def access_control(rig: str) -> dict[str, Any]:
     """The router's access-control section for ``rig``: each identity its stage's part."""
     keys.check_name(rig)
@@ -88,7 +93,7 @@ def access_control(rig: str) -> dict[str, Any]:
     subjects: list[dict[str, Any]] = []
     policies: list[dict[str, Any]] = []
     for identity, (publishes, subscribes) in ROLES.items():
-        own = [f"{prefix}/{key}" for key in publishes]
+        own = [_key_expr(prefix, key) for key in publishes]
         names: list[str] = []
         if identity != "observer":  # observers only look
             rules.append(
@@ -120,7 +125,7 @@ def access_control(rig: str) -> dict[str, Any]:
                 }
             )
             names += [f"{identity}-announce", f"{identity}-publish", f"{identity}-see-subscribers"]
-        reads = [f"{prefix}/{key}" for key in subscribes]
+        reads = [_key_expr(prefix, key) for key in subscribes]
         rules.append(
             {
                 "id": f"{identity}-subscribe",

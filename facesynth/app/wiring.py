@@ -200,6 +200,8 @@ class StageParts:
     stage: str
     body: ServiceBody
     service: Any = None
+    #: The robot whose command keys the node uses (a rig driving several robots), if any.
+    robot: str | None = None
 
 
 def build_node(
@@ -242,14 +244,18 @@ def build_node(
     if isinstance(node, TranslatorNode):
         translator = build_translator(node)
         return StageParts(
-            name, stage, lambda ctx: serve_translator(ctx, translator, node.queue), translator
+            name,
+            stage,
+            lambda ctx: serve_translator(ctx, translator, node.queue),
+            translator,
+            robot=node.robot,
         )
     if isinstance(node, ControlNode):
         assert config is not None
         if fast is None:
             fast = any(sensor.fast for sensor in graph.of_stage("sensor").values())
         control = build_control(node, config, fast)
-        return StageParts(name, stage, control.serve, control)
+        return StageParts(name, stage, control.serve, control, robot=node.robot)
     raise OptionError(f"node {name}: unknown stage {stage!r}")
 
 

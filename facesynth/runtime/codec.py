@@ -102,6 +102,18 @@ def _all_finite(values: list[float], what: str, limit: float) -> None:
         _finite(float(array[int(np.argmax(bad))]), what, limit)
 
 
+def _finite_table(table: dict[str, float], what: str, limit: float) -> None:
+    """Check a name → number table at once (vectorised: a Features message has ~170 of them,
+    checked by every translator that reads it); the error names the first bad entry."""
+    if not table:
+        return
+    array = np.fromiter(table.values(), dtype=np.float64, count=len(table))
+    bad = ~np.isfinite(array) | (np.abs(array) > limit)
+    if bad.any():
+        name = list(table)[int(np.argmax(bad))]
+        _finite(table[name], f"{what} {name!r}", limit)
+
+
 def _common(seq: int, t_capture_ns: int, t_media_ns: int) -> None:
     if seq < 0:
         raise MessageError(f"seq is {seq}: must be >= 0")
@@ -226,8 +238,7 @@ def validate_features(features: Features) -> None:
     if features.displacements and len(features.displacements) % 2:
         raise MessageError(f"{len(features.displacements)} displacement values: not x, y pairs")
     for table in (features.named, features.raw):
-        for name, value in table.items():
-            _finite(value, f"feature {name!r}", MAX_COORD)
+        _finite_table(table, "feature", MAX_COORD)
 
 
 def validate_servo_commands(commands: ServoCommands) -> None:

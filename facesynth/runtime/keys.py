@@ -4,6 +4,12 @@ Data keys are namespaced by rig: ``facesynth/<rig>/<stage>``, where the stages a
 ``input`` (S), ``points`` (P), ``features`` (F), ``servo_commands`` (T) and ``servo_state``
 (C: the positions it actually applied, after its own checks and clamping).
 
+A rig that drives several robots from one performer gives each robot its own command keys:
+``facesynth/<rig>/servo_commands/<robot>`` and ``facesynth/<rig>/servo_state/<robot>``
+(:data:`ROBOT_STAGES`), so each robot's translator and control interface talk to each other
+only, whatever their profiles. Without a robot name the keys stay ``…/servo_commands`` and
+``…/servo_state``; :func:`robots_pattern` matches both forms, for observers of every robot.
+
 Health (liveliness tokens) and stats keys add the service name and an instance id:
 ``facesynth/<rig>/health/<service>/<instance>`` and ``facesynth/<rig>/stats/<service>/<instance>``.
 """
@@ -37,6 +43,9 @@ CONSUMES: Final[dict[str, Stage | None]] = {
     "control": "servo_commands",
 }
 
+#: Stages keyed per robot when a rig drives several robots (see :func:`stage_key`).
+ROBOT_STAGES: Final[tuple[Stage, ...]] = ("servo_commands", "servo_state")
+
 _NAME = re.compile(r"[A-Za-z0-9_.-]{1,64}")
 
 
@@ -53,11 +62,38 @@ def check_name(value: str, what: str = "rig") -> str:
     return value
 
 
-def stage_key(rig: str, stage: Stage) -> str:
-    """Data key of one stage of a rig, e.g. ``facesynth/default/points``."""
+def stage_key(rig: str, stage: Stage, robot: str | None = None) -> str:
+    """Data key of one stage of a rig, e.g. ``facesynth/default/points``.
+
+    With ``robot``, the key of that robot's commands or state (only for :data:`ROBOT_STAGES`;
+    the stages before the translator are the performer's, shared by every robot):
+    ``facesynth/default/servo_commands/head1``.
+    """
     if stage not in STAGES:
         raise KeyNameError(f"unknown stage {stage!r}; known: {', '.join(STAGES)}")
-    return f"{PREFIX}/{check_name(rig)}/{stage}"
+    key = f"{PREFIX}/{check_name(rig)}/{stage}"
+    if not robot:
+        return key
+    if stage not in ROBOT_STAGES:
+        raise KeyNameError(
+            f"stage {stage!r} is shared by every robot of a rig; only "
+            f"{' and '.join(ROBOT_STAGES)} have a key per robot"
+        )
+    return f"{key}/{check_name(robot, 'robot')}"
+
+
+def robots_pattern(rig: str, stage: Stage) -> str:
+    """Key expression matching a stage's key and, for :data:`ROBOT_STAGES`, every robot's."""
+    key = stage_key(rig, stage)
+    return f"{key}/**" if stage in ROBOT_STAGES else key
+
+
+def robot_of(key: str) -> str | None:
+    """The robot named in a per-robot command or state key, else ``None``."""
+    parts = key.split("/")
+    if len(parts) == 4 and parts[0] == PREFIX and parts[2] in ROBOT_STAGES:
+        return parts[3]
+    return None
 
 
 def health_key(rig: str, service: str, instance: str) -> str:

@@ -47,7 +47,5 @@ def check_output(path: str | os.PathLike[str], what: str = "output") -> Path:
             with open(target, "ab"):
                 pass
         except OSError as exc:
-            raise OutputError(
-                f"cannot write {what} {target}: {exc.strerror or exc}"
-            ) from None
+            raise OutputError(f"cannot write {what} {target}: {exc.strerror or exc}") from None
     return target

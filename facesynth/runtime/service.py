@@ -55,11 +55,16 @@ class ServiceContext:
     instance: str = field(default_factory=default_instance)
     stats_interval: float = 1.0
     clock: Clock = field(default_factory=SystemClock)
+    #: The robot this translator or control interface serves, when a rig drives several:
+    #: its command and state keys are then ``…/servo_commands/<robot>``, ``…/servo_state/<robot>``.
+    robot: str | None = None
 
     def __post_init__(self) -> None:
         keys.check_name(self.rig)
         keys.check_name(self.service, "service")
         keys.check_name(self.instance, "instance")
+        if self.robot is not None:
+            keys.check_name(self.robot, "robot")
         self.stats = StageStats(self.service, self.instance, self.rig)
         self.stats.started_ns = self.clock.time_ns()
         self.log = logging.getLogger(f"facesynth.{self.service}")
@@ -81,8 +86,9 @@ class ServiceContext:
             self._token = None
 
     def key(self, stage: keys.Stage) -> str:
-        """This rig's key for ``stage``."""
-        return keys.stage_key(self.rig, stage)
+        """This rig's key for ``stage`` (this robot's, for the per-robot stages)."""
+        robot = self.robot if stage in keys.ROBOT_STAGES else None
+        return keys.stage_key(self.rig, stage, robot)
 
     def subscribe(
         self,

@@ -69,8 +69,9 @@ class StageRun:
 
     ``body`` is what ``run_service`` would run (e.g. ``control.serve`` or
     ``lambda ctx: serve_features(ctx, processor)``); ``service`` names it (its keys and
-    stats). Use as ``async with``: entering starts the body and lets it reach its first wait;
-    leaving cancels it (like SIGTERM) and closes the bus.
+    stats), ``robot`` the robot whose command keys it uses, if any. Use as ``async with``:
+    entering starts the body and lets it reach its first wait; leaving cancels it (like
+    SIGTERM) and closes the bus.
     """
 
     def __init__(
@@ -82,6 +83,7 @@ class StageRun:
         instance: str = "one",
         stats_interval: float = 1.0,
         clock: FakeClock | None = None,
+        robot: str | None = None,
     ) -> None:
         self.clock = clock if clock is not None else FakeClock()
         self.network = MemoryNetwork(self.clock)
@@ -93,6 +95,7 @@ class StageRun:
             instance=instance,
             stats_interval=stats_interval,
             clock=self.clock,
+            robot=robot,
         )
         self._body = body
         self._probe = self.network.bus()
@@ -148,14 +151,17 @@ class StageRun:
 
     # --- input and time ------------------------------------------------------------------
 
-    async def send(self, topic: keys.Stage, message: msgspec.Struct | bytes) -> None:
-        """Publish ``message`` (encoded, or raw bytes as given) on the rig's ``topic`` now.
+    async def send(
+        self, topic: keys.Stage, message: msgspec.Struct | bytes, *, robot: str | None = None
+    ) -> None:
+        """Publish ``message`` (encoded, or raw bytes as given) on the rig's ``topic`` now
+        (``robot``'s key of it, for the per-robot stages).
 
         The stage then runs until it waits again; the test's own messages are not recorded.
         """
         self._drain()
         payload = message if isinstance(message, bytes) else codec.encode(message)
-        self._probe.publish(keys.stage_key(self.rig, topic), payload)
+        self._probe.publish(keys.stage_key(self.rig, topic, robot), payload)
         if self._recorder is not None:
             self._recorder.receive_nowait()  # our own message, delivered synchronously
         await self.clock.settle()

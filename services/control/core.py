@@ -283,8 +283,11 @@ class ControlCore:
     @property
     def stopped(self) -> bool:
         """Whether a shutdown has brought the face to neutral."""
-        return self.mode == "stop" and self._ramp is not None and self._ramp.due_ns() is None and (
-            self.motion.reached(self.neutral_positions)
+        return (
+            self.mode == "stop"
+            and self._ramp is not None
+            and self._ramp.due_ns() is None
+            and (self.motion.reached(self.neutral_positions))
         )
 
     def stop_budget_s(self) -> float:

@@ -50,3 +50,27 @@ class FlowWindow:
     def may_send(self, seq: int) -> bool:
         """Whether frame ``seq`` may be sent now."""
         return self.acked >= seq - self.window
+
+
+@dataclass
+class SlowestCredit:
+    """``--fast`` with several robots: credit comes from the slowest robot still answering.
+
+    Each robot's control interface (or translator) acknowledges the frames it applied on its
+    own key; :meth:`heard` keeps each robot's newest frame and returns the oldest of them over
+    the robots heard from within ``stale_ns`` (a robot that stopped answering no longer holds
+    the sensor back), so no robot falls behind by more than the window and loses frames. With
+    one robot this is that robot's newest frame.
+    """
+
+    stale_ns: int
+    newest: dict[str, tuple[int, int]] | None = None
+
+    def heard(self, robot: str, seq: int, now_ns: int) -> int:
+        """Robot ``robot`` applied frame ``seq`` at ``now_ns``: the credit now."""
+        newest = self.newest if self.newest is not None else {}
+        self.newest = newest
+        previous = newest.get(robot, (-1, now_ns))[0]
+        newest[robot] = (max(previous, seq), now_ns)
+        answering = [s for s, at in newest.values() if now_ns - at <= self.stale_ns]
+        return min(answering) if answering else seq

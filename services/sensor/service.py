@@ -12,10 +12,11 @@ import asyncio
 import contextlib
 from dataclasses import dataclass, field
 
-from facesynth.runtime import codec, keys, limits
+from facesynth.runtime import keys
 from facesynth.runtime.service import ServiceContext
-from schemas.messages import Frame, ServoCommands
-from services.sensor.core import FlowWindow, Pacer
+from schemas.messages import Frame
+from services.sensor.core import Pacer
+from services.sensor.credit import CreditGate, ack_stage
 from services.sensor.sources import FrameSource
 
 #: A nominal image size for frames without pixels (ticks).
@@ -57,10 +58,6 @@ async def wait_for_services(ctx: ServiceContext, services: list[str], timeout: f
         await clock.sleep(0.05)
 
 
-def _decode_ack(payload: bytes) -> ServoCommands:
-    return codec.decode(payload, ServoCommands)
-
-
 class SensorService:
     """Publishes the frames of one source; ``last_seq`` is the last frame sent."""
 
@@ -68,51 +65,12 @@ class SensorService:
         self.source = source
         self.options = options
         self.last_seq = -1
-        self.flow = FlowWindow(options.window)
-        self._acked = asyncio.Event()
-        self.stalls = 0
+        self.credit = CreditGate(options.window, options.ack_timeout, "frame")
 
-    async def _watch_acks(self, ctx: ServiceContext, stage: keys.Stage) -> None:
-        # Only the newest ack matters: overwritten ones are not data loss, so not in the stats.
-        subscription = ctx.bus.subscribe_latest(ctx.key(stage))
-        # Screened on arrival: a flood of bad messages cannot overwrite the newest ack.
-        subscription.guard(limits.stage_limit(stage), _decode_ack)
-        try:
-            async for sample in subscription:
-                state = sample.message
-                if state.move != "command":  # the controller moving on its own acknowledges nothing
-                    continue
-                seq = state.seq
-                self.flow.ack(seq)
-                self._acked.set()
-        finally:
-            subscription.close()
-
-    @staticmethod
-    async def _control_alive(ctx: ServiceContext) -> bool:
-        alive = await ctx.bus.alive(keys.health_pattern(ctx.rig), timeout=0.5)
-        return any(
-            parsed is not None and parsed[1] == "control"
-            for parsed in map(keys.parse_service_key, alive)
-        )
-
-    async def _wait_credit(self, ctx: ServiceContext, seq: int) -> None:
-        clock = ctx.clock
-        deadline = clock.monotonic_ns() + round(self.options.ack_timeout * 1e9)
-        while not self.flow.may_send(seq):
-            self._acked.clear()
-            remaining = (deadline - clock.monotonic_ns()) / 1e9
-            if remaining <= 0:
-                self.stalls += 1
-                ctx.log.warning(
-                    "no servo command for frame %d after %.1f s: sending on",
-                    seq - self.flow.window,
-                    self.options.ack_timeout,
-                )
-                self.flow.ack(seq - self.flow.window)
-                return
-            with contextlib.suppress(TimeoutError):
-                await clock.wait_for(self._acked.wait(), remaining)
+    @property
+    def stalls(self) -> int:
+        """How often ``--fast`` went on without hearing from the end of the chain."""
+        return self.credit.stalls
 
     def _frame(self, image: object, seq: int, t_media_ns: int, now: int) -> Frame:
         from facesynth.runtime.frames import encode_frame  # OpenCV only where pixels exist
@@ -150,11 +108,9 @@ class SensorService:
         if options.fast:
             # Credit comes from the end of the chain: what a control interface applied, or
             # (with no control interface running) what the translator commanded.
-            stage: keys.Stage = (
-                "servo_state" if await self._control_alive(ctx) else "servo_commands"
-            )
+            stage = await ack_stage(ctx)
             ctx.log.info("--fast: at most %d frames ahead of %s", options.window, stage)
-            ack_task = asyncio.create_task(self._watch_acks(ctx, stage))
+            ack_task = asyncio.create_task(self.credit.watch(ctx, stage))
         pacer = Pacer()
         info = self.source.info
         ctx.log.info(
@@ -170,7 +126,7 @@ class SensorService:
                 if options.max_frames is not None and seq >= options.max_frames:
                     break
                 if options.fast:
-                    await self._wait_credit(ctx, seq)
+                    await self.credit.wait(ctx, seq)
                 elif not info.live:
                     if t_media_ns < previous_media:
                         pacer.restart()

@@ -146,7 +146,9 @@ def _rules_allowing(rig: str, message: str, flow: str, key: str) -> set[str]:
     rules = {
         rule["id"]
         for rule in acl["rules"]
-        if message in rule["messages"] and flow in rule["flows"] and key in rule["key_exprs"]
+        if message in rule["messages"]
+        and flow in rule["flows"]
+        and any(zenoh.KeyExpr(e).includes(zenoh.KeyExpr(key)) for e in rule["key_exprs"])
     }
     return {
         subject
@@ -156,11 +158,19 @@ def _rules_allowing(rig: str, message: str, flow: str, key: str) -> set[str]:
     }
 
 
-def test_only_the_translator_publishes_and_only_control_subscribes_servo_commands() -> None:
-    key = "facesynth/lab/servo_commands"
+@pytest.mark.parametrize(
+    "key", ["facesynth/lab/servo_commands", "facesynth/lab/servo_commands/head1"]
+)
+def test_only_the_translator_publishes_and_only_control_subscribes_servo_commands(
+    key: str,
+) -> None:
+    # The rig's commands and each robot's (keys.ROBOT_STAGES) alike.
     assert _rules_allowing("lab", "put", "ingress", key) == {"translator"}
     assert _rules_allowing("lab", "declare_subscriber", "ingress", key) == {"control"}
     assert _rules_allowing("lab", "put", "egress", key) == {"control"}
+    assert _rules_allowing("lab", "put", "ingress", "facesynth/lab/servo_state/head1") == {
+        "control"
+    }
     acl = access_control("lab")
     assert acl["default_permission"] == "deny"
     assert {s["id"]: s["cert_common_names"] for s in acl["subjects"]} == {

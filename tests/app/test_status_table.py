@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import msgspec
 
-from facesynth.app.commands import describe_link, format_status
+from facesynth.app.status import describe_link, format_status
 from schemas.messages import ServiceStats
 
 

@@ -120,6 +120,48 @@ async def test_same_bus_receives_its_own_publications(make_bus: Factory, key_pre
     assert (await asyncio.wait_for(subscription.receive(), DELIVERY_TIMEOUT)).payload == b"me"
 
 
+async def test_every_subscription_of_one_bus_gets_every_sample(
+    make_bus: Factory, key_prefix: str
+) -> None:
+    # Several stages in one process subscribe to the same key (many robots' translators).
+    sender, receiver = make_bus(), make_bus()
+    first = receiver.subscribe_queued(f"{key_prefix}/shared", 8)
+    second = receiver.subscribe_queued(f"{key_prefix}/shared", 8)
+    wide = receiver.subscribe_queued(f"{key_prefix}/**", 8)
+    await settle(receiver)
+    sender.publish(f"{key_prefix}/shared", b"remote")
+    receiver.publish(f"{key_prefix}/shared", b"local")
+    for subscription in (first, second, wide):
+        got = sorted(
+            [
+                (await asyncio.wait_for(subscription.receive(), DELIVERY_TIMEOUT)).payload
+                for _ in range(2)
+            ]
+        )
+        assert got == [b"local", b"remote"]
+    await asyncio.sleep(0.2)  # and nothing twice
+    assert first.pending() == second.pending() == wide.pending() == 0
+
+
+async def test_closing_one_of_two_subscriptions_on_a_key_leaves_the_other(
+    make_bus: Factory, key_prefix: str
+) -> None:
+    sender, receiver = make_bus(), make_bus()
+    kept = receiver.subscribe_queued(f"{key_prefix}/k", 8)
+    closed = receiver.subscribe_queued(f"{key_prefix}/k", 8)
+    await settle(receiver)
+    closed.close()
+    for bus in (sender, receiver):
+        bus.publish(f"{key_prefix}/k", b"after")
+        assert (await asyncio.wait_for(kept.receive(), DELIVERY_TIMEOUT)).payload == b"after"
+    assert closed.pending() == 0 and closed.received == 0
+    kept.close()
+    again = receiver.subscribe_queued(f"{key_prefix}/k", 8)  # a key can be subscribed anew
+    await settle(receiver)
+    sender.publish(f"{key_prefix}/k", b"anew")
+    assert (await asyncio.wait_for(again.receive(), DELIVERY_TIMEOUT)).payload == b"anew"
+
+
 async def test_close_wakes_waiting_receiver(make_bus: Factory, key_prefix: str) -> None:
     bus = make_bus()
     subscription = bus.subscribe_queued(f"{key_prefix}/closing", 4)
@@ -267,3 +309,27 @@ async def _wait_reported(reports: list[tuple[int, str]], count: int) -> None:
             return
         await asyncio.sleep(0.01)
     raise AssertionError(f"only {sum(n for n, _ in reports)} of {count} refusals reported")
+
+
+async def test_buses_sharing_a_zenoh_session_see_each_others_publications(
+    zenoh_router: str, key_prefix: str
+) -> None:
+    # A session's own publications skip Zenoh (allowed_destination=REMOTE): every bus on the
+    # session must still get them, and other sessions must get them through Zenoh.
+    owner = ZenohBus.open(ZenohOptions(mode="client", connect=[zenoh_router]))
+    guest = ZenohBus(owner.session, owns_session=False)
+    remote = ZenohBus.open(ZenohOptions(mode="client", connect=[zenoh_router]))
+    try:
+        on_owner = owner.subscribe_queued(f"{key_prefix}/s", 8)
+        on_remote = remote.subscribe_queued(f"{key_prefix}/s", 8)
+        await settle(remote)
+        guest.publish(f"{key_prefix}/s", b"from the guest")
+        for subscription in (on_owner, on_remote):
+            sample = await asyncio.wait_for(subscription.receive(), DELIVERY_TIMEOUT)
+            assert sample.payload == b"from the guest"
+        await asyncio.sleep(0.2)
+        assert on_owner.pending() == 0, "delivered twice"
+    finally:
+        await guest.close()
+        await remote.close()
+        await owner.close()

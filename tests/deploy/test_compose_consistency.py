@@ -210,3 +210,22 @@ def test_controller_overrides_are_generated_from_their_graphs(graph_file: Path) 
 def test_a_server_on_every_interface_is_published_on_the_hosts_loopback() -> None:
     virtual = yaml.safe_load((ROOT / "docker-compose.virtual.yml").read_text())["services"]
     assert virtual["control"]["ports"] == ["127.0.0.1:${FACESYNTH_PORT_8080:-8080}:8080"]
+
+
+def test_a_node_asking_for_priority_gets_the_capability_in_its_container() -> None:
+    from facesynth.app.graph import parse_graph
+
+    graph = parse_graph(
+        {
+            "nodes": {
+                "points": {"stage": "points", "realtime": 20},
+                "features": {"stage": "features", "nice": -5},
+                "translator": {"stage": "translator", "nice": 5},
+            }
+        }
+    )
+    text = compose_file(graph, "g.toml", graph_path="/etc/facesynth/graph.toml")
+    blocks = {block.split(":")[0].strip(): block for block in text.split("\n\n  ")[1:]}
+    assert "cap_add: [SYS_NICE]" in blocks["points"]
+    assert "cap_add: [SYS_NICE]" in blocks["features"]
+    assert "cap_add" not in blocks["translator"]

@@ -289,9 +289,12 @@ def test_only_the_translator_moves_a_servo(
     time.sleep(0.5)
     moved = [line for line in read_record(out) if line.frame is not None]
     assert [line.frame for line in moved] == [0, 1, 2, 3, 4], spawn.log("control")
-    assert {line.servos["jaw"] for line in moved} == {1900.0}
+    # C ramps toward the translator's 1900 within paper16's speed limits; no intruder's jaw
+    # (1100-1105, below neutral) is ever applied, by a command or by C's own moves.
+    jaws = [line.servos["jaw"] for line in moved]
+    assert all(NEUTRAL < jaw <= 1900.0 for jaw in jaws) and jaws == sorted(jaws), jaws
     others = [line for line in read_record(out) if line.frame is None]
-    assert all(line.servos["jaw"] == NEUTRAL for line in others)
+    assert all(NEUTRAL <= line.servos["jaw"] <= 1900.0 for line in others)
 
 
 def test_only_controllers_hear_servo_commands(certs: dict[str, Path], router: str) -> None:

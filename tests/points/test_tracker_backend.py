@@ -79,3 +79,15 @@ def test_corrupt_jpeg_is_a_clear_error(video_frames: list[np.ndarray]) -> None:
     frame.data = frame.data[:300]
     with pytest.raises(ValueError, match="cannot be decoded"):
         TrackerBackend().process(frame)
+
+
+def test_opencv_gets_the_trackers_thread_count() -> None:
+    # OpenCV's own pool would otherwise start a worker per core that spins between frames.
+    before = cv2.getNumThreads()
+    try:
+        TrackerBackend(TrackerConfig(threads=2, model="fast"))
+        assert cv2.getNumThreads() == 2
+        TrackerBackend(TrackerConfig(model="fast"))
+        assert cv2.getNumThreads() == 1
+    finally:
+        cv2.setNumThreads(before)

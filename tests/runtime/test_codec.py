@@ -424,6 +424,8 @@ def test_largest_coordinate_is_accepted() -> None:
         (_features(deltas=[-INF, 0.0]), "a delta is -inf"),
         (_features(deltas=[-1e300, 0.0]), "a delta is -1e+300"),
         (_features(named={"brow": NAN}), "feature 'brow' is nan"),
+        (_features(named={"brow": 0.1, "jaw": INF, "lid": NAN}), "feature 'jaw' is inf"),
+        (_features(raw={"brow": 0.1, "jaw": -2e6}), "feature 'jaw' is -2000000.0"),
     ],
     ids=[
         "negative-seq",
@@ -439,6 +441,8 @@ def test_largest_coordinate_is_accepted() -> None:
         "delta-minus-inf",
         "delta-huge",
         "named-nan",
+        "named-first-bad-of-several",
+        "raw-huge",
     ],
 )
 def test_bad_features(features: Features, detail: str) -> None:

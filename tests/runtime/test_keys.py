@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import pytest
+import zenoh
 
 from facesynth.runtime import keys
 from facesynth.runtime.keys import KeyNameError
@@ -139,3 +140,43 @@ def test_the_chain_is_wired_end_to_end() -> None:
         assert keys.PUBLISHES[before] in keys.STAGES
     published = [s for s in keys.PUBLISHES.values() if s is not None]
     assert published == list(keys.STAGES)
+
+
+def test_a_robot_has_its_own_command_and_state_keys() -> None:
+    assert keys.stage_key("lab", "servo_commands", "head1") == "facesynth/lab/servo_commands/head1"
+    assert keys.stage_key("lab", "servo_state", "head1") == "facesynth/lab/servo_state/head1"
+    # Without a robot the single-robot keys stay as they were.
+    assert keys.stage_key("lab", "servo_commands") == "facesynth/lab/servo_commands"
+    assert keys.stage_key("lab", "servo_state", None) == "facesynth/lab/servo_state"
+    assert keys.stage_key("lab", "servo_state", "") == "facesynth/lab/servo_state"
+
+
+@pytest.mark.parametrize("stage", ["input", "points", "features"])
+def test_the_performer_stages_are_shared_by_every_robot(stage: keys.Stage) -> None:
+    with pytest.raises(KeyNameError, match="shared by every robot"):
+        keys.stage_key("lab", stage, "head1")
+
+
+@pytest.mark.parametrize("robot", ["a/b", "*", "**", "x" * 65, "r 1"])
+def test_bad_robot_names_are_refused(robot: str) -> None:
+    with pytest.raises(KeyNameError, match="invalid robot name"):
+        keys.stage_key("lab", "servo_commands", robot)
+
+
+def test_robots_pattern_matches_the_single_key_and_every_robot_but_nothing_else() -> None:
+    pattern = zenoh.KeyExpr(keys.robots_pattern("lab", "servo_state"))
+    for key in ("facesynth/lab/servo_state", "facesynth/lab/servo_state/r00"):
+        assert pattern.intersects(zenoh.KeyExpr(key)), key
+    for key in ("facesynth/lab/servo_commands/r00", "facesynth/other/servo_state/r00"):
+        assert not pattern.intersects(zenoh.KeyExpr(key)), key
+    # The performer's stages have no robot keys: their pattern is the key itself.
+    assert keys.robots_pattern("lab", "features") == "facesynth/lab/features"
+
+
+def test_robot_of_reads_the_robot_of_a_robot_key_only() -> None:
+    assert keys.robot_of("facesynth/lab/servo_commands/head1") == "head1"
+    assert keys.robot_of("facesynth/lab/servo_state/r07") == "r07"
+    assert keys.robot_of("facesynth/lab/servo_state") is None
+    assert keys.robot_of("facesynth/lab/points") is None
+    assert keys.robot_of("facesynth/lab/stats/translator/x") is None
+    assert keys.robot_of("other/lab/servo_state/r1") is None

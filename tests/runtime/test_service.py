@@ -77,3 +77,18 @@ async def test_transform_survives_an_internal_error() -> None:
 def test_context_refuses_bad_names(bad: str) -> None:
     with pytest.raises(ValueError, match="invalid"):
         ServiceContext(MemoryNetwork().bus(), bad, "features")
+
+
+def test_a_robot_context_keys_only_the_command_and_state_stages_by_robot() -> None:
+    ctx = ServiceContext(MemoryNetwork().bus(), RIG, "translator", robot="head2")
+    assert ctx.key("servo_commands") == f"facesynth/{RIG}/servo_commands/head2"
+    assert ctx.key("servo_state") == f"facesynth/{RIG}/servo_state/head2"
+    assert ctx.key("features") == f"facesynth/{RIG}/features"  # the performer's, shared
+    plain = ServiceContext(MemoryNetwork().bus(), RIG, "translator")
+    assert plain.key("servo_commands") == f"facesynth/{RIG}/servo_commands"
+
+
+@pytest.mark.parametrize("bad", ["", "a/b", "r*", "a" * 65])
+def test_context_refuses_bad_robot_names(bad: str) -> None:
+    with pytest.raises(ValueError, match="invalid robot name"):
+        ServiceContext(MemoryNetwork().bus(), RIG, "control", robot=bad)

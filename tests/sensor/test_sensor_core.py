@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from services.sensor.core import FlowWindow, Pacer
+from services.sensor.core import FlowWindow, Pacer, SlowestCredit
 
 MS = 1_000_000
 
@@ -99,3 +99,25 @@ def test_acks_out_of_order_never_go_back() -> None:
 def test_flow_window_must_be_positive(window: int) -> None:
     with pytest.raises(ValueError, match="the flow window must be at least 1 frame"):
         FlowWindow(window=window)
+
+
+S = 1_000_000_000
+
+
+def test_one_robot_gives_its_newest_frame_as_credit() -> None:
+    credit = SlowestCredit(stale_ns=2 * S)
+    assert credit.heard("", 0, 0) == 0
+    assert credit.heard("", 5, 1) == 5
+    assert credit.heard("", 3, 2) == 5  # an older ack arriving late does not take credit back
+
+
+def test_several_robots_give_the_slowest_answering_ones_frame() -> None:
+    credit = SlowestCredit(stale_ns=2 * S)
+    assert credit.heard("a", 4, 0) == 4
+    assert credit.heard("b", 1, 0) == 1  # b is behind: the sensor waits for it
+    assert credit.heard("a", 6, S) == 1
+    assert credit.heard("b", 5, S) == 5
+    # b stops answering: after stale_ns it no longer holds the sensor back.
+    assert credit.heard("a", 9, 3 * S) == 5  # 2 s since b's last: still waited for
+    assert credit.heard("a", 10, int(3.5 * S)) == 10
+    assert credit.heard("b", 6, 4 * S) == 6  # and counts again once it answers

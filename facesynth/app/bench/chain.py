@@ -1,121 +1,150 @@
 """``facesynth bench chain``: the five services as separate processes on a loopback router.
 
-Plays a video in real time through S → P → F → T → C (record driver) and prints, per stage,
-capture-to-publish latency (p50/p99, from each service's own stats), the capture-to-command
-latency measured at the control interface, throughput, and each process's peak memory (RSS).
+Plays a video in real time through S → P → F → T → C (record driver) and measures, for each
+variant asked for (frame encoding, tracker model, tracker threads, Zenoh mode: their cross
+product, compared side by side in one run, the runs interleaved), capture → command latency at
+C (the whole run, and the steady state after the first seconds), each stage's own
+capture → publish latency, the CPU time each process (the router's included) spends per frame,
+and peak memory; with ``hops``, where each frame's time goes hop by hop and which hops grow in
+the slowest frames. The report prints the goals against the figures.
 """
 
 from __future__ import annotations
 
-import asyncio
+import itertools
 import os
-import re
-import signal
-import subprocess
-import sys
 import tempfile
-import time
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from facesynth.app.bench.rig_run import RigRun, RunOptions, run_graph
 from facesynth.app.data import sample_video
-from facesynth.app.graph import Graph, graph_to_toml
+from facesynth.app.graph import Graph
 from facesynth.app.nodes import (
     ControlNode,
     FeaturesNode,
     PointsNode,
     SensorNode,
     TranslatorNode,
-    stage_of,
 )
-from facesynth.runtime import codec, keys
-from facesynth.runtime.bus.zenoh_bus import ZenohBus, ZenohOptions
-from facesynth.runtime.stats import memory_mb
-from schemas.messages import ServiceStats
-from services.control.drivers.record import read_record
+from facesynth.runtime import keys
 
 STAGES = keys.SERVICES
 #: Frames of the first seconds (start-up and F's neutral window) left out of "steady state".
 STEADY_AFTER_S = 2.0
+#: The goals of issue 12 for the five-process chain at 30 fps on 2 cores.
+GOAL_P50_MS = 8.0
+GOAL_P99_MS = 15.0
+GOAL_CPU_MS = 8.0
+#: ``--sched realtime``: every process of the chain (the router included) at this SCHED_FIFO
+#: priority.
+REALTIME_PRIORITY = 10
+SCHEDULES = ("normal", "realtime")
+
+
+@dataclass(frozen=True)
+class ChainVariant:
+    """One configuration of the chain: what a user picks."""
+
+    encoding: str = "jpeg"
+    model: str = "full"
+    threads: int = 1
+    mode: str = "client"
+    sched: str = "normal"
+    #: Another facesynth source tree to run the processes from (a baseline), if any.
+    source: str = ""
+
+    def label(self) -> str:
+        """A short name, e.g. ``raw fast client``, ``jpeg full peer realtime`` or
+        ``jpeg full client [/src/old]``."""
+        threads = f" {self.threads} threads" if self.threads != 1 else ""
+        sched = f" {self.sched}" if self.sched != "normal" else ""
+        source = f" [{Path(self.source).name or self.source}]" if self.source else ""
+        return f"{self.encoding} {self.model}{threads} {self.mode}{sched}{source}"
+
+    @property
+    def realtime(self) -> int | None:
+        """The real-time priority of every process, if any."""
+        return REALTIME_PRIORITY if self.sched == "realtime" else None
+
+    def router_args(self) -> list[str]:
+        """``facesynth router`` options for this variant."""
+        return ["--realtime", str(self.realtime)] if self.realtime else []
+
+
+def variants(
+    encodings: Sequence[str] = ("jpeg",),
+    models: Sequence[str] = ("full",),
+    threads: Sequence[int] = (1,),
+    modes: Sequence[str] = ("client",),
+    scheds: Sequence[str] = ("normal",),
+    baseline: str = "",
+) -> list[ChainVariant]:
+    """Every combination of the options, in the order given; with ``baseline`` (another
+    facesynth source tree), each combination without real-time scheduling also runs from it,
+    right after the same combination from this one."""
+    out = []
+    for combination in itertools.product(encodings, models, threads, modes, scheds):
+        out.append(ChainVariant(*combination))
+        if baseline and out[-1].sched == "normal":
+            out.append(ChainVariant(*combination, source=baseline))
+    return out
 
 
 @dataclass
-class ChainBench:
-    """Figures of one chain benchmark run."""
+class ChainFigures:
+    """Figures of one run of one variant."""
 
+    variant: ChainVariant
+    run: int
     frames_sent: int
     commands: int
-    seconds: float
     fps: float
-    latency_ms: dict[str, tuple[float, float]] = field(default_factory=dict)
-    capture_to_command_ms: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    peak_rss_mb: dict[str, float] = field(default_factory=dict)
+    backend: str
+    #: capture → command at C (ms): p50, p99, max; for the whole run and for the steady state.
+    whole_ms: tuple[float, float, float]
+    steady_ms: tuple[float, float, float]
+    commands_per_s: float
+    #: Each stage's capture → publish p50/p99 (its own stats window), dropped inputs.
+    stage_ms: dict[str, tuple[float, float]] = field(default_factory=dict)
     dropped: dict[str, int] = field(default_factory=dict)
-    backend: str = ""
-    encoding: str = "jpeg"
-    steady_ms: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    mode: str = "client"
+    cpu_ms: dict[str, float] = field(default_factory=dict)
+    peak_rss_mb: dict[str, float] = field(default_factory=dict)
+    machine_busy: float = float("nan")
+    others_busy: float = float("nan")
+    load: tuple[float, float] = (float("nan"), float("nan"))
+    #: With hops: per hop p50/p99 (ms), and per hop median over all vs the slowest 1 %.
+    hops: dict[str, tuple[float, float]] = field(default_factory=dict)
+    tail: dict[str, tuple[float, float]] = field(default_factory=dict)
+    #: Garbage-collector passes after start-up per process: passes, generation 2, longest ms.
+    gc: dict[str, tuple[int, int, float]] = field(default_factory=dict)
 
-
-def _facesynth(*args: str, log: Path) -> subprocess.Popen[bytes]:
-    with open(log, "wb") as out:
-        return subprocess.Popen(
-            [sys.executable, "-m", "facesynth", *args],
-            stdout=out,
-            stderr=subprocess.STDOUT,
-            env={**os.environ, "PYTHONUNBUFFERED": "1"},
-        )
-
-
-def _router_locator(log: Path, proc: subprocess.Popen[bytes], timeout: float = 15.0) -> str:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        match = re.search(r"listening on (tcp/[0-9.]+:\d+)", log.read_text(errors="replace"))
-        if match:
-            return match.group(1)
-        if proc.poll() is not None:
-            break
-        time.sleep(0.05)
-    raise RuntimeError(f"the router did not start:\n{log.read_text(errors='replace')}")
-
-
-async def _collect_stats(locator: str, rig: str, seconds: float) -> dict[str, ServiceStats]:
-    bus = ZenohBus.open(ZenohOptions(mode="client", connect=[locator]))
-    try:
-        subscription = bus.subscribe_queued(keys.stats_pattern(rig), 512)
-        latest: dict[str, ServiceStats] = {}
-        deadline = time.monotonic() + seconds
-        while (remaining := deadline - time.monotonic()) > 0:
-            try:
-                sample = await asyncio.wait_for(subscription.receive(), remaining)
-            except TimeoutError:
-                break
-            stats = codec.decode(sample.payload, ServiceStats)
-            latest[stats.service] = stats
-        return latest
-    finally:
-        await bus.close()
+    @property
+    def cpu_total_ms(self) -> float:
+        """CPU per frame of the whole chain, the router included."""
+        return float(sum(self.cpu_ms.values())) if self.cpu_ms else float("nan")
 
 
 def bench_graph(
+    variant: ChainVariant,
     *,
     video: str,
     fps: float,
     frames: int,
-    encoding: str,
     openface_csv: str | None,
-    threads: int,
     record: Path,
     rig: str,
 ) -> Graph:
     """The benchmark's chain: the video looped in real time, tracker (or a replay), record."""
+    realtime = variant.realtime
     backend: dict[str, Any] = (
         {"backend": "openface", "csv": openface_csv, "loop": True}
         if openface_csv
-        else {"backend": "tracker", "threads": threads}
+        else {"backend": "tracker", "threads": variant.threads, "model": variant.model}
     )
     return Graph(
         rig=rig,
@@ -124,152 +153,143 @@ def bench_graph(
             "sensor": SensorNode(
                 source={"source": "video", "path": video, "loop": True, "fps": fps},
                 max_frames=frames,
-                encoding=encoding,  # type: ignore[arg-type]
+                encoding=variant.encoding,  # type: ignore[arg-type]
                 wait_for=["points", "features", "translator", "control"],
                 wait_timeout=60.0,
+                realtime=realtime,
             ),
-            "points": PointsNode(backend=backend),
-            "features": FeaturesNode(),
-            "translator": TranslatorNode(),
-            "control": ControlNode(driver={"driver": "record", "out": str(record)}),
+            "points": PointsNode(backend=backend, realtime=realtime),
+            "features": FeaturesNode(realtime=realtime),
+            "translator": TranslatorNode(realtime=realtime),
+            "control": ControlNode(
+                driver={"driver": "record", "out": str(record)}, realtime=realtime
+            ),
         },
     )
 
 
-def bench_chain(
+def latency_figures(values: np.ndarray) -> tuple[float, float, float]:
+    """p50, p99 and max of some milliseconds (NaN when there are none)."""
+    if not values.size:
+        return float("nan"), float("nan"), float("nan")
+    p50, p99, worst = np.percentile(values, [50, 99, 100])
+    return float(p50), float(p99), float(worst)
+
+
+def bench_chain_once(
+    variant: ChainVariant,
+    *,
     video: str | None = None,
     seconds: float = 15.0,
     fps: float = 30.0,
     openface_csv: str | None = None,
-    encoding: str = "jpeg",
-    threads: int = 1,
-    mode: str = "client",
-) -> ChainBench:
-    """Run the benchmark and return its figures."""
+    hops: bool = False,
+    run: int = 1,
+) -> ChainFigures:
+    """Run the chain once with ``variant`` and return its figures."""
     frames = max(1, int(seconds * fps))
-    rig = f"bench{os.getpid()}"
-    with tempfile.TemporaryDirectory(prefix="facesynth-bench-") as tmp:
-        folder = Path(tmp)
-        router_log = folder / "router.log"
-        router = _facesynth("router", "--listen", "tcp/127.0.0.1:0", log=router_log)
-        procs: dict[str, subprocess.Popen[bytes]] = {}
-        try:
-            locator = _router_locator(router_log, router)
-            common = ["--connect", locator, "--rig", rig, "--stats-interval", "0.5", "--mode", mode]
-            graph = bench_graph(
-                video=video or str(sample_video()),
-                fps=fps,
+    with tempfile.TemporaryDirectory(prefix="facesynth-bench-records-") as tmp:
+        graph = bench_graph(
+            variant,
+            video=video or str(sample_video()),
+            fps=fps,
+            frames=frames,
+            openface_csv=openface_csv,
+            record=Path(tmp) / "commands.jsonl",
+            rig=f"bench{os.getpid()}",
+        )
+        result = run_graph(
+            graph,
+            RunOptions(
                 frames=frames,
-                encoding=encoding,
-                openface_csv=openface_csv,
-                threads=threads,
-                record=folder / "commands.jsonl",
-                rig=rig,
-            )
-            graph_file = folder / "bench.toml"
-            graph_file.write_text(graph_to_toml(graph))
-            record = folder / "commands.jsonl"
-            # Downstream first, so each stage listens before its input flows.
-            for name in reversed(list(graph.nodes)):
-                stage = stage_of(graph.nodes[name])
-                procs[name] = _facesynth(
-                    stage,
-                    "--graph",
-                    str(graph_file),
-                    "--node",
-                    name,
-                    *common,
-                    log=folder / f"{name}.log",
-                )
-            started = time.monotonic()
-            stats_task_result: dict[str, ServiceStats] = {}
+                fps=fps,
+                mode=variant.mode,
+                steady_after_s=STEADY_AFTER_S,
+                hops=hops,
+                router_args=variant.router_args(),
+                source=variant.source or None,
+            ),
+        )
+    return chain_figures(
+        variant,
+        result,
+        frames=frames,
+        fps=fps,
+        run=run,
+        backend="openface replay" if openface_csv else "tracker",
+    )
 
-            async def watch() -> None:
-                # Listen until the sensor is done and the last commands are in.
-                while procs["sensor"].poll() is None:
-                    stats_task_result.update(await _collect_stats(locator, rig, 1.0))
-                stats_task_result.update(await _collect_stats(locator, rig, 1.5))
 
-            asyncio.run(watch())
-            elapsed = time.monotonic() - started
-            if procs["sensor"].returncode != 0:
-                raise RuntimeError((folder / "sensor.log").read_text(errors="replace"))
-            rss = {
-                name: memory_mb(proc.pid)[1] for name, proc in procs.items() if proc.poll() is None
-            }
-            rss.setdefault(
-                "sensor",
-                stats_task_result["sensor"].peak_rss_mb
-                if "sensor" in stats_task_result
-                else float("nan"),
-            )
-            for proc in procs.values():
-                if proc.poll() is None:
-                    proc.send_signal(signal.SIGTERM)
-            for proc in procs.values():
-                proc.wait(timeout=15)
-            lines = [
-                line for line in read_record(record) if line.frame is not None and line.t_capture_ns
-            ]
-        finally:
-            for proc in [*procs.values(), router]:
-                if proc.poll() is None:
-                    proc.kill()
-                    proc.wait()
+def chain_figures(
+    variant: ChainVariant, result: RigRun, *, frames: int, fps: float, run: int, backend: str
+) -> ChainFigures:
+    """The figures of one run from what the runner measured."""
+    lines = result.records["control"]
     latencies = np.array([(line.t_sent_ns - line.t_capture_ns) / 1e6 for line in lines])  # type: ignore[operator]
-    span = (lines[-1].t_sent_ns - lines[0].t_sent_ns) / 1e9 if len(lines) > 1 else elapsed
-    result = ChainBench(
+    steady = np.array(
+        [
+            (line.t_sent_ns - line.t_capture_ns) / 1e6  # type: ignore[operator]
+            for line in lines
+            if line.frame is not None and line.frame >= result.steady_from
+        ]
+    )
+    span = (lines[-1].t_sent_ns - lines[0].t_sent_ns) / 1e9 if len(lines) > 1 else 0.0
+    figures = ChainFigures(
+        variant=variant,
+        run=run,
         frames_sent=frames,
         commands=len(lines),
-        seconds=span,
         fps=fps,
-        peak_rss_mb=rss,
-        backend="openface replay" if openface_csv else f"tracker ({threads} thread(s))",
-        encoding=encoding,
-        mode=mode,
+        backend=backend,
+        whole_ms=latency_figures(latencies),
+        steady_ms=latency_figures(steady),
+        commands_per_s=(len(lines) - 1) / span if span > 0 else 0.0,
+        cpu_ms=result.cpu_ms,
+        peak_rss_mb=dict(result.peak_rss_mb),
+        machine_busy=result.machine_busy,
+        others_busy=result.others_busy,
+        load=(result.load_before, result.load_after),
+        gc=result.gc,
     )
-    if latencies.size:
-        p50, p99, worst = np.percentile(latencies, [50, 99, 100])
-        result.capture_to_command_ms = (float(p50), float(p99), float(worst))
-        # Steady state: after the first STEADY_AFTER_S seconds (start-up, the neutral window).
-        steady = latencies[int(STEADY_AFTER_S * fps) :]
-        if steady.size:
-            s50, s99, s_worst = np.percentile(steady, [50, 99, 100])
-            result.steady_ms = (float(s50), float(s99), float(s_worst))
+    by_service = {stats.service: stats for stats in result.stats.values()}
     for name in STAGES:
-        stats = stats_task_result.get(name)
+        stats = by_service.get(name)
         if stats is not None:
-            result.latency_ms[name] = (stats.latency_p50_ms or 0.0, stats.latency_p99_ms or 0.0)
-            result.dropped[name] = stats.dropped
-    return result
+            figures.stage_ms[name] = (stats.latency_p50_ms or 0.0, stats.latency_p99_ms or 0.0)
+            figures.dropped[name] = stats.dropped
+            # A process that ended before the runner read it (the sensor) said it in its stats.
+            figures.peak_rss_mb.setdefault(name, stats.peak_rss_mb)
+    observer = result.observer
+    if observer is not None and observer.hops:
+        for hop, values in observer.hop_latencies(result.steady_from).items():
+            p50, p99, _ = latency_figures(values)
+            figures.hops[hop] = (p50, p99)
+        figures.tail = observer.tail_hops(result.steady_from)
+    return figures
 
 
-def format_chain_bench(result: ChainBench) -> str:
-    """The figures as a printable table."""
-    lines = [
-        f"facesynth bench chain: 5 {result.mode} processes + router on loopback, "
-        f"P = {result.backend}, "
-        f"{result.frames_sent} {result.encoding} frames at {result.fps:g} fps, "
-        f"{os.cpu_count()} cores",
-        f"{'stage':<11} {'p50 ms':>8} {'p99 ms':>8} {'dropped':>8} {'peak RSS MB':>12}"
-        "   (latency: capture → this stage publishes)",
+def bench_chain(
+    chosen: Sequence[ChainVariant],
+    *,
+    runs: int = 1,
+    video: str | None = None,
+    seconds: float = 15.0,
+    fps: float = 30.0,
+    openface_csv: str | None = None,
+    hops: bool = False,
+) -> list[ChainFigures]:
+    """Every variant ``runs`` times, interleaved (run 1 of each, then run 2 of each, …), so a
+    machine whose speed drifts affects every variant alike."""
+    return [
+        bench_chain_once(
+            variant,
+            video=video,
+            seconds=seconds,
+            fps=fps,
+            openface_csv=openface_csv,
+            hops=hops,
+            run=run,
+        )
+        for run in range(1, runs + 1)
+        for variant in chosen
     ]
-    for name in STAGES:
-        p50, p99 = result.latency_ms.get(name, (float("nan"), float("nan")))
-        lines.append(
-            f"{name:<11} {p50:>8.2f} {p99:>8.2f} {result.dropped.get(name, 0):>8} "
-            f"{result.peak_rss_mb.get(name, float('nan')):>12.1f}"
-        )
-    p50, p99, worst = result.capture_to_command_ms
-    lines.extend(
-        (
-            f"capture → command (at C): p50 {p50:.2f} ms, p99 {p99:.2f} ms, max {worst:.2f} ms; "
-            f"{result.commands}/{result.frames_sent} commands, "
-            f"{(result.commands - 1) / max(result.seconds, 1e-9):.1f} commands/s "
-            f"(first to last command: {result.seconds:.1f} s)",
-            f"capture → command, steady state (after the first {STEADY_AFTER_S:g} s): "
-            f"p50 {result.steady_ms[0]:.2f} ms, p99 {result.steady_ms[1]:.2f} ms, "
-            f"max {result.steady_ms[2]:.2f} ms",
-        )
-    )
-    return "\n".join(lines)

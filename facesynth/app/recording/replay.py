@@ -28,7 +28,8 @@ from facesynth.app.recording.reader import Recording
 from facesynth.runtime import codec, keys
 from facesynth.runtime.service import ServiceContext
 from schemas.messages import ServoCommands
-from services.sensor.core import FlowWindow, Pacer
+from services.sensor.core import Pacer
+from services.sensor.credit import CreditGate, ack_stage
 from services.sensor.service import wait_for_services
 
 
@@ -99,54 +100,19 @@ class Replayer:
         self.stage: keys.Stage = choose_stage(recording, options.stage)  # type: ignore[assignment]
         self.sources = [key for key in recording.bus_keys() if key_kind(key) == self.stage]
         self.published = 0
-        self.stalls = 0
         self.last_seq = -1
-        self.flow = FlowWindow(options.window)
-        self._acked = asyncio.Event()
+        self.credit = CreditGate(options.window, options.ack_timeout, "message")
         self._sent = 0
 
-    async def _watch_acks(self, ctx: ServiceContext, stage: keys.Stage) -> None:
-        subscription = ctx.bus.subscribe_latest(ctx.key(stage))
-        try:
-            async for sample in subscription:
-                try:
-                    state = codec.decode(sample.payload, ServoCommands)
-                except ValueError:
-                    continue
-                if state.move != "command":  # the controller moving on its own acknowledges nothing
-                    continue
-                seq = state.seq
-                self.flow.ack(seq)
-                self._acked.set()
-        finally:
-            subscription.close()
-
-    async def _wait_credit(self, ctx: ServiceContext, seq: int) -> None:
-        deadline = time.monotonic() + self.options.ack_timeout
-        while not self.flow.may_send(seq):
-            self._acked.clear()
-            remaining = deadline - time.monotonic()
-            if remaining <= 0:
-                self.stalls += 1
-                ctx.log.warning(
-                    "no servo command for message %d after %.1f s: sending on",
-                    seq - self.flow.window,
-                    self.options.ack_timeout,
-                )
-                self.flow.ack(seq - self.flow.window)
-                return
-            with contextlib.suppress(TimeoutError):
-                async with asyncio.timeout(remaining):
-                    await self._acked.wait()
+    @property
+    def stalls(self) -> int:
+        """How often ``--fast`` went on without hearing from the end of the chain."""
+        return self.credit.stalls
 
     async def _ack_stage(self, ctx: ServiceContext) -> keys.Stage:
         if self.stage == "servo_commands":
             return "servo_state"
-        alive = await ctx.bus.alive(keys.health_pattern(ctx.rig), timeout=0.5)
-        control = any(
-            p is not None and p[1] == "control" for p in map(keys.parse_service_key, alive)
-        )
-        return "servo_state" if control else "servo_commands"
+        return await ack_stage(ctx)
 
     def _restamp(self, payload: bytes) -> bytes:
         cls = message_type(self.sources[0])
@@ -184,7 +150,7 @@ class Replayer:
         if options.fast:
             ack_stage = await self._ack_stage(ctx)
             ctx.log.info("--fast: at most %d messages ahead of %s", options.window, ack_stage)
-            ack_task = asyncio.create_task(self._watch_acks(ctx, ack_stage))
+            ack_task = asyncio.create_task(self.credit.watch(ctx, ack_stage))
         pacer = Pacer()
         first_log: int | None = None
         ctx.log.info(
@@ -199,7 +165,7 @@ class Replayer:
                 seq = payload_seq(item.payload)
                 if options.fast:
                     if seq is not None:
-                        await self._wait_credit(ctx, seq)
+                        await self.credit.wait(ctx, seq)
                 else:
                     first_log = item.log_time if first_log is None else first_log
                     offset = round((item.log_time - first_log) / options.speed)
@@ -217,7 +183,7 @@ class Replayer:
                     self.last_seq = max(self.last_seq, seq)
                 await asyncio.sleep(0)
             if options.fast and self.last_seq >= 0:
-                await self._wait_credit(ctx, self.last_seq + self.flow.window)
+                await self.credit.wait(ctx, self.last_seq + self.credit.flow.window)
         finally:
             if ack_task is not None:
                 ack_task.cancel()
