@@ -143,8 +143,8 @@ class FeaturesNode(_Node, tag="features"):
     ] = False
 
 
-class TranslatorNode(_Node, tag="translator"):
-    """T: servo positions through a robot profile on ``…/servo_commands``."""
+class _RobotNode(_Node):
+    """What the two nodes of one robot (T and C) share: its profile and its keys."""
 
     profile: Annotated[
         str, Meta(description="robot profile name or TOML path (default paper16)")
@@ -152,10 +152,6 @@ class TranslatorNode(_Node, tag="translator"):
     mirror: Annotated[
         bool, Meta(description="mirror the performer (robot's right follows the performer's left)")
     ] = False
-    calibration: (
-        Annotated[str, Meta(description="performer calibration (neutral + ranges): NAME or PATH")]
-        | None
-    ) = None
     robot: (
         Annotated[
             str,
@@ -170,32 +166,23 @@ class TranslatorNode(_Node, tag="translator"):
     queue: Annotated[int, Meta(ge=1, description="input queue length; 1 = latest only")] = 8
 
 
-class ControlNode(_Node, tag="control"):
+class TranslatorNode(_RobotNode, tag="translator"):
+    """T: servo positions through a robot profile on ``…/servo_commands``."""
+
+    calibration: (
+        Annotated[str, Meta(description="performer calibration (neutral + ranges): NAME or PATH")]
+        | None
+    ) = None
+
+
+class ControlNode(_RobotNode, tag="control"):
     """C: checked, clamped commands to a servo driver; what was applied on ``…/servo_state``."""
 
-    profile: Annotated[
-        str, Meta(description="robot profile name or TOML path (default paper16)")
-    ] = "paper16"
-    mirror: Annotated[
-        bool, Meta(description="mirror the performer (robot's right follows the performer's left)")
-    ] = False
     driver: dict[str, Any] = msgspec.field(default_factory=lambda: {"driver": "record"})
     watchdog: Annotated[
         float,
         Meta(gt=0, description="seconds without commands before the face returns to neutral"),
     ] = 0.5
-    robot: (
-        Annotated[
-            str,
-            Meta(
-                description="robot name, when one performer drives several robots: commands on "
-                "…/servo_commands/ROBOT and state on …/servo_state/ROBOT (default: the rig's "
-                "single-robot keys)"
-            ),
-        ]
-        | None
-    ) = None
-    queue: Annotated[int, Meta(ge=1, description="input queue length; 1 = latest only")] = 8
     motion_time: Annotated[
         Literal["real", "media"] | None,
         Meta(

@@ -163,10 +163,14 @@ async def serve_transform(
     out_stage: keys.Stage,
     transform: Callable[[M], msgspec.Struct | None],
     maxsize: int,
+    listening: str = "",
 ) -> None:
-    """Decode each input, transform it, publish the result; reject what cannot be used."""
+    """Decode each input, transform it, publish the result; reject what cannot be used.
+    ``listening`` is logged once the service listens (operators and tests wait for it)."""
     subscription = ctx.subscribe(in_stage, maxsize, in_type)
     ctx.ready()
+    if listening:
+        ctx.log.info("%s", listening)
     async for sample in subscription:
         ctx.stats.received += 1
         try:

@@ -3,7 +3,8 @@
 The router and S, P, F, T run on the "tracker" host; C (recording) on the "board". The link to
 the board is cut and restored, by taking it down and by silently dropping every packet, for
 4 s and for 30 s. Each time C must return the face to neutral within its watchdog, and commands
-must flow again within 3 s of the link's return, without restarting anything; C logs losing
+must flow again within 3 s of the link's return, without restarting anything, and none of the
+commands held back during the cut may be executed after it (C drops them as stale); C logs losing
 and regaining its router, and ``facesynth status`` shows it. Prints each recovery time, and
 what the shipped keep-alive settings cost on an idle link next to Zenoh's defaults.
 """
@@ -29,6 +30,7 @@ WATCHDOG_S = 0.5
 RECOVERY_LIMIT_S = 3.0
 NEUTRAL = {spec.name: spec.neutral_us for spec in load_profile("paper16").servos}
 RAMP_S = load_profile("paper16").neutral_ramp_s
+MAX_AGE_S = load_profile("paper16").max_command_age_s
 IDLE_CLIENT = """
 import sys, time, zenoh
 config = zenoh.Config.from_file(sys.argv[1]) if sys.argv[1] != "-" else zenoh.Config()
@@ -183,6 +185,17 @@ def test_chain_across_hosts_survives_link_cuts(
             if line.frame is not None and line.t_sent_ns > restored_ns
         )
         recovery_s = (back - restored_ns) / 1e9
+        # No command held back during the cut is executed after it: every command applied
+        # after the link returned was captured at most max_command_age_s before the return
+        # (the backlog the router delivers is older, and C drops it as stale).
+        oldest_s = max(
+            (restored_ns - line.t_capture_ns) / 1e9
+            for line in during
+            if line.frame is not None and line.t_sent_ns > restored_ns and line.t_capture_ns
+        )
+        assert oldest_s <= MAX_AGE_S + 0.1, (
+            f"a command captured {oldest_s:.2f} s before the link returned was executed"
+        )
         print(
             f"{how:>4} {seconds:4.0f} s: neutral began {silence_s:.2f} s after the last "
             f"command; commands again {recovery_s:.2f} s after the link returned"

@@ -131,3 +131,21 @@ async def test_reports_for_another_profile_or_undecodable_are_ignored() -> None:
         await run.send("servo_state", b"\x93garbage")
         first = await translate(run, 0, {})
     assert first.positions == {"jaw": 1500.0, "brow": 1500.0}
+
+
+# --- the pure resume rule ----------------------------------------------------------------------
+
+
+def test_resuming_translator_resumes_once_then_only_after_the_controller_moved_on_its_own() -> None:
+    from services.translator.resume import ResumingTranslator
+
+    core = ResumingTranslator(Translator(LIMITED), sender="t/1", host="h")
+    first = core.translate(features_at(0, OPEN), now_ns=5)
+    assert core.resumed == "neutral" and first.positions == {"jaw": 1500.0, "brow": 1500.0}
+    assert (first.sender, first.sender_seq, first.sent_ns, first.sender_host) == ("t/1", 1, 5, "h")
+    core.watch.see(state("command", jaw=1500.0))  # following: nothing to resume from
+    second = core.translate(features_at(1, OPEN), now_ns=6)
+    assert core.resumed is None and second.sender_seq == 2
+    core.watch.see(state("return", jaw=1600.0))  # the controller went back on its own
+    core.translate(features_at(2, OPEN), now_ns=7)
+    assert core.resumed == "reported"
