@@ -81,7 +81,8 @@ def decode(payload: bytes | bytearray | memoryview, cls: type[M]) -> M:
         )
     try:
         message = _DECODERS[cls].decode(payload)
-    except (msgspec.DecodeError, msgspec.ValidationError) as exc:
+    except (msgspec.DecodeError, msgspec.ValidationError, UnicodeDecodeError) as exc:
+        # msgspec raises UnicodeDecodeError for a tag string that is not UTF-8
         raise MessageError(f"not a valid {cls.__name__} message: {exc}") from None
     _VALIDATORS[cls](message)
     return message
