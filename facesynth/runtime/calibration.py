@@ -110,7 +110,7 @@ def parse_calibration(data: bytes | str, source: str = "<calibration>") -> Calib
     """Parse and validate calibration JSON."""
     try:
         calibration = msgspec.json.decode(data, type=Calibration)
-    except (msgspec.DecodeError, msgspec.ValidationError) as exc:
+    except (msgspec.DecodeError, msgspec.ValidationError, UnicodeDecodeError) as exc:
         raise CalibrationError(f"{source}: {exc}") from None
     problems = validate_calibration(calibration)
     if problems:

@@ -185,7 +185,7 @@ def parse_state(data: bytes, source: str = "<state>") -> LearnedState:
     """Parse and validate a state file's bytes, or raise :class:`StateError`."""
     try:
         state = msgspec.json.decode(data, type=LearnedState)
-    except (msgspec.DecodeError, msgspec.ValidationError) as exc:
+    except (msgspec.DecodeError, msgspec.ValidationError, UnicodeDecodeError) as exc:
         raise StateError(f"{source}: {exc}") from None
     problems = validate_state(state)
     if problems:
