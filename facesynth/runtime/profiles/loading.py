@@ -64,6 +64,8 @@ def parse_profile(text: str, source: str = "<profile>") -> Profile:
 
 
 def _error(source: str, problems: list[str]) -> ProfileError:
+    # one line whatever the file holds (msgspec quotes unknown keys as they are)
+    problems = [p.replace("\r", "\\r").replace("\n", "\\n") for p in problems]
     return ProfileError(f"{source}: " + "; ".join(problems), [f"{source}: {p}" for p in problems])
 
 
