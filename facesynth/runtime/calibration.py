@@ -23,6 +23,7 @@ from facesynth.runtime.atomic import write_atomic
 from facesynth.runtime.feature_names import NAMES
 from facesynth.runtime.landmarks import N_IBUG
 from facesynth.runtime.named_files import NamedFiles
+from facesynth.runtime.oneline import one_line
 
 #: Largest magnitude of a calibrated or learned value (inter-ocular units, degrees): a face's
 #: are near 1, and anything beyond this is a corrupt file (F's features would then be refused
@@ -126,7 +127,7 @@ def parse_calibration(data: bytes | str, source: str = "<calibration>") -> Calib
     try:
         calibration = msgspec.json.decode(data, type=Calibration)
     except (msgspec.DecodeError, msgspec.ValidationError, UnicodeDecodeError) as exc:
-        raise CalibrationError(f"{source}: {exc}") from None
+        raise CalibrationError(f"{source}: {one_line(str(exc))}") from None
     problems = validate_calibration(calibration)
     if problems:
         raise CalibrationError(f"{source}: " + "; ".join(problems))

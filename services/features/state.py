@@ -27,6 +27,7 @@ from facesynth.runtime.atomic import write_atomic
 from facesynth.runtime.calibration import MAX_VALUE, finite_within
 from facesynth.runtime.feature_names import NAMES
 from facesynth.runtime.landmarks import N_IBUG
+from facesynth.runtime.oneline import one_line
 from services.features.core import FeatureProcessor
 from services.features.neutral import AutoNeutral
 from services.features.pose import N_MESH, MeshReference, PoseError
@@ -192,7 +193,7 @@ def parse_state(data: bytes, source: str = "<state>") -> LearnedState:
     try:
         state = msgspec.json.decode(data, type=LearnedState)
     except (msgspec.DecodeError, msgspec.ValidationError, UnicodeDecodeError) as exc:
-        raise StateError(f"{source}: {exc}") from None
+        raise StateError(f"{source}: {one_line(str(exc))}") from None
     problems = validate_state(state)
     if problems:
         raise StateError(f"{source}: " + "; ".join(problems))
