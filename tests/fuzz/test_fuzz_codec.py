@@ -188,7 +188,7 @@ def check_within_limits(profile: Profile, move: Move | None) -> None:
 
 @st.composite
 def command_streams(draw: st.DrawFn) -> list[tuple[bytes, int]]:
-    """1..4 payloads (mostly mutated commands for the profile), each with a gap in ms."""
+    """1..3 payloads (mostly mutated commands for the profile), each with a gap in ms."""
     seed = _msgpack(COMMANDS_SEED)
     payloads = st.one_of(
         mutated(COMMANDS_SEED, max_changes=2).map(_msgpack),
@@ -197,7 +197,7 @@ def command_streams(draw: st.DrawFn) -> list[tuple[bytes, int]]:
         st.binary(max_size=64),
         st.just(seed),
     )
-    return draw(st.lists(st.tuples(payloads, st.integers(0, 600)), min_size=1, max_size=4))
+    return draw(st.lists(st.tuples(payloads, st.integers(0, 600)), min_size=1, max_size=3))
 
 
 def test_servo_commands_decode_and_never_move_a_servo_outside_its_limits() -> None:

@@ -124,7 +124,7 @@ def commands(draw: st.DrawFn, channels: int) -> bytes:
 def cases(draw: st.DrawFn) -> tuple[int, list[tuple[str, bytes | int]]]:
     channels = draw(st.one_of(st.just(16), st.integers(1, 16), st.integers(0, 255)))
     ops: list[tuple[str, bytes | int]] = []
-    for _ in range(draw(st.integers(1, 10))):
+    for _ in range(draw(st.integers(1, 6))):
         kind = draw(st.sampled_from(["frame", "frame", "frame", "damaged", "noise", "tick"]))
         if kind == "frame":
             ops.append(("b", draw(commands(channels))))

@@ -45,11 +45,11 @@ SEED_BYTES = msgspec.msgpack.encode(SEED)
 
 @st.composite
 def feature_streams(draw: st.DrawFn) -> tuple[str, list[bytes]]:
-    """A shipped profile's name and 1..6 feature payloads: the seed at 30 fps with its times
+    """A shipped profile's name and 1..4 feature payloads: the seed at 30 fps with its times
     and values mutated (times may jump, go back or stand still), damaged, or random."""
     profile = draw(st.sampled_from(sorted(PROFILES)))
     payloads = []
-    for index in range(draw(st.integers(1, 6))):
+    for index in range(draw(st.integers(1, 4))):
         tree = dict(SEED, seq=index, t_media_ns=index * 33_333_333)
         tree["face"] = draw(st.booleans()) or index > 0
         payloads.append(
