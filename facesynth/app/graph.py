@@ -31,6 +31,7 @@ import msgspec
 
 from facesynth.app.nodes import NODE_TYPES, PLUGIN_FIELDS, Node, stage_of
 from facesynth.runtime import keys
+from facesynth.runtime.oneline import one_line
 from facesynth.runtime.plugins import PluginError, Registry
 from services.control.drivers.registry import DRIVERS
 from services.points.backends.registry import BACKENDS
@@ -49,7 +50,11 @@ PLUGIN_TABLES: dict[str, tuple[str, Registry[Any]]] = {
 
 
 class GraphError(ValueError):
-    """A graph file that cannot be used; the message names the file and the node."""
+    """A graph file that cannot be used; the message names the file and the node (on one
+    line, whatever the file's keys hold)."""
+
+    def __init__(self, message: str) -> None:
+        super().__init__(one_line(message))
 
 
 class Graph(msgspec.Struct, kw_only=True, forbid_unknown_fields=True):

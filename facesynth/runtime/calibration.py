@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 import os
+from collections.abc import Iterable
 from pathlib import Path
 from typing import Literal
 
@@ -22,6 +23,17 @@ from facesynth.runtime.atomic import write_atomic
 from facesynth.runtime.feature_names import NAMES
 from facesynth.runtime.landmarks import N_IBUG
 from facesynth.runtime.named_files import NamedFiles
+from facesynth.runtime.oneline import one_line
+
+#: Largest magnitude of a calibrated or learned value (inter-ocular units, degrees): a face's
+#: are near 1, and anything beyond this is a corrupt file (F's features would then be refused
+#: by every receiver).
+MAX_VALUE = 1e3
+
+
+def finite_within(values: Iterable[float], limit: float = MAX_VALUE) -> bool:
+    """Whether every value is a finite number within ±``limit``."""
+    return all(math.isfinite(v) and abs(v) <= limit for v in values)
 
 
 class CalibrationError(ValueError):
@@ -71,15 +83,19 @@ def validate_calibration(calibration: Calibration) -> list[str]:
         values = getattr(calibration, field)
         if len(values) != N_IBUG:
             problems.append(f"{field} has {len(values)} values, needs {N_IBUG}")
-        elif not all(math.isfinite(v) for v in values):
-            problems.append(f"{field} has a value that is not a finite number")
+        elif not finite_within(values):
+            problems.append(
+                f"{field} has a value that is not a finite number within ±{MAX_VALUE:g}"
+            )
     for field in ("named_neutral", "named_min", "named_max"):
         values = getattr(calibration, field)
         unknown = sorted(set(values) - set(NAMES))
         if unknown:
             problems.append(f"{field} names unknown features {unknown}")
-        if not all(math.isfinite(v) for v in values.values()):
-            problems.append(f"{field} has a value that is not a finite number")
+        if not finite_within(values.values()):
+            problems.append(
+                f"{field} has a value that is not a finite number within ±{MAX_VALUE:g}"
+            )
     if calibration.neutral_mesh and (
         len(calibration.neutral_mesh) != 468 * 3
         or not all(math.isfinite(v) for v in calibration.neutral_mesh)
@@ -110,8 +126,8 @@ def parse_calibration(data: bytes | str, source: str = "<calibration>") -> Calib
     """Parse and validate calibration JSON."""
     try:
         calibration = msgspec.json.decode(data, type=Calibration)
-    except (msgspec.DecodeError, msgspec.ValidationError) as exc:
-        raise CalibrationError(f"{source}: {exc}") from None
+    except (msgspec.DecodeError, msgspec.ValidationError, UnicodeDecodeError) as exc:
+        raise CalibrationError(f"{source}: {one_line(str(exc))}") from None
     problems = validate_calibration(calibration)
     if problems:
         raise CalibrationError(f"{source}: " + "; ".join(problems))

@@ -18,6 +18,7 @@ import numpy as np
 
 from facesynth.runtime import blendshapes, limits
 from facesynth.runtime.jpeg import JpegHeaderError, jpeg_size
+from facesynth.runtime.oneline import one_line
 from schemas.messages import Features, Frame, Points, ServiceStats, ServoCommands
 
 M = TypeVar("M", Frame, Points, Features, ServoCommands, ServiceStats)
@@ -81,8 +82,9 @@ def decode(payload: bytes | bytearray | memoryview, cls: type[M]) -> M:
         )
     try:
         message = _DECODERS[cls].decode(payload)
-    except (msgspec.DecodeError, msgspec.ValidationError) as exc:
-        raise MessageError(f"not a valid {cls.__name__} message: {exc}") from None
+    except (msgspec.DecodeError, msgspec.ValidationError, UnicodeDecodeError) as exc:
+        # msgspec raises UnicodeDecodeError for a tag string that is not UTF-8
+        raise MessageError(f"not a valid {cls.__name__} message: {one_line(str(exc))}") from None
     _VALIDATORS[cls](message)
     return message
 

@@ -24,8 +24,10 @@ import msgspec
 import numpy as np
 
 from facesynth.runtime.atomic import write_atomic
+from facesynth.runtime.calibration import MAX_VALUE, finite_within
 from facesynth.runtime.feature_names import NAMES
 from facesynth.runtime.landmarks import N_IBUG
+from facesynth.runtime.oneline import one_line
 from services.features.core import FeatureProcessor
 from services.features.neutral import AutoNeutral
 from services.features.pose import N_MESH, MeshReference, PoseError
@@ -162,16 +164,21 @@ def validate_state(state: LearnedState) -> list[str]:
         values = getattr(state, field)
         if len(values) != count:
             problems.append(f"{field} has {len(values)} values, needs {count}")
-        elif not all(math.isfinite(v) for v in values):
-            problems.append(f"{field} has a value that is not a finite number")
+        elif not finite_within(values):
+            problems.append(
+                f"{field} has a value that is not a finite number within ±{MAX_VALUE:g}"
+            )
     if state.neutral_mesh and len(state.neutral_mesh) != N_MESH * 3:
         problems.append(f"neutral_mesh has {len(state.neutral_mesh)} values, needs {N_MESH * 3}")
     unknown = sorted((set(state.named_neutral) | set(state.ranges)) - set(NAMES))
     if unknown:
         problems.append(f"unknown named features {unknown[:5]}")
     values = [*state.named_neutral.values(), *(v for pair in state.ranges.values() for v in pair)]
-    if not all(math.isfinite(v) for v in [*values, *state.neutral_mesh]):
-        problems.append("a named value, range or mesh value is not a finite number")
+    if not finite_within(values) or not all(math.isfinite(v) for v in state.neutral_mesh):
+        problems.append(
+            f"a named value or range is not a finite number within ±{MAX_VALUE:g}, "
+            "or a mesh value is not finite"
+        )
     wrong = sorted(name for name, (lo, hi) in state.ranges.items() if not lo < 0 < hi)
     if wrong:
         problems.append(f"ranges {wrong[:5]} need min < 0 < max")
@@ -185,8 +192,8 @@ def parse_state(data: bytes, source: str = "<state>") -> LearnedState:
     """Parse and validate a state file's bytes, or raise :class:`StateError`."""
     try:
         state = msgspec.json.decode(data, type=LearnedState)
-    except (msgspec.DecodeError, msgspec.ValidationError) as exc:
-        raise StateError(f"{source}: {exc}") from None
+    except (msgspec.DecodeError, msgspec.ValidationError, UnicodeDecodeError) as exc:
+        raise StateError(f"{source}: {one_line(str(exc))}") from None
     problems = validate_state(state)
     if problems:
         raise StateError(f"{source}: " + "; ".join(problems))

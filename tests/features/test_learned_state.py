@@ -119,6 +119,12 @@ def _state_json(**changes: object) -> bytes:
         (_state_json(ranges={"jaw_open": [0.2, 0.5]}), "ranges ['jaw_open'] need min < 0 < max"),
         (_state_json(extra=1), "Object contains unknown field `extra`"),
         (_state_json(format="other"), "Invalid enum value 'other'"),
+        # F would publish displacements every receiver refuses (found by tests/fuzz)
+        (
+            _state_json(frame=[0.0] * 135 + [1e7]),
+            "frame has a value that is not a finite number within ±1000",
+        ),
+        (_state_json(ranges={"jaw_open": [-1e300, 0.5]}), "not a finite number within ±1000"),
     ],
     ids=[
         "empty",
@@ -132,6 +138,8 @@ def _state_json(**changes: object) -> bytes:
         "bad-range",
         "unknown-field",
         "other-format",
+        "huge-frame",
+        "huge-range",
     ],
 )
 def test_broken_state_files_are_refused_with_the_reason(data: bytes, detail: str) -> None:

@@ -250,6 +250,21 @@ def test_wrong_field_types_are_refused(overrides: dict[str, Any], detail: str) -
     assert detail in str(info.value)
 
 
+@pytest.mark.parametrize("field", ["type", "source", "encoding"])
+def test_a_string_that_is_not_utf8_is_refused(field: str) -> None:
+    """msgspec raises UnicodeDecodeError (not a DecodeError) for such strings (found by
+    tests/fuzz)."""
+    fields = {
+        "type": "frame", "seq": 1, "t_capture_ns": 0, "t_media_ns": 0, "width": 1,
+        "height": 1, "encoding": "none", "source": "camera",
+    }  # fmt: skip
+    payload = msgspec.msgpack.encode(fields)
+    text = msgspec.msgpack.encode(fields[field])
+    broken = payload.replace(text, text[:1] + b"\xe6" + text[2:], 1)
+    with pytest.raises(MessageError, match="not a valid Frame message: 'utf-8' codec"):
+        codec.decode(broken, Frame)
+
+
 def test_missing_required_field_is_refused() -> None:
     fields = msgspec.to_builtins(_commands())
     del fields["profile"]

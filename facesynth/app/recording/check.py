@@ -18,14 +18,13 @@ from pathlib import Path
 from typing import IO
 
 from mcap.data_stream import ReadDataStream
-from mcap.exceptions import McapError
 from mcap.opcode import Opcode
 from mcap.records import Channel, Chunk, Footer, Header, Message, Metadata, Schema
 from mcap.stream_reader import breakup_chunk
 from mcap.writer import CompressionType, Writer
 
 from facesynth.app.recording.layout import METADATA_NAME, PROFILE
-from facesynth.app.recording.reader import MAGIC, RecordingError, check_magic
+from facesynth.app.recording.reader import DAMAGED, MAGIC, RecordingError, check_magic
 from facesynth.runtime.atomic import open_atomic
 
 #: Largest record accepted while scanning (a larger length field means a corrupt file).
@@ -132,7 +131,7 @@ def _walk(
             continue
         try:
             record = _read_record(opcode, body)
-        except (McapError, struct.error, UnicodeDecodeError, ValueError, EOFError) as exc:
+        except DAMAGED as exc:
             result.problem = f"an unreadable record at byte {offset}: {exc}"
             return
         offset += 9 + length

@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import collections
 import contextlib
+import os
+import struct
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -18,6 +20,7 @@ from mcap.exceptions import McapError
 from mcap.reader import SeekingReader
 from mcap.records import Channel, Schema
 from mcap_protobuf.decoder import DecoderFactory
+from zstandard import ZstdError
 
 from facesynth.app.recording.layout import (
     IMAGE,
@@ -36,6 +39,21 @@ from facesynth.app.recording.layout import (
 from facesynth.runtime import codec
 
 MAGIC = b"\x89MCAP0\r\n"
+#: What the mcap library raises on a damaged file (found by tests/fuzz): its own errors, a
+#: record cut short, bad lengths and strings (ValueError, struct.error, OverflowError), a
+#: message on a channel the summary does not have (KeyError), an offset before the start of
+#: the file (OSError), chunks that do not decompress (zstd; lz4 raises RuntimeError).
+DAMAGED = (
+    McapError,
+    OSError,
+    EOFError,
+    ValueError,
+    struct.error,
+    OverflowError,
+    KeyError,
+    ZstdError,
+    RuntimeError,
+)
 
 
 class RecordingError(ValueError):
@@ -65,6 +83,29 @@ def check_magic(path: Path) -> IO[bytes]:
     return handle
 
 
+class _BoundedReads:
+    """A file whose reads never ask for more than what is left of it: the mcap library reads
+    a record's length field and then that many bytes, and a damaged length would make it
+    allocate up to 2**64 bytes (MemoryError) before finding the file shorter."""
+
+    def __init__(self, handle: IO[bytes]) -> None:
+        self._handle = handle
+        self._size = os.fstat(handle.fileno()).st_size
+
+    def read(self, size: int = -1) -> bytes:
+        left = max(0, self._size - self._handle.tell())
+        return self._handle.read(left if size < 0 or size > left else size)
+
+    def seek(self, offset: int, whence: int = 0) -> int:
+        return self._handle.seek(offset, whence)
+
+    def tell(self) -> int:
+        return self._handle.tell()
+
+    def seekable(self) -> bool:
+        return True
+
+
 class Recording:
     """A complete facesynth recording, opened for reading (use as a context manager)."""
 
@@ -82,10 +123,10 @@ class Recording:
         self._file.seek(-len(MAGIC), 2)
         complete = self._file.read(len(MAGIC)) == MAGIC
         self._file.seek(0)
-        self._reader = SeekingReader(self._file)
+        self._reader = SeekingReader(_BoundedReads(self._file))  # type: ignore[arg-type]
         try:
             header = self._reader.get_header()
-        except (McapError, ValueError, EOFError) as exc:
+        except DAMAGED as exc:
             raise RecordingError(f"{path}: unreadable MCAP header ({exc})") from None
         if header.profile != PROFILE:
             raise RecordingError(
@@ -95,7 +136,7 @@ class Recording:
         self.library = header.library
         summary = None
         if complete:
-            with contextlib.suppress(McapError, ValueError, EOFError):
+            with contextlib.suppress(*DAMAGED):
                 summary = self._reader.get_summary()
         if summary is None:
             raise RecordingError(
@@ -104,7 +145,7 @@ class Recording:
             )
         self.summary = summary
         self.metadata: dict[str, str] = {}
-        with contextlib.suppress(McapError, ValueError, EOFError):
+        with contextlib.suppress(*DAMAGED):
             for record in self._reader.iter_metadata():
                 if record.name == METADATA_NAME:
                     self.metadata = dict(record.metadata)
@@ -178,7 +219,12 @@ class Recording:
     def _pixels(self, schema: Schema | None, channel: Channel, data: bytes) -> bytes:
         decode = self._image_decoders.get(channel.id)
         if decode is None:
-            found = DecoderFactory().decoder_for(channel.message_encoding, schema)
+            try:
+                found = DecoderFactory().decoder_for(channel.message_encoding, schema)
+            except Exception as exc:  # a damaged schema: protobuf raises its own DecodeError
+                raise RecordingError(
+                    f"{self.path}: a bad schema on {channel.topic}: {exc}"
+                ) from None
             if found is None:
                 raise RecordingError(f"{self.path}: cannot decode images on {channel.topic}")
             decode = self._image_decoders[channel.id] = found
@@ -208,7 +254,7 @@ class Recording:
                     raise RecordingError(f"{self.path}: {exc}") from None
                 if payload is not None:
                     yield Payload(key, payload, message.log_time)
-        except (McapError, EOFError) as exc:
+        except DAMAGED as exc:
             raise RecordingError(f"{self.path}: damaged ({exc})") from None
 
     def messages(self, keys: Iterable[str]) -> Iterator[tuple[str, Any, int]]:

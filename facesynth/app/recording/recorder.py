@@ -32,7 +32,7 @@ def parse_keys(text: str | None) -> list[str]:
     unknown = [name for name in chosen if name not in RECORDABLE]
     if unknown or not chosen:
         raise RecordOptionError(
-            f"unknown key {', '.join(unknown) or repr(text)} for --keys; "
+            f"unknown key {', '.join(map(repr, unknown)) or repr(text)} for --keys; "
             f"choose from {', '.join(RECORDABLE)}"
         )
     return list(dict.fromkeys(chosen))

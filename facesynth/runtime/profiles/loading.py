@@ -13,6 +13,7 @@ from typing import Any
 import msgspec
 
 from facesynth.runtime.named_files import NamedFiles
+from facesynth.runtime.oneline import one_line
 
 from .model import Profile, ServoSpec
 from .validation import validate_profile
@@ -64,6 +65,7 @@ def parse_profile(text: str, source: str = "<profile>") -> Profile:
 
 
 def _error(source: str, problems: list[str]) -> ProfileError:
+    problems = [one_line(p) for p in problems]
     return ProfileError(f"{source}: " + "; ".join(problems), [f"{source}: {p}" for p in problems])
 
 

@@ -212,6 +212,6 @@ class Decoder:
         for decoder in (self._line, self._marker):
             try:
                 return decoder.decode(raw)
-            except (msgspec.DecodeError, msgspec.ValidationError):
+            except (msgspec.DecodeError, msgspec.ValidationError, UnicodeDecodeError):
                 continue
         return _UNREADABLE

@@ -49,7 +49,11 @@ def _files(tmp: Path) -> dict[str, Path]:
 
 CASES = [
     ("record without out", ["record"], "give --out"),
-    ("record unknown key", ["record", "--out", "{new.mcap}", "--keys", "ears"], "unknown key ears"),
+    (
+        "record unknown key",
+        ["record", "--out", "{new.mcap}", "--keys", "ears"],
+        "unknown key 'ears'",
+    ),
     ("record existing file", ["record", "--out", "{existing.mcap}"], "exists (give --overwrite"),
     (
         "record bad chunk time",
@@ -121,3 +125,12 @@ def test_a_missing_extra_is_named(
     monkeypatch.setattr(importlib, "import_module", without_foxglove)
     assert main(["inspect"]) == 2
     assert "pip install 'facesynth[record]'" in capsys.readouterr().err
+
+
+def test_an_unknown_key_is_named_on_one_line() -> None:
+    """A newline typed into --keys stayed in the message (found by tests/fuzz)."""
+    from facesynth.app.recording.recorder import RecordOptionError, parse_keys
+
+    with pytest.raises(RecordOptionError) as info:
+        parse_keys("input,ea\nrs")
+    assert "'ea\\nrs'" in str(info.value) and "\n" not in str(info.value)

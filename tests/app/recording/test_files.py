@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import jsonschema
@@ -239,3 +240,50 @@ def test_recovery_never_overwrites_its_source(tmp_path: Path) -> None:
     write_session(path, 2)
     with pytest.raises(RecordingError, match="must not overwrite"):
         recover(path, path)
+
+
+def _damage_chunk(path: Path, patch: Callable[[bytearray, int], None]) -> None:
+    """Apply ``patch`` to the first chunk record (at its start offset) of ``path``."""
+    with open(path, "rb") as handle:
+        summary = make_reader(handle).get_summary()
+    assert summary is not None
+    data = bytearray(path.read_bytes())
+    patch(data, summary.chunk_indexes[0].chunk_start_offset)
+    path.write_bytes(bytes(data))
+
+
+def test_a_chunk_claiming_exabytes_is_a_damaged_file_not_a_memory_error(tmp_path: Path) -> None:
+    """A damaged length made the mcap reader allocate it (MemoryError; found by tests/fuzz)."""
+    path = tmp_path / "s.mcap"
+    written = write_session(path, 3, chunk_bytes=2048)
+
+    def huge_data_length(data: bytearray, start: int) -> None:
+        body = start + 9  # opcode, record length
+        compression = int.from_bytes(data[body + 28 : body + 32], "little")
+        at = body + 32 + compression
+        data[at : at + 8] = (2**62).to_bytes(8, "little")
+
+    _damage_chunk(path, huge_data_length)
+    with Recording(path) as recording:
+        try:  # the chunk's data now runs to the end of the file: it may still decompress
+            got = [(p.key, p.payload) for p in recording.payloads(recording.bus_keys())]
+        except RecordingError as exc:
+            assert "damaged" in str(exc)
+        else:
+            assert got == written
+
+
+def test_a_chunk_that_does_not_decompress_is_a_damaged_file(tmp_path: Path) -> None:
+    """zstd's own error went through the reader (found by tests/fuzz)."""
+    path = tmp_path / "s.mcap"
+    write_session(path, 3, chunk_bytes=2048)
+
+    def garbled_data(data: bytearray, start: int) -> None:
+        body = start + 9
+        compression = int.from_bytes(data[body + 28 : body + 32], "little")
+        at = body + 32 + compression + 8
+        data[at : at + 8] = b"\x00" * 8
+
+    _damage_chunk(path, garbled_data)
+    with Recording(path) as recording, pytest.raises(RecordingError, match="damaged"):
+        list(recording.payloads(recording.bus_keys()))

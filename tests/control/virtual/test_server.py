@@ -267,7 +267,7 @@ def test_http_addresses() -> None:
     assert parse_address("127.0.0.1:8080") == ("127.0.0.1", 8080)
     assert parse_address("[::1]:0") == ("::1", 0)
     assert parse_address("0.0.0.0:80") == ("0.0.0.0", 80)
-    for bad in ("8080", "host", ":8080", "host:", "host:99999", "host:80a", "host:-1"):
+    for bad in ("8080", "host", ":8080", "host:", "host:99999", "host:80a", "host:-1", "host:²"):
         with pytest.raises(AddressError, match="--http: expected HOST:PORT"):
             parse_address(bad)
 

@@ -132,3 +132,11 @@ def test_type_errors_in_several_servos_are_all_listed() -> None:
         "r.toml: servo 'jaw': Expected `int`, got `str` - at `$.servos[0].channel`",
         "r.toml: servo 'lip': Expected `float`, got `str` - at `$.servos[1].max_speed`",
     ]
+
+
+def test_an_unknown_key_with_a_newline_stays_on_one_line() -> None:
+    """msgspec quotes an unknown key as it is (found by tests/fuzz)."""
+    text = (Path(profiles.PACKAGE_DIR) / "paper16.toml").read_text() + '\n"bad\\nkey" = 1\n'
+    with pytest.raises(ProfileError, match=r"bad\\nkey") as info:
+        parse_profile(text)
+    assert "\n" not in str(info.value)

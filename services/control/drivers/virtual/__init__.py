@@ -69,7 +69,8 @@ def parse_address(text: str) -> tuple[str, int]:
     """``(host, port)`` from ``HOST:PORT`` (``[::1]:8080`` for IPv6)."""
     host, sep, port = text.rpartition(":")
     host = host.strip("[]")
-    if not sep or not host or not port.isdigit() or not 0 <= int(port) <= 65535:
+    digits = port.isascii() and port.isdigit()  # "²".isdigit() is true, int("²") fails
+    if not sep or not host or not digits or not 0 <= int(port) <= 65535:
         raise AddressError(f"--http: expected HOST:PORT (e.g. {DEFAULT_HTTP}), got {text!r}")
     return host, int(port)
 
