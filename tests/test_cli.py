@@ -351,8 +351,13 @@ CASES = [
 
 @pytest.mark.parametrize(("argv", "expected"), [c[1:] for c in CASES], ids=[c[0] for c in CASES])
 def test_bad_input_gives_one_clear_error(
-    argv: list[str], expected: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+    argv: list[str],
+    expected: str,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    monkeypatch: pytest.MonkeyPatch,
 ) -> None:
+    monkeypatch.chdir(tmp_path)  # relative outputs ("--out x") land here, not in the checkout
     files = _files(tmp_path)
     argv = [re.sub(r"\{([^}]+)\}", lambda m: files[m.group(1)].as_posix(), a) for a in argv]
     assert main(argv) == 2
