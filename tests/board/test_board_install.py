@@ -186,7 +186,11 @@ def test_the_units_command_runs_the_board_side(
             finally:
                 session.close()
         moved = [line for line in read_record(record) if line.frame is not None]
-        assert [line.servos["jaw"] for line in moved] == [1900.0] * 3, log.read_text()
+        # Only the translator's three commands move the jaw, toward its 1900 within paper16's
+        # speed limits (the control interface ramps); the features identity's 1100 never.
+        jaws = [line.servos["jaw"] for line in moved]
+        assert len(jaws) == 3 and all(1500.0 < jaw <= 1900.0 for jaw in jaws), log.read_text()
+        assert jaws == sorted(jaws), jaws
         mapped = Path(f"/proc/{control.pid}/maps").read_text()
         assert "cv2" not in mapped and "opencv" not in mapped
     finally:
