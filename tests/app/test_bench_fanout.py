@@ -130,7 +130,8 @@ def test_two_robots_of_different_profiles_share_one_performer() -> None:
     assert [r.profile for r in figures.per_robot] == robot_profiles("fast")[:2]
     assert len({r.profile for r in figures.per_robot}) == 2
     for robot in figures.per_robot:
-        assert robot.commands == figures.frames_sent == 120, robot
+        # Real time: a loaded machine drops a few frames by design (see test_bench_chain).
+        assert figures.frames_sent == 120 and 110 <= robot.commands <= 120, robot
         assert 0 < robot.steady_ms[0] <= robot.steady_ms[1]
     performer, robots = figures.cpu_split()
     assert performer > 0 and robots > 0
