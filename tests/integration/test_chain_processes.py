@@ -73,13 +73,16 @@ def wait_for_frames(path: Path, count: int, timeout: float) -> list[RecordLine]:
     raise AssertionError(f"only {len(lines)} of {count} commands were recorded")
 
 
-def expected_commands() -> list[dict[str, float]]:
-    """The commands the pure cores give for the CSV replayed at 30 fps."""
+def expected_commands(
+    profile: str = "paper16", frames: int | None = None
+) -> list[dict[str, float]]:
+    """The commands the pure cores give for the CSV replayed at 30 fps through ``profile``
+    (its first ``frames`` frames; default all)."""
     replay = OpenFaceReplay(OpenFaceConfig(csv=str(CSV)))
     processor = FeatureProcessor(neutral_seconds=1.0)
-    translator = Translator(load_profile("paper16"))
+    translator = Translator(load_profile(profile))
     out = []
-    for seq in range(replay.frame_count()):
+    for seq in range(replay.frame_count() if frames is None else frames):
         frame = Frame(
             seq=seq,
             t_capture_ns=1,

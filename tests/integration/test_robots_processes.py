@@ -18,39 +18,16 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from test_chain_processes import FPS, wait_for_frames
+from test_chain_processes import FPS, expected_commands, wait_for_frames
 
 from facesynth.app.data import sample_openface_csv
 from facesynth.runtime import codec, keys
 from facesynth.runtime.bus.zenoh_bus import ZenohBus, ZenohOptions
-from facesynth.runtime.profiles import load_profile
-from schemas.messages import Frame, ServiceStats, ServoCommands
+from schemas.messages import ServiceStats, ServoCommands
 from services.control.drivers.record import read_record
-from services.features.core import FeatureProcessor
-from services.points.backends.openface import OpenFaceConfig, OpenFaceReplay
-from services.translator.core import Translator
 
 CSV = str(sample_openface_csv())
 FRAMES = 100
-
-
-def expected(profile: str) -> list[dict[str, float]]:
-    """The commands the pure cores give for the CSV's first frames with ``profile``."""
-    replay = OpenFaceReplay(OpenFaceConfig(csv=CSV))
-    processor = FeatureProcessor(neutral_seconds=1.0)
-    translator = Translator(load_profile(profile))
-    out = []
-    for seq in range(FRAMES):
-        frame = Frame(
-            seq=seq,
-            t_capture_ns=1,
-            t_media_ns=round(seq * 1e9 / FPS),
-            width=640,
-            height=480,
-            encoding="none",
-        )
-        out.append(translator.translate(processor.process(replay.process(frame))).positions)
-    return out
 
 
 GRAPH = """rig = "{rig}"
@@ -180,7 +157,7 @@ def test_two_robots_share_one_performer(
     for robot, profile in (("a", "paper16"), ("b", "head16")):
         assert [line.frame for line in lines[robot]] == list(range(FRAMES))
         moved = 0
-        for line, positions in zip(lines[robot], expected(profile), strict=True):
+        for line, positions in zip(lines[robot], expected_commands(profile, FRAMES), strict=True):
             assert line.servos == pytest.approx(positions, abs=1e-3), (robot, line.frame)
             moved += any(abs(v - 1500.0) > 1.0 for v in positions.values())
         assert moved > 30, f"robot {robot}: the input must move the servos"
