@@ -1,0 +1,1 @@
+"""``facesynth learn``: the robot learns its own face (babbling, self-model, inverse model)."""
