@@ -153,3 +153,26 @@ async def test_the_simhead_command_end_to_end(tmp_path: Path) -> None:
         if process.poll() is None:
             process.kill()
             process.wait()
+
+
+async def test_a_driver_may_close_the_port_and_come_back(tmp_path: Path) -> None:
+    link = tmp_path / "tty"
+    server = SimHeadServer(SimHead(load_head("simhead16")), Maestro(), link)
+    await server.start()
+    profile = load_profile("paper16")
+    try:
+        for pulse in (1200.0, 1800.0):
+            driver = MaestroDriver(MaestroConfig(port=str(link), model="mini24"), profile)
+            await driver.connect()
+            try:
+                neutral = {s.name: s.neutral_us for s in profile.servos}
+                await driver.send({**neutral, "right_eyebrow": pulse}, INFO)
+                deadline = time.monotonic() + 5
+                while server.maestro.targets()[0] != pulse and time.monotonic() < deadline:
+                    await asyncio.sleep(0.02)
+                assert server.maestro.targets()[0] == pulse
+            finally:
+                await driver.close()
+        assert server.maestro.error_events == 0
+    finally:
+        await server.stop()
