@@ -360,6 +360,7 @@ CASES = [
         "exists and is not a symlink",
     ),
     ("simhead fps", ["simhead", "--serial-link", "tty", "--fps", "0"], "--fps 0 is not within"),
+    ("simhead noise", ["simhead", "--serial-link", "tty", "--noise", "-1"], "--noise -1 is not"),
     (
         "simhead device number",
         ["simhead", "--serial-link", "tty", "--device-number", "300"],

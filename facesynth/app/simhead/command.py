@@ -57,6 +57,13 @@ def add_simhead_parser(sub: Any) -> None:
     )
     p.add_argument("--fps", type=float, default=30.0, help="camera frame rate (default 30)")
     p.add_argument(
+        "--noise",
+        type=float,
+        default=1.5,
+        help="camera grain, grey levels (default 1.5; 0 = none): the tracker jitters a little, "
+        "as with a real camera",
+    )
+    p.add_argument(
         "--channels",
         type=int,
         choices=(6, 12, 18, 24),
@@ -81,7 +88,9 @@ def cmd_simhead(args: argparse.Namespace) -> int:
     config = load_head(args.head)
     host, port = parse_address(args.http)
     maestro = Maestro(channels=args.channels, device_number=args.device_number)
-    server = SimHeadServer(SimHead(config), maestro, Path(args.serial_link), host, port, args.fps)
+    server = SimHeadServer(
+        SimHead(config), maestro, Path(args.serial_link), host, port, args.fps, noise=args.noise
+    )
     return asyncio.run(_serve(server, config.name, len(config.actuators)))
 
 

@@ -106,6 +106,10 @@ async def test_bad_links_and_addresses(tmp_path: Path) -> None:
     assert not (tmp_path / "tty").exists()
     with pytest.raises(SimHeadServerError, match="--fps 0 is not within"):
         SimHeadServer(head, Maestro(), tmp_path / "tty", fps=0)
+    with pytest.raises(SimHeadServerError, match="--noise -1 is not within"):
+        SimHeadServer(head, Maestro(), tmp_path / "tty", noise=-1)
+    with pytest.raises(SimHeadServerError, match="cannot make the link /proc/tty-here"):
+        await SimHeadServer(head, Maestro(), Path("/proc/tty-here")).start()
     for bad in ("8090", "host:", ":80", "host:99999", "host:http"):
         with pytest.raises(SimHeadServerError, match="is not HOST:PORT"):
             parse_address(bad)
