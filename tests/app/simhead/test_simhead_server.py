@@ -180,3 +180,15 @@ async def test_a_driver_may_close_the_port_and_come_back(tmp_path: Path) -> None
         assert server.maestro.error_events == 0
     finally:
         await server.stop()
+
+
+def test_list_and_bench(capsys: pytest.CaptureFixture[str]) -> None:
+    from facesynth.app.cli import main
+
+    assert main(["simhead", "--list"]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith("simhead16: The default simulated head")
+    assert "simhead16_reversed: " in out and "simhead16_stiff: " in out
+    assert main(["simhead", "simhead16_stiff", "--bench", "5"]) == 0
+    out = capsys.readouterr().out
+    assert re.match(r"simhead simhead16_stiff: 5 frames of 320x320: mean \d+\.\d\d ms", out)
