@@ -265,7 +265,7 @@ class Babbler:
         for name, goal in self._goal.items():
             now = self.commanded[name]
             room = self.speeds[name] * dt
-            self.commanded[name] = goal if abs(goal - now) <= room else now + room * (
-                1 if goal > now else -1
+            self.commanded[name] = (
+                goal if abs(goal - now) <= room else now + room * (1 if goal > now else -1)
             )
         return dict(self.commanded)

@@ -99,9 +99,7 @@ class Settle:
         self.options = options
         self.commanded_ns = commanded_ns
         self.reached_ns: int | None = None
-        self.window: collections.deque[dict[str, float]] = collections.deque(
-            maxlen=options.frames
-        )
+        self.window: collections.deque[dict[str, float]] = collections.deque(maxlen=options.frames)
         self.result: Settled | None = None
 
     def servos(self, positions: Mapping[str, float], now_ns: int) -> None:
@@ -109,7 +107,9 @@ class Settle:
         if self.reached_ns is not None:
             return
         tol = self.options.reach_tol_us
-        if all(abs(positions.get(name, -1e9) - value) <= tol for name, value in self.target.items()):
+        if all(
+            abs(positions.get(name, -1e9) - value) <= tol for name, value in self.target.items()
+        ):
             self.reached_ns = now_ns
 
     def face(self, raw: Mapping[str, float], now_ns: int) -> None:

@@ -6,7 +6,7 @@ from dataclasses import dataclass, field
 
 import pytest
 
-from facesynth.app.learn.core import Babbler, BabbleError, BabbleOptions, Budget, Sample
+from facesynth.app.learn.core import BabbleError, BabbleOptions, Babbler, Budget, Sample
 from facesynth.app.learn.plan import Plan, PlanOptions, to_pulses
 from facesynth.app.learn.settle import (
     Settle,
@@ -114,8 +114,12 @@ def test_no_servo_is_commanded_faster_than_its_pace() -> None:
 
 def test_a_resumed_run_continues_the_same_plan() -> None:
     profile = _profile()
-    whole, _, _ = run(Babbler(profile, Plan(16, PlanOptions(seed=5)), budget=Budget(40)), Robot(profile))
-    first, _, _ = run(Babbler(profile, Plan(16, PlanOptions(seed=5)), budget=Budget(25)), Robot(profile))
+    whole, _, _ = run(
+        Babbler(profile, Plan(16, PlanOptions(seed=5)), budget=Budget(40)), Robot(profile)
+    )
+    first, _, _ = run(
+        Babbler(profile, Plan(16, PlanOptions(seed=5)), budget=Budget(25)), Robot(profile)
+    )
     rest, _, _ = run(
         Babbler(profile, Plan(16, PlanOptions(seed=5)), start=25, budget=Budget(40)), Robot(profile)
     )
