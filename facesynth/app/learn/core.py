@@ -185,8 +185,8 @@ class Babbler:
             else:
                 sample = self._babble(now_ns)
         elif self.phase == "paused":
-            back = self._face_since_ns is not None
-            if back and now_ns - self._face_since_ns >= self.options.face_back_s * 1e9:
+            since = self._face_since_ns
+            if since is not None and now_ns - since >= self.options.face_back_s * 1e9:
                 self.phase = "babbling"
                 self._begin_pose(now_ns)
         return Step(self._paced(now_ns), self.phase, sample)

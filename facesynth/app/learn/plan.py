@@ -27,8 +27,10 @@ from facesynth.runtime.profiles import Profile
 #: Beyond this (normalized), a servo is at an extreme of its range.
 EXTREME = 0.9
 #: Prime bases of the Halton sequence, one per servo (up to 32 servos).
-PRIMES = (2, 3, 5, 7, 11, 13, 17, 19, 23, 29, 31, 37, 41, 43, 47, 53, 59, 61, 67, 71, 73, 79, 83)
-PRIMES += (89, 97, 101, 103, 107, 109, 113, 127, 131)
+PRIMES: tuple[int, ...] = (
+    *(2, 3, 5, 7, 11, 13, 17, 19, 23, 29, 31, 37, 41, 43, 47, 53),
+    *(59, 61, 67, 71, 73, 79, 83, 89, 97, 101, 103, 107, 109, 113, 127, 131),
+)
 
 
 class PlanError(ValueError):

@@ -12,7 +12,7 @@ within ``reach_timeout_s`` raise :class:`StalledError`.
 from __future__ import annotations
 
 import collections
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -63,7 +63,7 @@ class Settled:
     settled: bool
 
 
-def average(frames: list[Mapping[str, float]]) -> tuple[dict[str, float], dict[str, float]]:
+def average(frames: Sequence[Mapping[str, float]]) -> tuple[dict[str, float], dict[str, float]]:
     """Per feature mean and standard deviation over frames (a feature absent from some frames
     is averaged over those that have it)."""
     names = sorted({name for frame in frames for name in frame})
@@ -79,7 +79,7 @@ def average(frames: list[Mapping[str, float]]) -> tuple[dict[str, float], dict[s
     )
 
 
-def steady(frames: list[Mapping[str, float]], tolerance: float) -> bool:
+def steady(frames: Sequence[Mapping[str, float]], tolerance: float) -> bool:
     """Whether the frames agree: the STEADY_QUANTILE of per-feature spans is within tolerance."""
     names = sorted(set.intersection(*(set(frame) for frame in frames))) if frames else []
     if not names:
