@@ -28,6 +28,7 @@ COMMANDS = [
     "render",
     "certs",
     "health",
+    "learn",
 ]
 
 
@@ -346,6 +347,52 @@ CASES = [
     ("nice range", ["features", "--nice", "30"], "--nice: Expected `int` <= 19"),
     ("realtime range", ["points", "--realtime", "0"], "--realtime: Expected `int` >= 1"),
     ("router realtime range", ["router", "--realtime", "200"], "--realtime 200: must be within"),
+    ("learn without a camera", ["learn", "--profile", "paper16", "--out", "s.mcap"], "--camera"),
+    (
+        "learn with a missing camera",
+        ["learn", "--profile", "paper16", "--out", "s.mcap", "--camera", "9"],
+        "cannot open camera 9",
+    ),
+    (
+        "learn with a bad port",
+        [
+            "learn",
+            "--profile",
+            "paper16",
+            "--out",
+            "s.mcap",
+            "--source",
+            "video",
+            "--driver",
+            "maestro",
+            "--port",
+            "/nonexistent/tty",
+        ],
+        "/nonexistent/tty: cannot open it",
+    ),
+    (
+        "learn with a bad profile",
+        ["learn", "--profile", "{bad.toml}", "--out", "s.mcap", "--source", "video"],
+        "bad.toml",
+    ),
+    (
+        "learn no poses",
+        ["learn", "--profile", "paper16", "--out", "s.mcap", "--source", "video", "--poses", "0"],
+        "--poses must be at least 1",
+    ),
+    (
+        "learn into a file that is not a session",
+        ["learn", "--profile", "paper16", "--out", "{garbage.mp4}", "--source", "video"],
+        "not a babbling session",
+    ),
+    ("learn without a session", ["learn", "--profile", "paper16"], "--out SESSION.mcap"),
+    ("learn without a profile", ["learn", "--out", "s.mcap"], "--profile"),
+    ("learn fit a missing session", ["learn", "--fit-only", "nope.mcap"], "does not exist"),
+    (
+        "learn fit a file that is not a session",
+        ["learn", "--fit-only", "{garbage.csv}"],
+        "not a babbling session",
+    ),
 ]
 
 

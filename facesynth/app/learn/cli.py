@@ -169,9 +169,10 @@ def cmd_learn(args: argparse.Namespace) -> int:
     if first >= poses:
         print(f"{out} already holds {first} poses (--poses {poses}): nothing to babble")
     else:
-        parts, driver_config = _build_parts(args, rig, profile, out)
-        if DRIVERS.build(driver_config, profile).moves_hardware:
-            run_async(_preflight(driver_config, profile))
+        configs = _plugin_configs(args, out)
+        if DRIVERS.build(configs["control"], profile).moves_hardware:
+            run_async(_preflight(configs["control"], profile))
+        parts = _build_parts(args, rig, profile, configs)
         result = _babble(args, rig, profile, plan, options, first, poses, seed, parts, resume)
         rate = result.taken / (result.seconds / 60) if result.seconds > 0 else 0.0
         print(
@@ -245,9 +246,8 @@ def _resume(out: Path, profile: Profile, seed: int | None) -> Session | None:
     return session
 
 
-def _build_parts(
-    args: argparse.Namespace, rig: str, profile: Profile, out: Path
-) -> tuple[dict[str, StageParts], msgspec.Struct]:
+def _plugin_configs(args: argparse.Namespace, out: Path) -> dict[str, msgspec.Struct]:
+    """The camera's, the tracker's and the servo driver's configs from the command line."""
     sensor_flags, _ = PLUGIN_FLAGS["sensor"]
     if getattr(args, "plugin_source", None) is None and not any(
         hasattr(args, flag.dest) for flag in sensor_flags.flags() if flag.selects
@@ -259,6 +259,14 @@ def _build_parts(
     if getattr(args, "plugin_driver", "record") == "record":
         driver_base = {"driver": "record", "out": str(out.with_suffix(".commands.jsonl"))}
     driver = PLUGIN_FLAGS["control"][0].config(args, driver_base)
+    return {"sensor": source, "points": backend, "control": driver}
+
+
+def _build_parts(
+    args: argparse.Namespace, rig: str, profile: Profile, configs: dict[str, msgspec.Struct]
+) -> dict[str, StageParts]:
+    """The robot's nodes, built as ``facesynth run`` builds a graph's."""
+    source, backend, driver = configs["sensor"], configs["points"], configs["control"]
     nodes: dict[str, Any] = {
         "sensor": SensorNode(source=msgspec.to_builtins(source)),
         "points": PointsNode(backend=msgspec.to_builtins(backend), queue=1),
@@ -266,9 +274,7 @@ def _build_parts(
         "control": ControlNode(profile=args.profile, driver=msgspec.to_builtins(driver)),
     }
     graph = Graph(rig=rig, nodes=nodes)
-    configs = {"sensor": source, "points": backend, "control": driver}
-    parts = {name: build_node(name, node, graph, configs.get(name)) for name, node in nodes.items()}
-    return parts, driver
+    return {name: build_node(name, node, graph, configs.get(name)) for name, node in nodes.items()}
 
 
 async def _preflight(config: msgspec.Struct, profile: Profile) -> None:

@@ -64,7 +64,7 @@ class Progress:
         if self.total:
             filled = round(BAR * min(1.0, done / self.total))
             bar = "[" + "#" * filled + "." * (BAR - filled) + "] "
-        left = self.left_s(done, now_s)
+        left = self.left_s(done, now_s) if phase != "done" else None
         left_text = f", {clock_text(left)} left" if left is not None else ""
         return f"babbling {bar}{done}{total} poses ({phase}), {elapsed} elapsed{left_text}"
 
