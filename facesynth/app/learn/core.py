@@ -24,7 +24,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 from facesynth.app.learn.plan import Plan, Pose, to_pulses
-from facesynth.app.learn.settle import Settle, Settled, SettleOptions
+from facesynth.app.learn.settle import Settle, Settled, SettleOptions, StalledError
 from facesynth.runtime.profiles import Profile
 
 #: Pace of a servo whose profile sets no ``max_speed`` (µs/s).
@@ -126,6 +126,8 @@ class Babbler:
         self._face_since_ns: int | None = None
         self._retries = 0
         self._stopping = False
+        self._homing_ns: int | None = None
+        self._finishing_ns: int | None = None
 
     # --- what the bus says -------------------------------------------------------------------
 
@@ -165,16 +167,28 @@ class Babbler:
     def step(self, now_ns: int) -> Step:
         """Where to command the servos now, and the pose that settled, if one did."""
         sample = None
+        timeout_ns = self.options.settle.reach_timeout_s * 1e9
         if self._stopping or self._spent(now_ns):
             if self.phase not in ("finishing", "done"):
                 self.phase = "finishing"
+                self._finishing_ns = now_ns
                 self._go(self.neutral)
-            if self.phase == "finishing" and self._holding(now_ns, 0.0):
-                self.phase = "done"
+            if self.phase == "finishing":
+                started = self._finishing_ns if self._finishing_ns is not None else now_ns
+                # without reports the servos are left to the controller's own return
+                if self._holding(now_ns, 0.0) or now_ns - started > timeout_ns:
+                    self.phase = "done"
         elif self.phase == "homing":
+            if self._homing_ns is None:
+                self._homing_ns = now_ns
             if self._holding(now_ns, self.options.hold_s):
                 self.phase = "neutral"
                 self.at_neutral = True
+            elif self._reached_ns is None and now_ns - self._homing_ns > timeout_ns:
+                raise StalledError(
+                    f"the servos were not reported at neutral within "
+                    f"{self.options.settle.reach_timeout_s:g} s"
+                )
         elif self.phase == "neutral":
             if self._neutral_ready:
                 self.phase = "babbling"

@@ -258,3 +258,21 @@ def test_average_and_steady_take_features_some_frames_lack() -> None:
 def test_bad_settle_options_are_refused(kwargs: dict[str, float], message: str) -> None:
     with pytest.raises(SettleError, match=message):
         SettleOptions(**kwargs)  # type: ignore[arg-type]
+
+
+def test_servos_never_reported_at_neutral_stall_the_start() -> None:
+    options = BabbleOptions(settle=SettleOptions(reach_timeout_s=1.0))
+    babbler = Babbler(_profile(), Plan(16), budget=Budget(poses=2), options=options)
+    babbler.step(0)
+    assert babbler.step(900 * MS).phase == "homing"
+    with pytest.raises(StalledError, match="not reported at neutral within 1 s"):
+        babbler.step(1_100 * MS)
+
+
+def test_the_end_does_not_wait_for_reports_that_never_come() -> None:
+    options = BabbleOptions(settle=SettleOptions(reach_timeout_s=1.0))
+    babbler = Babbler(_profile(), Plan(16), budget=Budget(poses=2), options=options)
+    babbler.stop()
+    assert babbler.step(0).phase == "finishing"
+    assert babbler.step(500 * MS).phase == "finishing"
+    assert babbler.step(1_100 * MS).phase == "done"
