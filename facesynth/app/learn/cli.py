@@ -41,6 +41,7 @@ from facesynth.app.learn.session import (
 )
 from facesynth.app.learn.settle import SettleOptions
 from facesynth.app.learn.shell import RECORD_KEYS, BabbleShell, LearnResult, babble
+from facesynth.app.learn.sweeps import sweep_report
 from facesynth.app.nodes import ControlNode, FeaturesNode, PointsNode, SensorNode
 from facesynth.app.stage_args import PLUGIN_FLAGS
 from facesynth.app.wiring import StageParts, build_node, zenoh_options
@@ -175,20 +176,17 @@ def cmd_learn(args: argparse.Namespace) -> int:
         parts = _build_parts(args, rig, profile, configs)
         result = _babble(args, rig, profile, plan, options, first, poses, seed, parts, resume)
         rate = result.taken / (result.seconds / 60) if result.seconds > 0 else 0.0
-        print(
-            json.dumps(
-                {
-                    "session": str(out),
-                    "poses": result.next_pose,
-                    "taken": result.taken,
-                    "skipped": result.skipped,
-                    "seconds": round(result.seconds, 1),
-                    "poses_per_minute": round(rate, 1),
-                    "interrupted": result.interrupted,
-                }
-            ),
-            flush=True,
-        )
+        summary: dict[str, Any] = {
+            "session": str(out),
+            "poses": result.next_pose,
+            "taken": result.taken,
+            "skipped": result.skipped,
+            "seconds": round(result.seconds, 1),
+            "poses_per_minute": round(rate, 1),
+            "interrupted": result.interrupted,
+        }
+        summary.update(_sweeps(out, profile))
+        print(json.dumps(summary), flush=True)
         if result.interrupted:
             return 130
     if args.no_fit:
@@ -196,6 +194,20 @@ def cmd_learn(args: argparse.Namespace) -> int:
     session = read_session(out)
     print(fit_session(session, profile, _profile_out(args, out)))
     return 0
+
+
+def _sweeps(out: Path, profile: Profile) -> dict[str, Any]:
+    """What the sweeps showed so far: dead servos, and each live one's dead band (the smallest
+    normalized command below and above neutral that moved the face)."""
+    report = sweep_report(read_session(out).samples, profile)
+    if not report:
+        return {}
+    return {
+        "dead": [r.servo for r in report if r.dead],
+        "dead_band": {
+            r.servo: [round(r.below, 2), round(r.above, 2)] for r in report if not r.dead
+        },
+    }
 
 
 def fit_session(session: Session, profile: Profile, out: Path) -> str:

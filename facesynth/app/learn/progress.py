@@ -9,6 +9,15 @@ from typing import TextIO
 LINE_EVERY_S = 2.0
 DRAW_EVERY_S = 0.25
 BAR = 24
+#: What each phase of the babbler is called on the progress line.
+PHASES = {
+    "homing": "to neutral",
+    "neutral": "learning the neutral face",
+    "babbling": "babbling",
+    "paused": "paused: no face in view",
+    "finishing": "back to neutral",
+    "done": "done",
+}
 
 
 def clock_text(seconds: float) -> str:
@@ -66,7 +75,8 @@ class Progress:
             bar = "[" + "#" * filled + "." * (BAR - filled) + "] "
         left = self.left_s(done, now_s) if phase != "done" else None
         left_text = f", {clock_text(left)} left" if left is not None else ""
-        return f"babbling {bar}{done}{total} poses ({phase}), {elapsed} elapsed{left_text}"
+        what = PHASES.get(phase, phase)
+        return f"babbling {bar}{done}{total} poses ({what}), {elapsed} elapsed{left_text}"
 
     def update(self, phase: str, done: int, now_s: float, *, force: bool = False) -> None:
         """Show the progress if it is time to (or ``force``)."""

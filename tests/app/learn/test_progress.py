@@ -15,7 +15,7 @@ def test_lines_every_two_seconds_with_the_time_left_from_the_pace() -> None:
     progress.update("babbling", 20, 102.5)
     progress.update("babbling", 30, 111.0)
     lines = out.getvalue().splitlines()
-    assert lines[0] == "babbling [##......................] 10/110 poses (homing), 0:00 elapsed"
+    assert lines[0] == "babbling [##......................] 10/110 poses (to neutral), 0:00 elapsed"
     # 10 poses in 1.5 s since babbling began: 90 left take 13.5 s
     assert lines[1].endswith("20/110 poses (babbling), 0:02 elapsed, 0:14 left")
     assert lines[2].endswith("0:11 elapsed, 0:40 left")
