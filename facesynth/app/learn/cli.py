@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import importlib
 import json
 import logging
 import sys
@@ -220,11 +221,18 @@ def fit_session(session: Session, profile: Profile, out: Path) -> str:
 def fit(babble: BabbleSet, profile: Profile, out: Path) -> str:
     """Fit the self-model on ``babble``, write the learned profile to ``out`` (atomically) and
     return the held-out report to print: the one call into the fitting
-    (:mod:`facesynth.app.learn.fit`), wired in here."""
-    raise LearnError(
-        f"fitting is not available yet ({len(babble)} poses of {profile.name} kept for "
-        f"{out.name}): record with --no-fit and fit later with --fit-only"
-    )
+    (:mod:`facesynth.app.learn.fit`, which needs the ``learn`` extra)."""
+    try:
+        fitting: Any = importlib.import_module("facesynth.app.learn.fit")
+        save = importlib.import_module("facesynth.runtime.profiles").save_learned_profile
+    except (ImportError, AttributeError):
+        raise LearnError(
+            f"fitting is not available here ({len(babble)} poses of {profile.name} kept): "
+            "record with --no-fit and fit later with --fit-only"
+        ) from None
+    learned = fitting.fit_learned_profile(babble, profile)
+    written = save(learned, out)
+    return f"{fitting.format_report(learned)}\nwrote {written}"
 
 
 def _existing(path: str) -> Path:
