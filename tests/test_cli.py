@@ -386,6 +386,26 @@ CASES = [
         "not a babbling session",
     ),
     ("learn without a session", ["learn", "--profile", "paper16"], "--out SESSION.mcap"),
+    (
+        "learn too fast",
+        ["learn", "--profile", "paper16", "--out", "s.mcap", "--video", "x", "--pace", "2"],
+        "the pace is a fraction of the profile's speeds",
+    ),
+    (
+        "learn neutral too often",
+        [
+            "learn",
+            "--profile",
+            "paper16",
+            "--out",
+            "s.mcap",
+            "--video",
+            "x",
+            "--neutral-every",
+            "1",
+        ],
+        "a neutral pose at most every other pose",
+    ),
     ("learn without a profile", ["learn", "--out", "s.mcap"], "--profile"),
     ("learn fit a missing session", ["learn", "--fit-only", "nope.mcap"], "does not exist"),
     (
