@@ -142,7 +142,8 @@ class Babbler:
     def features(
         self, face: bool, raw: Mapping[str, float], neutral_ready: bool, now_ns: int
     ) -> None:
-        """One ``…/features`` message (only once the features node runs)."""
+        """One ``…/features`` message (only once the features node runs); ``now_ns`` is when
+        its frame was taken, on the same monotonic clock."""
         if not face:
             self._face_since_ns = None
             return

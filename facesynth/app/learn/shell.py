@@ -139,9 +139,11 @@ class BabbleShell:
             ctx.stats.received += 1
             message = sample.message
             if isinstance(message, Features):
-                self.babbler.features(
-                    message.face, message.raw, message.neutral_ready, ctx.clock.monotonic_ns()
-                )
+                # when the frame was taken, not when its features arrived (the tracker's latency
+                # must not pass off a frame from before the servos got there as a settled one)
+                age = max(0, ctx.clock.time_ns() - message.t_capture_ns)
+                taken = ctx.clock.monotonic_ns() - age
+                self.babbler.features(message.face, message.raw, message.neutral_ready, taken)
 
     def _command(self, ctx: ServiceContext, targets: dict[str, float], face: bool) -> None:
         self.sent += 1
