@@ -153,6 +153,7 @@ def cmd_learn(args: argparse.Namespace) -> int:
     profile = load_profile(args.profile)
     out = Path(args.session)
     resume = _resume(out, profile, args.seed)
+    profile_out = None if args.no_fit else _profile_out(args, out)
     seed = resume.seed if resume is not None else (args.seed or 0)
     plan = Plan(
         len(profile.servos),
@@ -190,10 +191,9 @@ def cmd_learn(args: argparse.Namespace) -> int:
         print(json.dumps(summary), flush=True)
         if result.interrupted:
             return 130
-    if args.no_fit:
+    if profile_out is None:
         return 0
-    session = read_session(out)
-    print(fit_session(session, profile, _profile_out(args, out)))
+    print(fit_session(read_session(out), profile, profile_out))
     return 0
 
 
