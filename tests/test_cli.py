@@ -29,6 +29,7 @@ COMMANDS = [
     "certs",
     "health",
     "learn",
+    "simhead",
 ]
 
 
@@ -413,6 +414,27 @@ CASES = [
         ["learn", "--fit-only", "{garbage.csv}"],
         "not a babbling session",
     ),
+    (
+        "simhead unknown head",
+        ["simhead", "nohead", "--serial-link", "tty"],
+        "unknown head 'nohead'",
+    ),
+    ("simhead bad head file", ["simhead", "{bad.toml}", "--serial-link", "tty"], "not valid TOML"),
+    ("simhead address", ["simhead", "--serial-link", "tty", "--http", "8090"], "is not HOST:PORT"),
+    (
+        "simhead link over a file",
+        ["simhead", "--serial-link", "{bad.toml}", "--http", "127.0.0.1:0"],
+        "exists and is not a symlink",
+    ),
+    ("simhead fps", ["simhead", "--serial-link", "tty", "--fps", "0"], "--fps 0 is not within"),
+    (
+        "simhead device number",
+        ["simhead", "--serial-link", "tty", "--device-number", "300"],
+        "device number 300 is not in 0..127",
+    ),
+    ("camera name", ["sensor", "--camera", "front"], "--camera 'front': expected a device index"),
+    ("camera file", ["sensor", "--camera", "{garbage.mp4}"], "a file, not a camera (use --video"),
+    ("camera scheme", ["sensor", "--camera", "ftp://cam/x"], "--camera ftp://cam/x: cannot stream"),
 ]
 
 
