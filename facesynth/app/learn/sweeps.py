@@ -4,7 +4,8 @@ Pure numpy, from a session's samples. The neutral poses give each feature's rest
 its noise (the spread between neutral poses, and within them); a sweep pose moved the face when
 some feature left its resting value by more than ``NOISE_K`` noises (and ``MIN_CHANGE``). A
 servo none of whose sweep poses moved the face is dead; otherwise its dead band on each side is
-the smallest command (normalized, |u|) that moved it.
+the smallest command (normalized, |u|) that moved it. Head pose is left out: the robot's head
+stays where it is bolted, and its estimate only wobbles as the face's features move.
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ import numpy as np
 
 from facesynth.runtime.profiles import Profile
 from schemas.messages import BabbleSample
+from services.features.expressions import HEAD
 
 #: A feature moved when it changed by more than this many noise levels …
 NOISE_K = 4.0
@@ -46,7 +48,7 @@ def sweep_report(samples: list[BabbleSample], profile: Profile) -> list[ServoRes
     neutrals = [s for s in samples if s.kind == "neutral" and s.features]
     if not neutrals:
         return []
-    names = sorted(set.intersection(*(set(s.features) for s in neutrals)))
+    names = sorted(set.intersection(*(set(s.features) for s in neutrals)) - set(HEAD))
     if not names:
         return []
     rest = np.array([[s.features[n] for n in names] for s in neutrals])

@@ -14,6 +14,7 @@ def _face(profile: Profile, u: tuple[float, ...], rng: np.random.Generator) -> d
     """servo 0 moves 'brow' beyond a dead band of 0.4, servo 1 moves nothing (dead), the others
     each move their own feature; every feature has a little noise."""
     face = {"brow": 0.0, "dead": 0.0, **{f"f{i}": 0.1 * u[i] for i in range(2, len(u))}}
+    face["head_pitch"] = 2.0 * u[1]  # the head pose wobbles: not a face's movement
     if abs(u[0]) > 0.4:
         face["brow"] = 0.2 * (u[0] - 0.4 * np.sign(u[0]))
     return {k: v + float(rng.normal(0, 0.001)) for k, v in face.items()}
