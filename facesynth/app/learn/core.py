@@ -154,6 +154,11 @@ class Babbler:
         if self._settle is not None and self.phase == "babbling" and raw:
             self._settle.face(raw, now_ns)
 
+    @property
+    def face_seen(self) -> bool:
+        """Whether the features have shown a face yet."""
+        return self._last_face_ns is not None
+
     def stop(self) -> None:
         """End babbling now (Ctrl-C): back to neutral, then ``done``."""
         self._stopping = True

@@ -48,6 +48,8 @@ log = logging.getLogger("facesynth.learn")
 RATE_HZ = 30.0
 #: Longest wait for the servos to return to neutral after Ctrl-C or the end (seconds).
 FINISH_TIMEOUT_S = 10.0
+#: After this long at neutral without a face, say that the camera sees none (seconds).
+NO_FACE_NOTICE_S = 10.0
 #: What the session records besides ``babble``.
 RECORD_KEYS = ["features", "servo_commands", "servo_state", "babble", "input"]
 
@@ -101,7 +103,8 @@ class BabbleShell:
             asyncio.create_task(self._follow_features(features, ctx)),
         ]
         self._started_ns = clock.monotonic_ns()
-        neutral_started = False
+        neutral_started: int | None = None
+        warned = False
         try:
             while not self.babbler.done:
                 now = clock.monotonic_ns()
@@ -116,9 +119,21 @@ class BabbleShell:
                     self._command(ctx, step.targets, step.phase == "babbling")
                 if step.sample is not None:
                     self._publish(ctx, step.sample)
-                if self.babbler.at_neutral and not neutral_started:
-                    neutral_started = True
+                if self.babbler.at_neutral and neutral_started is None:
+                    neutral_started = now
                     self.on_neutral()
+                if (
+                    neutral_started is not None
+                    and not warned
+                    and not self.babbler.face_seen
+                    and now - neutral_started > NO_FACE_NOTICE_S * 1e9
+                ):
+                    warned = True
+                    ctx.log.warning(
+                        "no face in the camera's view after %.0f s at neutral: point the "
+                        "camera at the robot's face (babbling starts once it sees it)",
+                        NO_FACE_NOTICE_S,
+                    )
                 self.progress.update(step.phase, self.babbler.index, now / 1e9)
                 await clock.sleep(1 / RATE_HZ)
         finally:

@@ -146,3 +146,20 @@ async def test_servos_that_do_not_follow_end_the_run_with_a_clear_error(tmp_path
     with pytest.raises(LearnRunError, match="does the control interface run profile 'paper16'"):
         await babble(MemoryNetwork().bus(), RIG, parts, shell, session, frame_every=0)
     assert read_session(tmp_path / "s.mcap").samples == []  # the file is complete and readable
+
+
+async def test_a_camera_that_sees_no_face_is_said_and_a_stop_still_ends_at_neutral(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
+    monkeypatch.setattr("facesynth.app.learn.shell.NO_FACE_NOTICE_S", 0.3)
+    hidden = asyncio.Event()
+    hidden.set()
+    profile = load_profile("paper16")
+    shell = _shell(profile, 0, 5, io.StringIO())
+    session = SessionFile(tmp_path / "s.mcap", metadata(RIG, profile, 4, RECORD_KEYS), None)
+    parts = _parts(profile, tmp_path, hidden)
+    asyncio.get_running_loop().call_later(1.5, shell.babbler.stop)
+    result = await babble(MemoryNetwork().bus(), RIG, parts, shell, session, frame_every=0)
+    assert result.taken == 0 and shell.babbler.done
+    assert "no face in the camera's view" in caplog.text
+    assert read_session(tmp_path / "s.mcap").samples == []
