@@ -393,6 +393,11 @@ CASES = [
         "the pace is a fraction of the profile's speeds",
     ),
     (
+        "learn waits",
+        ["learn", "--profile", "paper16", "--out", "s.mcap", "--video", "x", "--min-wait", "5"],
+        "the settle waits need 0 <= minimum <= maximum",
+    ),
+    (
         "learn neutral too often",
         [
             "learn",

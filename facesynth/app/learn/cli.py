@@ -113,6 +113,12 @@ def add_learn_parser(sub: Any, zenoh_arguments: Callable[[argparse.ArgumentParse
         help="largest change of the features over those frames (0.05)",
     )
     group.add_argument(
+        "--min-wait",
+        type=float,
+        default=0.25,
+        help="seconds after the servos got there before the face's frames count (0.25)",
+    )
+    group.add_argument(
         "--max-wait", type=float, default=3.0, help="longest wait for a pose to settle (3 s)"
     )
     group.add_argument(
@@ -164,7 +170,7 @@ def cmd_learn(args: argparse.Namespace) -> int:
             frames=args.settle_frames,
             feature_tol=args.settle_tolerance,
             max_wait_s=args.max_wait,
-            min_wait_s=min(0.25, args.max_wait),
+            min_wait_s=args.min_wait,
         ),
         pace=args.pace,
     )
