@@ -2,6 +2,7 @@
 
 from schemas.messages import (
     ALL_MESSAGES,
+    BabbleSample,
     Features,
     Frame,
     Points,
@@ -13,6 +14,7 @@ from schemas.messages import (
 
 __all__ = [
     "ALL_MESSAGES",
+    "BabbleSample",
     "Features",
     "Frame",
     "PointSet",

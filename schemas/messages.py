@@ -189,6 +189,35 @@ class ServiceStats(msgspec.Struct, tag="service_stats", tag_field=TAG_FIELD, kw_
     router_offline_s: float = 0.0
 
 
+class BabbleSample(msgspec.Struct, tag="babble_sample", tag_field=TAG_FIELD, kw_only=True):
+    """One settled pose of a babbling robot (topic ``…/babble``, from ``facesynth learn``).
+
+    The robot was commanded ``commanded`` (pulse widths in µs by servo name, within the
+    profile's limits), the control interface reported ``reported`` once it got there, and the
+    robot's own camera then saw its face hold still: ``features`` are the face's raw named
+    features (``Features.raw``, relative to the robot's neutral) averaged over the ``frames``
+    settled frames, ``spread`` their standard deviations. ``seq`` is the pose's index in the
+    babbling plan (``seed`` makes the plan; a resumed run continues it), ``kind`` what the pose
+    is: ``"neutral"`` (the neutral re-checked), ``"sweep"`` (one servo alone) or ``"random"``.
+    ``settled`` is false when the face never held still within the longest wait (the last
+    frames were taken). ``t_capture_ns`` is the wall clock when the pose settled,
+    ``t_media_ns`` the time since babbling started.
+    """
+
+    seq: int
+    t_capture_ns: int
+    t_media_ns: int
+    profile: str
+    kind: str
+    commanded: dict[str, float]
+    reported: dict[str, float] = {}
+    features: dict[str, float] = {}
+    spread: dict[str, float] = {}
+    frames: int = 0
+    settled: bool = True
+    seed: int = 0
+
+
 #: Every message struct, in tag order, for schema export and generic decoding.
 ALL_MESSAGES: tuple[type[msgspec.Struct], ...] = (
     Frame,
@@ -196,4 +225,5 @@ ALL_MESSAGES: tuple[type[msgspec.Struct], ...] = (
     Features,
     ServoCommands,
     ServiceStats,
+    BabbleSample,
 )

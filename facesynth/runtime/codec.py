@@ -19,14 +19,14 @@ import numpy as np
 from facesynth.runtime import blendshapes, limits
 from facesynth.runtime.jpeg import JpegHeaderError, jpeg_size
 from facesynth.runtime.oneline import one_line
-from schemas.messages import Features, Frame, Points, ServiceStats, ServoCommands
+from schemas.messages import BabbleSample, Features, Frame, Points, ServiceStats, ServoCommands
 
-M = TypeVar("M", Frame, Points, Features, ServoCommands, ServiceStats)
+M = TypeVar("M", Frame, Points, Features, ServoCommands, ServiceStats, BabbleSample)
 
 _ENCODER = msgspec.msgpack.Encoder()
 _DECODERS: dict[type[Any], msgspec.msgpack.Decoder[Any]] = {
     cls: msgspec.msgpack.Decoder(cls)
-    for cls in (Frame, Points, Features, ServoCommands, ServiceStats)
+    for cls in (Frame, Points, Features, ServoCommands, ServiceStats, BabbleSample)
 }
 
 #: Largest frame dimension accepted (pixels); larger values are treated as corrupt.
@@ -40,6 +40,7 @@ MAX_BYTES: dict[type[Any], int] = {
     Features: limits.STAGE_LIMITS["features"],
     ServoCommands: limits.STAGE_LIMITS["servo_commands"],
     ServiceStats: limits.STATS_LIMIT,
+    BabbleSample: limits.STAGE_LIMITS["babble"],
 }
 #: Point schemes and their number of points (a set has at most that many).
 SCHEME_POINTS = {"ibug68": 68, "mesh468": 468, "mesh478": 478, "iris10": 10}
@@ -276,10 +277,34 @@ def validate_stats(stats: ServiceStats) -> None:
             raise MessageError(f"{name} is {getattr(stats, name)}: must be >= 0")
 
 
+def validate_babble_sample(sample: BabbleSample) -> None:
+    """Check a settled pose: plausible pulse widths, finite features, sane counts and names."""
+    _common(sample.seq, sample.t_capture_ns, sample.t_media_ns)
+    if not sample.profile:
+        raise MessageError("a babbling sample names no profile")
+    for name in ("profile", "kind"):
+        if len(getattr(sample, name)) > MAX_NAME:
+            raise MessageError(f"{name} is longer than {MAX_NAME} characters")
+    if sample.frames < 0:
+        raise MessageError(f"frames is {sample.frames}: must be >= 0")
+    for what, positions in (("commanded", sample.commanded), ("reported", sample.reported)):
+        if len(positions) > MAX_POSITIONS:
+            raise MessageError(f"{len(positions)} {what} positions: at most {MAX_POSITIONS}")
+        _finite_table(positions, f"{what} position", MAX_PULSE_US)
+        for name, value in positions.items():
+            if value < 0:
+                raise MessageError(f"{what} position of {name!r} is negative ({value})")
+    for what, table in (("feature", sample.features), ("spread of", sample.spread)):
+        if len(table) > MAX_NAMED:
+            raise MessageError(f"{len(table)} {what} values: at most {MAX_NAMED}")
+        _finite_table(table, what, MAX_COORD)
+
+
 _VALIDATORS: dict[type[Any], Any] = {
     Frame: validate_frame,
     Points: validate_points,
     Features: validate_features,
     ServoCommands: validate_servo_commands,
     ServiceStats: validate_stats,
+    BabbleSample: validate_babble_sample,
 }

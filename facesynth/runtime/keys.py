@@ -10,6 +10,9 @@ A rig that drives several robots from one performer gives each robot its own com
 only, whatever their profiles. Without a robot name the keys stay ``…/servo_commands`` and
 ``…/servo_state``; :func:`robots_pattern` matches both forms, for observers of every robot.
 
+Beyond the chain, ``facesynth learn`` publishes every settled pose of a babbling robot on
+``facesynth/<rig>/babble`` (:data:`APP_KEYS`); no stage consumes it, the recorder keeps it.
+
 Health (liveliness tokens) and stats keys add the service name and an instance id:
 ``facesynth/<rig>/health/<service>/<instance>`` and ``facesynth/<rig>/stats/<service>/<instance>``.
 """
@@ -24,6 +27,12 @@ PREFIX: Final = "facesynth"
 Stage = Literal["input", "points", "features", "servo_commands", "servo_state"]
 #: ``servo_state`` is what a control interface actually applied (clamped positions).
 STAGES: Final[tuple[Stage, ...]] = ("input", "points", "features", "servo_commands", "servo_state")
+
+#: Data keys beyond the chain's stages: ``babble`` (``facesynth learn``'s settled poses).
+AppKey = Literal["babble"]
+APP_KEYS: Final[tuple[AppKey, ...]] = ("babble",)
+#: Every data key of a rig (:func:`stage_key` builds each).
+DataKey = Stage | AppKey
 
 SERVICES: Final = ("sensor", "points", "features", "translator", "control")
 
@@ -62,15 +71,17 @@ def check_name(value: str, what: str = "rig") -> str:
     return value
 
 
-def stage_key(rig: str, stage: Stage, robot: str | None = None) -> str:
-    """Data key of one stage of a rig, e.g. ``facesynth/default/points``.
+def stage_key(rig: str, stage: DataKey, robot: str | None = None) -> str:
+    """Data key of one stage of a rig, e.g. ``facesynth/default/points`` (or of one of the
+    :data:`APP_KEYS`, e.g. ``facesynth/default/babble``).
 
     With ``robot``, the key of that robot's commands or state (only for :data:`ROBOT_STAGES`;
     the stages before the translator are the performer's, shared by every robot):
     ``facesynth/default/servo_commands/head1``.
     """
-    if stage not in STAGES:
-        raise KeyNameError(f"unknown stage {stage!r}; known: {', '.join(STAGES)}")
+    if stage not in STAGES and stage not in APP_KEYS:
+        known = ", ".join((*STAGES, *APP_KEYS))
+        raise KeyNameError(f"unknown stage {stage!r}; known: {known}")
     key = f"{PREFIX}/{check_name(rig)}/{stage}"
     if not robot:
         return key

@@ -21,6 +21,8 @@ key               limit         largest valid message
 ``points``        256 KiB       478 3D points, 68 2D points, irises, 52 scores: about 25 KB
 ``features``      64 KiB        68 distances and deltas, 136 displacements, ~120 named: ~8 KB
 ``servo_*``       64 KiB        a profile's positions with the sender stamps: 16 servos ~0.6 KB
+``babble``        64 KiB        one settled pose: 16 positions twice, ~120 features averaged
+                                and their spread: ~8 KB
 ``stats``         16 KiB        one :class:`~schemas.messages.ServiceStats`: ~0.3 KB
 ================  ============  =================================================================
 """
@@ -39,13 +41,14 @@ MAX_FRAME_PIXELS: Final = 4096 * 3072
 #: The longest side a frame may declare (pixels).
 MAX_FRAME_SIDE: Final = 8192
 
-#: Payload limit (bytes) of each stage's key.
+#: Payload limit (bytes) of each stage's key (and of the :data:`~keys.APP_KEYS`).
 STAGE_LIMITS: Final[dict[str, int]] = {
     "input": 40 * MIB,
     "points": 256 * KIB,
     "features": 64 * KIB,
     "servo_commands": 64 * KIB,
     "servo_state": 64 * KIB,
+    "babble": 64 * KIB,
 }
 #: Payload limit (bytes) of a service's stats message.
 STATS_LIMIT: Final = 16 * KIB
@@ -70,7 +73,7 @@ def session_limit(consumes: keys.Stage | None) -> int:
     return largest + MESSAGE_SLACK
 
 
-def stage_limit(stage: keys.Stage) -> int:
+def stage_limit(stage: keys.DataKey) -> int:
     """The payload limit of ``stage``'s key, in bytes."""
     return STAGE_LIMITS[stage]
 

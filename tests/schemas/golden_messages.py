@@ -20,6 +20,7 @@ from typing import Any
 import msgspec
 
 from schemas.messages import (
+    BabbleSample,
     Features,
     Frame,
     Points,
@@ -210,6 +211,23 @@ GOLDEN: dict[str, tuple[type[msgspec.Struct], dict[str, Any]]] = {
             "peak_rss_mb": 41.0,
             "window": 0,
             "note": "",
+        },
+    ),
+    "babble_sample": (
+        BabbleSample,
+        {
+            "seq": 17,
+            "t_capture_ns": 1_717_000_003_000_000_000,
+            "t_media_ns": 42_500_000_000,
+            "profile": "paper16",
+            "kind": "random",
+            "commanded": {"jaw": 1612.5, "right_eyebrow": 1375.25},
+            "reported": {"jaw": 1612.5, "right_eyebrow": 1375.25},
+            "features": {"jaw_open": 0.25, "brow_raise_inner_right": -0.125},
+            "spread": {"jaw_open": 0.0078125, "brow_raise_inner_right": 0.00390625},
+            "frames": 5,
+            "settled": True,
+            "seed": 7,
         },
     ),
 }

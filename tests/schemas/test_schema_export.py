@@ -15,6 +15,7 @@ STABLE_TAGS = {
     "Features": "features",
     "ServoCommands": "servo_commands",
     "ServiceStats": "service_stats",
+    "BabbleSample": "babble_sample",
 }
 
 

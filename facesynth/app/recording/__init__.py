@@ -8,9 +8,10 @@
   services; :mod:`.convert`: OpenFace / track files in, JSON lines / CSV out.
 """
 
-from facesynth.runtime.keys import STAGES
+from facesynth.runtime.keys import APP_KEYS, STAGES
 
-#: What ``record --keys`` can name: the five stages and ``stats`` (every service's stats).
-RECORDABLE = (*STAGES, "stats")
+#: What ``record --keys`` can name: the five stages, ``babble`` (``facesynth learn``'s settled
+#: poses) and ``stats`` (every service's stats).
+RECORDABLE = (*STAGES, *APP_KEYS, "stats")
 #: Stages ``replay --from`` can start from.
 REPLAYABLE = ("input", "points", "features", "servo_commands")

@@ -32,7 +32,7 @@ import msgspec
 from facesynth.app.recording.views import SchemaSpec, annotations_view, image_view
 from facesynth.runtime import codec, keys
 from schemas.export import message_schema
-from schemas.messages import Features, Frame, Points, ServiceStats, ServoCommands
+from schemas.messages import BabbleSample, Features, Frame, Points, ServiceStats, ServoCommands
 
 #: The MCAP profile in the header of every facesynth recording.
 PROFILE: Final = "facesynth"
@@ -57,13 +57,15 @@ STAGE_TYPES: Final[dict[str, type[Any]]] = {
     "features": Features,
     "servo_commands": ServoCommands,
     "servo_state": ServoCommands,
+    "babble": BabbleSample,
 }
 #: The kind of key that carries :class:`ServiceStats` (``…/stats/<service>/<instance>``).
 STATS: Final = "stats"
 
 
 def key_kind(key: str) -> str | None:
-    """``input`` … ``servo_state`` for a stage key, ``stats`` for a stats key, else ``None``."""
+    """``input`` … ``servo_state`` (or ``babble``) for a data key, ``stats`` for a stats key,
+    else ``None``."""
     parts = key.split("/")
     if parts[0] != keys.PREFIX:
         return None

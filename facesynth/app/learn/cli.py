@@ -1,0 +1,360 @@
+"""``facesynth learn``: babble a robot head in front of its camera, record a session, fit it.
+
+::
+
+    facesynth learn --profile head16_hardware --driver maestro --port /dev/ttyACM0 \\
+        --camera http://192.168.1.20:8080/video.mjpg --poses 600 --out head.mcap
+
+babbles (:mod:`facesynth.app.learn.shell`) into ``head.mcap`` (run it again to resume), then
+reads the session into a :class:`~facesynth.app.learn.dataset.BabbleSet`, fits the self-model
+and writes the learned profile (``--out-profile``; ``--no-fit`` skips it, ``--fit-only
+SESSION`` does only that).
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import importlib
+import json
+import logging
+import sys
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import msgspec
+
+from facesynth.app.chain import freeze_startup_objects, open_embedded
+from facesynth.app.graph import Graph
+from facesynth.app.learn.core import BabbleOptions, Babbler, Budget
+from facesynth.app.learn.dataset import BabbleSet
+from facesynth.app.learn.plan import Plan, PlanOptions
+from facesynth.app.learn.progress import Progress
+from facesynth.app.learn.session import (
+    Session,
+    SessionFile,
+    babble_set,
+    check_profile,
+    metadata,
+    read_session,
+)
+from facesynth.app.learn.settle import SettleOptions
+from facesynth.app.learn.shell import RECORD_KEYS, BabbleShell, LearnResult, babble
+from facesynth.app.learn.sweeps import sweep_report
+from facesynth.app.nodes import ControlNode, FeaturesNode, PointsNode, SensorNode
+from facesynth.app.stage_args import PLUGIN_FLAGS
+from facesynth.app.wiring import StageParts, build_node, zenoh_options
+from facesynth.runtime import keys
+from facesynth.runtime.bus.zenoh_bus import ZenohBus, endpoints
+from facesynth.runtime.outputs import check_output
+from facesynth.runtime.profiles import Profile, load_profile
+from facesynth.runtime.service import run_async
+from services.control.drivers.registry import DRIVERS
+
+log = logging.getLogger("facesynth.learn")
+
+#: The robot's own rig, apart from any performer's.
+DEFAULT_RIG = "self"
+
+
+class LearnError(ValueError):
+    """``facesynth learn`` options that cannot be used."""
+
+
+def add_learn_parser(sub: Any, zenoh_arguments: Callable[[argparse.ArgumentParser], None]) -> None:
+    """Declare ``facesynth learn`` on the command's sub-parsers."""
+    text = (
+        "the robot learns its own face: babble the servos in front of the robot's camera, "
+        "record every settled pose (resumable), fit the self-model, write a learned profile"
+    )
+    p = sub.add_parser("learn", help=text, description=text)
+    p.set_defaults(handler=cmd_learn)
+    p.add_argument("--profile", help="the robot's hardware profile: NAME or TOML path")
+    p.add_argument(
+        "--out",
+        dest="session",
+        metavar="SESSION.mcap",
+        help="the babbling session file; an existing one is resumed",
+    )
+    p.add_argument("--poses", type=int, help="babble until the session holds N poses (default 600)")
+    p.add_argument("--minutes", type=float, help="babble at most M minutes in this run")
+    p.add_argument("--seed", type=int, help="the plan's seed (default 0; a resume keeps its own)")
+    p.add_argument(
+        "--fit-only", metavar="SESSION.mcap", help="do not babble: fit this session's poses"
+    )
+    p.add_argument("--no-fit", action="store_true", help="babble only, fit later (--fit-only)")
+    p.add_argument(
+        "--out-profile",
+        metavar="NAME.learned",
+        help="the learned profile to write (default: the session's name with .learned)",
+    )
+    group = p.add_argument_group("babbling")
+    group.add_argument(
+        "--neutral-every", type=int, default=25, help="a neutral pose every K poses (25)"
+    )
+    group.add_argument(
+        "--sweep-steps", type=int, default=3, help="steps of each servo's sweep each way (3)"
+    )
+    group.add_argument(
+        "--pace",
+        type=float,
+        default=0.8,
+        help="command speed as a fraction of each servo's max_speed (0.8)",
+    )
+    group.add_argument(
+        "--settle-frames", type=int, default=4, help="frames the face must hold still (4)"
+    )
+    group.add_argument(
+        "--settle-tolerance",
+        type=float,
+        default=0.05,
+        help="largest change of the features over those frames (0.05)",
+    )
+    group.add_argument(
+        "--min-wait",
+        type=float,
+        default=0.25,
+        help="seconds after the servos got there before the face's frames count (0.25)",
+    )
+    group.add_argument(
+        "--max-wait", type=float, default=3.0, help="longest wait for a pose to settle (3 s)"
+    )
+    group.add_argument(
+        "--frame-every",
+        type=int,
+        default=30,
+        help="record every Nth camera frame into the session (30; 0: none)",
+    )
+    seen = {"--out", "--profile"}
+    for stage in ("sensor", "points", "control"):
+        flags, _ = PLUGIN_FLAGS[stage]
+        flags.add(p, seen, {"sensor": None, "points": "tracker", "control": "record"}[stage])
+    zenoh_arguments(p)
+
+
+def cmd_learn(args: argparse.Namespace) -> int:
+    """``facesynth learn``."""
+    if args.fit_only:
+        if args.session:
+            raise LearnError("give either --out (babble) or --fit-only SESSION (fit), not both")
+        session = read_session(_existing(args.fit_only))
+        profile = load_profile(args.profile or session.profile)
+        check_profile(session, profile)
+        print(fit_session(session, profile, _profile_out(args, Path(args.fit_only))))
+        return 0
+    if not args.session:
+        raise LearnError("give the session file with --out SESSION.mcap")
+    if not args.profile:
+        raise LearnError("give the robot's hardware profile with --profile NAME")
+    poses = 600 if args.poses is None else args.poses
+    if poses < 1:
+        raise LearnError(f"--poses must be at least 1, not {poses}")
+    if args.minutes is not None and not args.minutes > 0:
+        raise LearnError(f"--minutes must be positive, not {args.minutes:g}")
+    if args.frame_every < 0:
+        raise LearnError("--frame-every must be >= 0 (0: no frames)")
+    rig = keys.check_name(args.rig or DEFAULT_RIG)
+    profile = load_profile(args.profile)
+    out = Path(args.session)
+    resume = _resume(out, profile, args.seed)
+    profile_out = None if args.no_fit else _profile_out(args, out)
+    seed = resume.seed if resume is not None else (args.seed or 0)
+    plan = Plan(
+        len(profile.servos),
+        PlanOptions(seed=seed, sweep_steps=args.sweep_steps, neutral_every=args.neutral_every),
+    )
+    options = BabbleOptions(
+        settle=SettleOptions(
+            frames=args.settle_frames,
+            feature_tol=args.settle_tolerance,
+            max_wait_s=args.max_wait,
+            min_wait_s=args.min_wait,
+        ),
+        pace=args.pace,
+    )
+    first = resume.next_pose if resume is not None else 0
+    if first >= poses:
+        print(f"{out} already holds {first} poses (--poses {poses}): nothing to babble")
+    else:
+        configs = _plugin_configs(args, out)
+        if DRIVERS.build(configs["control"], profile).moves_hardware:
+            run_async(_preflight(configs["control"], profile))
+        parts = _build_parts(args, rig, profile, configs)
+        result = _babble(args, rig, profile, plan, options, first, poses, seed, parts, resume)
+        rate = result.taken / (result.seconds / 60) if result.seconds > 0 else 0.0
+        summary: dict[str, Any] = {
+            "session": str(out),
+            "poses": result.next_pose,
+            "taken": result.taken,
+            "skipped": result.skipped,
+            "seconds": round(result.seconds, 1),
+            "poses_per_minute": round(rate, 1),
+            "interrupted": result.interrupted,
+        }
+        summary.update(_sweeps(out, profile))
+        print(json.dumps(summary), flush=True)
+        if result.interrupted:
+            return 130
+    if profile_out is None:
+        return 0
+    print(fit_session(read_session(out), profile, profile_out))
+    return 0
+
+
+def _sweeps(out: Path, profile: Profile) -> dict[str, Any]:
+    """What the sweeps showed so far: dead servos, and each live one's dead band (the smallest
+    normalized command below and above neutral that moved the face)."""
+    report = sweep_report(read_session(out).samples, profile)
+    if not report:
+        return {}
+    return {
+        "dead": [r.servo for r in report if r.dead],
+        "dead_band": {
+            r.servo: [round(r.below, 2), round(r.above, 2)] for r in report if not r.dead
+        },
+    }
+
+
+def fit_session(session: Session, profile: Profile, out: Path) -> str:
+    """Read the session's poses into a BabbleSet, fit it and write the learned profile."""
+    if not session.samples:
+        raise LearnError(f"{session.path} holds no babbling poses to fit")
+    return fit(babble_set(session.samples, profile), profile, out)
+
+
+def fit(babble: BabbleSet, profile: Profile, out: Path) -> str:
+    """Fit the self-model on ``babble``, write the learned profile to ``out`` (atomically) and
+    return the held-out report to print: the one call into the fitting
+    (:mod:`facesynth.app.learn.fit`, which needs the ``learn`` extra)."""
+    try:
+        fitting: Any = importlib.import_module("facesynth.app.learn.fit")
+        save = importlib.import_module("facesynth.runtime.profiles").save_learned_profile
+    except (ImportError, AttributeError):
+        raise LearnError(
+            f"fitting is not available here ({len(babble)} poses of {profile.name} kept): "
+            "record with --no-fit and fit later with --fit-only"
+        ) from None
+    learned = fitting.fit_learned_profile(babble, profile)
+    written = save(learned, out)
+    return f"{fitting.format_report(learned)}\nwrote {written}"
+
+
+def _existing(path: str) -> Path:
+    file = Path(path)
+    if not file.is_file():
+        raise LearnError(f"{file} does not exist or is not a file")
+    return file
+
+
+def _profile_out(args: argparse.Namespace, session: Path) -> Path:
+    out = Path(args.out_profile) if args.out_profile else session.with_suffix(".learned")
+    return check_output(out, "learned profile")
+
+
+def _resume(out: Path, profile: Profile, seed: int | None) -> Session | None:
+    if out.is_dir():
+        raise LearnError(f"--out {out} is a directory, not a session file")
+    if not out.exists():
+        check_output(out, "session file")
+        return None
+    session = read_session(out)
+    check_profile(session, profile)
+    if seed is not None and seed != session.seed:
+        raise LearnError(
+            f"{out} was babbled with --seed {session.seed}: resume it with that seed "
+            f"(or babble into a new file)"
+        )
+    log.info(
+        "resuming %s: %d poses taken, from pose %d", out, len(session.samples), session.next_pose
+    )
+    return session
+
+
+def _plugin_configs(args: argparse.Namespace, out: Path) -> dict[str, msgspec.Struct]:
+    """The camera's, the tracker's and the servo driver's configs from the command line."""
+    sensor_flags, _ = PLUGIN_FLAGS["sensor"]
+    if getattr(args, "plugin_source", None) is None and not any(
+        hasattr(args, flag.dest) for flag in sensor_flags.flags() if flag.selects
+    ):
+        raise LearnError("give the robot's camera with --camera (or --video FILE for a dry run)")
+    source = sensor_flags.config(args, None)
+    backend = PLUGIN_FLAGS["points"][0].config(args, {"backend": "tracker"})
+    driver_base = None
+    if getattr(args, "plugin_driver", "record") == "record":
+        driver_base = {"driver": "record", "out": str(out.with_suffix(".commands.jsonl"))}
+    driver = PLUGIN_FLAGS["control"][0].config(args, driver_base)
+    return {"sensor": source, "points": backend, "control": driver}
+
+
+def _build_parts(
+    args: argparse.Namespace, rig: str, profile: Profile, configs: dict[str, msgspec.Struct]
+) -> dict[str, StageParts]:
+    """The robot's nodes, built as ``facesynth run`` builds a graph's."""
+    source, backend, driver = configs["sensor"], configs["points"], configs["control"]
+    nodes: dict[str, Any] = {
+        "sensor": SensorNode(source=msgspec.to_builtins(source)),
+        "points": PointsNode(backend=msgspec.to_builtins(backend), queue=1),
+        "features": FeaturesNode(neutral_seconds=profile.neutral_seconds, keep_state=False),
+        "control": ControlNode(profile=args.profile, driver=msgspec.to_builtins(driver)),
+    }
+    graph = Graph(rig=rig, nodes=nodes)
+    return {name: build_node(name, node, graph, configs.get(name)) for name, node in nodes.items()}
+
+
+async def _preflight(config: msgspec.Struct, profile: Profile) -> None:
+    """Open the servo board once (a clear error if it is not there), then let it go."""
+    driver = DRIVERS.build(config, profile)
+    await driver.connect_once(query_only=True)
+    await driver.close()
+
+
+def _babble(
+    args: argparse.Namespace,
+    rig: str,
+    profile: Profile,
+    plan: Plan,
+    options: BabbleOptions,
+    first: int,
+    poses: int,
+    seed: int,
+    parts: dict[str, StageParts],
+    resume: Session | None,
+) -> LearnResult:
+    out = Path(args.session)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    listen = endpoints(args.listen) or ["tcp/127.0.0.1:0"]
+    zenoh = zenoh_options(args, default_mode="router")
+    zenoh.connect = endpoints(args.connect)
+    record = [*RECORD_KEYS] if args.frame_every else [k for k in RECORD_KEYS if k != "input"]
+
+    async def main() -> LearnResult:
+        now = time.monotonic()
+        until = now + args.minutes * 60 if args.minutes is not None else None
+        budget = Budget(poses=poses, until_ns=round(until * 1e9) if until is not None else None)
+        babbler = Babbler(profile, plan, start=first, budget=budget, options=options)
+        progress = Progress(sys.stderr, first=first, total=poses, started_s=now, until_s=until)
+        shell = BabbleShell(babbler, seed=seed, progress=progress, on_neutral=lambda: None)
+        meta = metadata(rig, profile, seed, record)
+        meta["frame_every"] = str(args.frame_every)
+        session = SessionFile(out, meta, resume)
+        session_, locators = await asyncio.to_thread(open_embedded, listen, zenoh)
+        bus = ZenohBus(session_, mode="router")
+        log.info("embedded Zenoh router on %s (rig %s)", ", ".join(locators), rig)
+        freeze_startup_objects()
+        try:
+            return await babble(
+                bus,
+                rig,
+                parts,
+                shell,
+                session,
+                frame_every=args.frame_every,
+                record=record,
+                stats_interval=args.stats_interval,
+            )
+        finally:
+            await bus.close()
+
+    return run_async(main())

@@ -1,0 +1,291 @@
+"""The babbler, pure core: plan, pacing, settling and the face-lost pause, with time as data.
+
+The shell feeds it what the bus says (:meth:`Babbler.servos` for ``…/servo_state``,
+:meth:`Babbler.features` for ``…/features``) and asks it, as often as it likes,
+:meth:`Babbler.step` with the monotonic clock's reading: the answer is where the servos should
+be commanded now (paced: no servo is asked to move faster than ``pace`` of its profile speed,
+on top of the control interface's own limits) and, when a pose has just settled, the sample to
+publish. Phases:
+
+* ``homing``: to neutral, held ``hold_s`` once there; then ``neutral``: the features node
+  learns the robot's neutral face (the shell starts it when :attr:`Babbler.at_neutral` turns
+  true) until its features say ``neutral_ready``;
+* ``babbling``: pose after pose of the :class:`~facesynth.app.learn.plan.Plan` from
+  ``start`` (a resumed session continues its plan);
+* ``paused``: no face for ``face_lost_s``: back to neutral, the pose in progress dropped,
+  until a face is seen for ``face_back_s``; then the same pose again (after
+  ``max_face_retries`` losses on one pose it is skipped);
+* ``finishing`` → ``done``: the budget is spent (poses or time): back to neutral.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+from facesynth.app.learn.plan import Plan, Pose, to_pulses
+from facesynth.app.learn.settle import Settle, Settled, SettleOptions, StalledError
+from facesynth.runtime.profiles import Profile
+
+#: Pace of a servo whose profile sets no ``max_speed`` (µs/s).
+DEFAULT_SPEED_US_S = 2000.0
+
+
+class BabbleError(ValueError):
+    """Babbling options that cannot be used."""
+
+
+@dataclass(frozen=True)
+class BabbleOptions:
+    """How the babbler moves and waits."""
+
+    settle: SettleOptions = field(default_factory=SettleOptions)
+    pace: float = 0.8
+    hold_s: float = 0.5
+    face_lost_s: float = 1.0
+    face_back_s: float = 0.5
+    max_face_retries: int = 2
+
+    def __post_init__(self) -> None:
+        if not 0 < self.pace <= 1:
+            raise BabbleError(f"the pace is a fraction of the profile's speeds, not {self.pace}")
+        if self.hold_s < 0 or not self.face_lost_s > 0 or self.face_back_s < 0:
+            raise BabbleError("the hold and face waits must not be negative")
+
+
+@dataclass(frozen=True)
+class Budget:
+    """When babbling ends: after pose ``poses`` of the plan (the session's total), or at the
+    monotonic instant ``until_ns`` (whichever first; ``None``: no bound)."""
+
+    poses: int | None = None
+    until_ns: int | None = None
+
+
+@dataclass(frozen=True)
+class Sample:
+    """A settled pose, ready to publish."""
+
+    pose: Pose
+    commanded: dict[str, float]
+    reported: dict[str, float]
+    face: Settled
+    t_ns: int
+
+
+@dataclass(frozen=True)
+class Step:
+    """What the shell does now: command ``targets``; publish ``sample`` if there is one."""
+
+    targets: dict[str, float]
+    phase: str
+    sample: Sample | None = None
+
+
+class Babbler:
+    """See the module docstring."""
+
+    def __init__(
+        self,
+        profile: Profile,
+        plan: Plan,
+        *,
+        start: int = 0,
+        budget: Budget | None = None,
+        options: BabbleOptions | None = None,
+    ) -> None:
+        if plan.servos != len(profile.servos):
+            raise BabbleError(
+                f"a plan for {plan.servos} servos cannot drive profile {profile.name!r} "
+                f"({len(profile.servos)} servos)"
+            )
+        self.profile = profile
+        self.plan = plan
+        self.options = options or BabbleOptions()
+        self.budget = budget or Budget()
+        self.neutral = profile.neutral_positions()
+        self.speeds = {
+            s.name: self.options.pace * (s.max_speed if s.max_speed > 0 else DEFAULT_SPEED_US_S)
+            for s in profile.servos
+        }
+        self.phase = "homing"
+        self.index = start
+        #: Poses taken in this run, and poses skipped (face lost too often).
+        self.taken = 0
+        self.skipped = 0
+        self.at_neutral = False
+        self.commanded = dict(self.neutral)
+        self.reported: dict[str, float] | None = None
+        self._goal = dict(self.neutral)
+        self._last_ns: int | None = None
+        self._reached_ns: int | None = None
+        self._settle: Settle | None = None
+        self._pose: Pose | None = None
+        self._neutral_ready = False
+        self._last_face_ns: int | None = None
+        self._face_since_ns: int | None = None
+        self._retries = 0
+        self._stopping = False
+        self._homing_ns: int | None = None
+        self._finishing_ns: int | None = None
+
+    # --- what the bus says -------------------------------------------------------------------
+
+    def servos(self, positions: Mapping[str, float], now_ns: int) -> None:
+        """Where the control interface reports the servos (``…/servo_state``)."""
+        self.reported = dict(positions)
+        if self._settle is not None:
+            self._settle.servos(positions, now_ns)
+        if self._reached_ns is None and self._near(positions, self._goal):
+            self._reached_ns = now_ns
+
+    def features(
+        self, face: bool, raw: Mapping[str, float], neutral_ready: bool, now_ns: int
+    ) -> None:
+        """One ``…/features`` message (only once the features node runs); ``now_ns`` is when
+        its frame was taken, on the same monotonic clock."""
+        if not face:
+            self._face_since_ns = None
+            return
+        self._last_face_ns = now_ns
+        if self._face_since_ns is None:
+            self._face_since_ns = now_ns
+        self._neutral_ready = self._neutral_ready or neutral_ready
+        if self._settle is not None and self.phase == "babbling" and raw:
+            self._settle.face(raw, now_ns)
+
+    @property
+    def face_seen(self) -> bool:
+        """Whether the features have shown a face yet."""
+        return self._last_face_ns is not None
+
+    def stop(self) -> None:
+        """End babbling now (Ctrl-C): back to neutral, then ``done``."""
+        self._stopping = True
+
+    # --- what to do -------------------------------------------------------------------------
+
+    @property
+    def done(self) -> bool:
+        """Whether babbling is over and the servos are back at neutral."""
+        return self.phase == "done"
+
+    def step(self, now_ns: int) -> Step:
+        """Where to command the servos now, and the pose that settled, if one did."""
+        sample = None
+        timeout_ns = self.options.settle.reach_timeout_s * 1e9
+        if self._stopping or self._spent(now_ns):
+            if self.phase not in ("finishing", "done"):
+                self.phase = "finishing"
+                self._finishing_ns = now_ns
+                self._go(self.neutral)
+            if self.phase == "finishing":
+                started = self._finishing_ns if self._finishing_ns is not None else now_ns
+                # without reports the servos are left to the controller's own return
+                if self._holding(now_ns, 0.0) or now_ns - started > timeout_ns:
+                    self.phase = "done"
+        elif self.phase == "homing":
+            if self._homing_ns is None:
+                self._homing_ns = now_ns
+            if self._holding(now_ns, self.options.hold_s):
+                self.phase = "neutral"
+                self.at_neutral = True
+            elif self._reached_ns is None and now_ns - self._homing_ns > timeout_ns:
+                raise StalledError(
+                    f"the servos were not reported at neutral within "
+                    f"{self.options.settle.reach_timeout_s:g} s"
+                )
+        elif self.phase == "neutral":
+            if self._neutral_ready:
+                self.phase = "babbling"
+                self._begin_pose(now_ns)
+        elif self.phase == "babbling":
+            if self._face_lost(now_ns):
+                self._pause()
+            else:
+                sample = self._babble(now_ns)
+        elif self.phase == "paused":
+            since = self._face_since_ns
+            if since is not None and now_ns - since >= self.options.face_back_s * 1e9:
+                self.phase = "babbling"
+                self._begin_pose(now_ns)
+        return Step(self._paced(now_ns), self.phase, sample)
+
+    def _babble(self, now_ns: int) -> Sample | None:
+        settle, pose = self._settle, self._pose
+        if settle is None or pose is None:
+            self._begin_pose(now_ns)
+            return None
+        if self.commanded != self._goal:  # still pacing there: the reach timeout starts after
+            settle.commanded_ns = now_ns
+            return None
+        face = settle.check(now_ns)
+        if face is None:
+            return None
+        sample = Sample(pose, dict(settle.target), dict(self.reported or {}), face, now_ns)
+        self.taken += 1
+        self.index += 1
+        self._retries = 0
+        self._begin_pose(now_ns)
+        return sample
+
+    def _begin_pose(self, now_ns: int) -> None:
+        self._settle = self._pose = None
+        if self._spent(now_ns):
+            return
+        pose = self.plan.pose(self.index)
+        target = to_pulses(self.profile, pose.u)
+        self._pose = pose
+        self._go(target)
+        self._settle = Settle(target, now_ns, self.options.settle)
+        if self.reported is not None:
+            self._settle.servos(self.reported, now_ns)
+
+    def _pause(self) -> None:
+        self.phase = "paused"
+        self._face_since_ns = None
+        self._retries += 1
+        if self._retries > self.options.max_face_retries:
+            self.skipped += 1
+            self.index += 1
+            self._retries = 0
+        self._settle = self._pose = None
+        self._go(self.neutral)
+
+    def _face_lost(self, now_ns: int) -> bool:
+        last = self._last_face_ns
+        return last is None or now_ns - last > self.options.face_lost_s * 1e9
+
+    def _spent(self, now_ns: int) -> bool:
+        budget = self.budget
+        if budget.until_ns is not None and now_ns >= budget.until_ns:
+            return True
+        return budget.poses is not None and self.index >= budget.poses
+
+    def _go(self, goal: Mapping[str, float]) -> None:
+        self._goal = dict(goal)
+        self._reached_ns = None
+        if self.reported is not None and self._near(self.reported, self._goal):
+            self._reached_ns = self._last_ns
+
+    def _holding(self, now_ns: int, seconds: float) -> bool:
+        """Whether the servos are reported at the goal, commanded there, for ``seconds``."""
+        if self.commanded != self._goal or self._reached_ns is None:
+            return False
+        return now_ns - self._reached_ns >= seconds * 1e9
+
+    def _near(self, positions: Mapping[str, float], goal: Mapping[str, float]) -> bool:
+        tol = self.options.settle.reach_tol_us
+        return all(abs(positions.get(name, -1e9) - value) <= tol for name, value in goal.items())
+
+    def _paced(self, now_ns: int) -> dict[str, float]:
+        """The command moved toward the goal, no servo faster than its pace."""
+        dt = 0.0 if self._last_ns is None else max(0.0, (now_ns - self._last_ns) / 1e9)
+        self._last_ns = now_ns
+        for name, goal in self._goal.items():
+            now = self.commanded[name]
+            room = self.speeds[name] * dt
+            self.commanded[name] = (
+                goal if abs(goal - now) <= room else now + room * (1 if goal > now else -1)
+            )
+        return dict(self.commanded)

@@ -1,0 +1,170 @@
+"""A babbling session file: an MCAP recording with the ``…/babble`` samples, read and resumed.
+
+A session is a facesynth recording (:mod:`facesynth.app.recording`) whose metadata says it is a
+babbling session (``learn`` and the profile, its servos and the plan's seed), holding the
+``…/babble`` samples and, beside them, the features, servo commands and states (and a frame now
+and then) of the run. :func:`read_session` reads one back; :func:`babble_set` turns its samples
+into the :class:`~facesynth.app.learn.dataset.BabbleSet` the fitting takes.
+
+MCAP files are not appended to: a resumed run writes a new file beside the old one
+(``OUT.resume``), copies every message of the old one into it first, records on, and replaces
+the old file when it closes. A kill meanwhile leaves the old file as it was.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from facesynth.app.learn.dataset import KINDS, BabbleSet
+from facesynth.app.recording.layout import LAYOUT_VERSION, Layout
+from facesynth.app.recording.reader import Recording, RecordingError
+from facesynth.app.recording.writer import SessionWriter
+from facesynth.runtime import keys
+from facesynth.runtime.profiles import Profile
+from schemas.messages import BabbleSample
+
+log = logging.getLogger("facesynth.learn")
+
+#: Metadata field marking a babbling session (its value: the session format's version).
+LEARN_FIELD = "learn"
+LEARN_VERSION = "1"
+
+
+class SessionError(ValueError):
+    """A file that is not a usable babbling session (or not for this profile)."""
+
+
+@dataclass(frozen=True)
+class Session:
+    """What a babbling session file holds."""
+
+    path: Path
+    rig: str
+    profile: str
+    servos: tuple[str, ...]
+    seed: int
+    samples: list[BabbleSample]
+
+    @property
+    def next_pose(self) -> int:
+        """Where a resumed run continues the plan: after the last pose taken."""
+        return max((s.seq for s in self.samples), default=-1) + 1
+
+
+def metadata(rig: str, profile: Profile, seed: int, record: list[str]) -> dict[str, str]:
+    """The session metadata of a babbling run (a recording's, plus what ``learn`` needs)."""
+    return {
+        "rig": rig,
+        "keys": ",".join(record),
+        "frame_every": "0",
+        "started_ns": str(time.time_ns()),
+        "layout": LAYOUT_VERSION,
+        LEARN_FIELD: LEARN_VERSION,
+        "learn_profile": profile.name,
+        "learn_servos": ",".join(spec.name for spec in profile.servos),
+        "learn_seed": str(seed),
+    }
+
+
+def read_session(path: str | Path) -> Session:
+    """The babbling session in ``path``, or :class:`SessionError` saying why it is not one."""
+    path = Path(path)
+    try:
+        with Recording(path) as recording:
+            meta = recording.metadata
+            if meta.get(LEARN_FIELD) != LEARN_VERSION:
+                raise SessionError(
+                    f"{path} is a facesynth recording but not a babbling session "
+                    "(made by facesynth learn)"
+                )
+            try:
+                seed = int(meta.get("learn_seed", ""))
+            except ValueError:
+                raise SessionError(f"{path}: the session names no plan seed") from None
+            servos = tuple(name for name in meta.get("learn_servos", "").split(",") if name)
+            profile = meta.get("learn_profile", "")
+            if not servos or not profile:
+                raise SessionError(f"{path}: the session names no profile or servos")
+            rig = recording.rig
+            wanted = [k for k in recording.bus_keys() if k.endswith("/babble")]
+            samples = [
+                message
+                for _, message, _ in recording.messages(wanted)
+                if isinstance(message, BabbleSample)
+            ]
+    except RecordingError as exc:
+        raise SessionError(f"not a babbling session: {exc}") from None
+    return Session(path, rig, profile, servos, seed, samples)
+
+
+def check_profile(session: Session, profile: Profile) -> None:
+    """Refuse to resume or fit a session with a profile whose servos are not the session's."""
+    names = tuple(spec.name for spec in profile.servos)
+    if names != session.servos:
+        raise SessionError(
+            f"{session.path} was babbled with profile {session.profile!r} "
+            f"({len(session.servos)} servos: {', '.join(session.servos[:4])}…); "
+            f"profile {profile.name!r} has other servos"
+        )
+
+
+def babble_set(samples: list[BabbleSample], profile: Profile) -> BabbleSet:
+    """The samples as a :class:`BabbleSet`: commanded pulses per servo (the profile's order),
+    raw features per input (sorted names; NaN where a sample lacks one), kinds."""
+    servos = tuple(spec.name for spec in profile.servos)
+    inputs = tuple(sorted({name for s in samples for name in s.features}))
+    commands = np.array(
+        [[s.commanded.get(name, np.nan) for name in servos] for s in samples], dtype=np.float64
+    ).reshape(len(samples), len(servos))
+    faces = np.array(
+        [[s.features.get(name, np.nan) for name in inputs] for s in samples], dtype=np.float64
+    ).reshape(len(samples), len(inputs))
+    if np.isnan(commands).any():
+        raise SessionError("a babbling sample lacks a servo of the profile")
+    kinds = tuple(s.kind if s.kind in KINDS else "random" for s in samples)
+    return BabbleSet(servos, commands, inputs, faces, kinds)
+
+
+class SessionFile:
+    """Where a run records: a new session, or a resumed one (see the module docstring)."""
+
+    def __init__(self, path: str | Path, meta: dict[str, str], resume: Session | None) -> None:
+        self.path = Path(path)
+        self.resume = resume
+        self.writing = self.path.with_name(self.path.name + ".resume") if resume else self.path
+        if resume is not None and self.writing.exists():
+            log.warning("replacing %s, left by an earlier resumed run", self.writing)
+        self.writer = SessionWriter(self.writing, metadata=meta, overwrite=resume is not None)
+        self.copied = 0
+        if resume is not None:
+            self._copy(resume.path)
+
+    def _copy(self, old: Path) -> None:
+        layout = Layout()
+        sequence: dict[str, int] = {}
+        try:
+            with Recording(old) as recording:
+                for item in recording.payloads(recording.bus_keys()):
+                    index = sequence.get(item.key, 0)
+                    sequence[item.key] = index + 1
+                    for entry in layout.entries(item.key, item.payload, item.log_time, index):
+                        self.writer.write(entry)
+                    self.copied += 1
+        except RecordingError as exc:
+            self.writer.close()
+            raise SessionError(f"cannot resume from {old}: {exc}") from None
+
+    def close(self) -> None:
+        """Complete the file (the writer must be closed); a resumed session replaces the old."""
+        if self.writing != self.path:
+            self.writing.replace(self.path)
+
+
+def babble_key(rig: str) -> str:
+    """The key the babbler's samples go on."""
+    return keys.stage_key(rig, "babble")

@@ -1,0 +1,82 @@
+"""``facesynth learn`` end to end, as processes: the simulated head (Maestro over a pty, its
+camera as an MJPEG URL) babbled through the maestro driver, a run to its budget, then a resumed
+run stopped with Ctrl-C: the servos back at neutral, every sample kept."""
+
+from __future__ import annotations
+
+import json
+import re
+import signal
+import time
+from pathlib import Path
+
+import pytest
+from facesynth_processes import Processes, free_port, run_facesynth
+
+from facesynth.app.learn.session import read_session
+from facesynth.runtime.profiles import load_profile
+
+pytestmark = pytest.mark.slow
+
+
+def _start_head(processes: Processes, tmp_path: Path) -> tuple[str, str]:
+    link = str(tmp_path / "simhead-tty")
+    processes("simhead", "--serial-link", link, "--http", f"127.0.0.1:{free_port()}", name="head")
+    line = processes.wait_for_line("head", "camera:", timeout=60)
+    url = re.search(r"camera: (\S+)", line)
+    assert url is not None, line
+    return link, url.group(1)
+
+
+def _positions(link: str) -> dict[str, float]:
+    """Where the head's Maestro says each servo is (``control status``)."""
+    status = run_facesynth(
+        "control", "status", "--driver", "maestro", "--port", link, "--profile", "paper16"
+    )
+    assert status.returncode == 0, status.stderr
+    found = re.findall(r"^\s+(\w+)\s+([\d.]+)\s*$", status.stdout, re.MULTILINE)
+    return {name: float(value) for name, value in found}
+
+
+def test_learn_babbles_the_simulated_head_resumes_and_stops_at_neutral(
+    processes: Processes, tmp_path: Path
+) -> None:
+    link, camera = _start_head(processes, tmp_path)
+    session = tmp_path / "s.mcap"
+    learn = ["learn", "--profile", "paper16", "--driver", "maestro", "--port", link]
+    learn += ["--camera", camera, "--out", str(session), "--no-fit", "--log-level", "WARNING"]
+    first = run_facesynth(*learn, "--poses", "16", timeout=120)
+    assert first.returncode == 0, first.stderr[-3000:]
+    summary = json.loads(first.stdout.strip().splitlines()[-1])
+    assert summary["poses"] == summary["taken"] == 16, summary
+    samples = read_session(session).samples
+    assert [s.seq for s in samples] == list(range(16))
+    neutral = samples[0]
+    assert neutral.kind == "neutral" and neutral.features
+    # the head moves when a servo sweeps: some feature leaves its neutral value
+    moved = max(
+        abs(s.features[name] - neutral.features[name])
+        for s in samples
+        if s.kind == "sweep"
+        for name in s.features.keys() & neutral.features.keys()
+    )
+    assert moved > 0.05
+    assert "babbling [" in first.stderr and "left" in first.stderr
+
+    # a second run resumes the plan; Ctrl-C sends the head back to neutral and keeps the file
+    processes(*learn, "--poses", "400", name="again")
+    processes.wait_for_line("again", "(babbling)", timeout=60)
+    time.sleep(4)
+    proc = processes.procs[-1]
+    proc.send_signal(signal.SIGINT)
+    assert proc.wait(timeout=30) == 130
+    log = processes.log("again")
+    assert "Traceback" not in log
+    samples = read_session(session).samples
+    assert len(samples) > 16
+    assert [s.seq for s in samples] == list(range(len(samples)))
+    positions = _positions(link)
+    expected = load_profile("paper16").neutral_positions()
+    assert positions.keys() == expected.keys()
+    for name, value in expected.items():
+        assert positions[name] == pytest.approx(value, abs=1.0)
