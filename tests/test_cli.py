@@ -443,3 +443,31 @@ def test_a_taken_page_port_is_one_error_line(capsys: pytest.CaptureFixture[str])
     err = capsys.readouterr().err
     assert f"facesynth run: error: cannot serve the live face page on {address}" in err
     assert "Traceback" not in err
+
+
+# Issue 20 (what a new user hit on a fresh clone): its rows, in a block of their own.
+
+NEW_USER_CASES = [
+    ("unknown graph name", ["run", "nosuch"], "graph nosuch does not exist (bundled graphs: demo"),
+]
+
+
+@pytest.mark.parametrize(
+    ("argv", "expected"), [c[1:] for c in NEW_USER_CASES], ids=[c[0] for c in NEW_USER_CASES]
+)
+def test_new_user_mistakes_give_one_clear_error(
+    argv: list[str],
+    expected: str,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    test_bad_input_gives_one_clear_error(argv, expected, tmp_path, capsys, monkeypatch)
+
+
+@pytest.mark.parametrize("command", ["run", "render"])
+def test_help_lists_the_bundled_graphs(command: str, capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit):
+        main([command, "--help"])
+    out = " ".join(capsys.readouterr().out.split())
+    assert "a bundled graph by name (demo: " in out and "; face: " in out

@@ -144,13 +144,49 @@ def _located(message: str) -> str:
     return f"{path.rstrip('`')}: {text}" if sep else message
 
 
+def bundled_graphs() -> dict[str, str]:
+    """The graphs shipped with facesynth (``facesynth/app/graphs``): name -> description."""
+    out = {}
+    for file in sorted(GRAPHS_DIR.glob("*.toml")):
+        try:
+            description = tomllib.loads(file.read_text(encoding="utf-8")).get("description", "")
+        except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
+            description = ""
+        out[file.stem] = str(description)
+    return out
+
+
+def graph_help() -> str:
+    """The help of a GRAPH argument: a file, or a bundled graph's name (each listed)."""
+    names = "; ".join(
+        f"{name}: {text}" if text else name for name, text in bundled_graphs().items()
+    )
+    return f"graph file, or a bundled graph by name ({names}); default: demo"
+
+
+def graph_file(path: str | Path | None) -> Path:
+    """The file of a graph argument: a path as given, else a bundled graph of that name
+    (``face`` or ``face.toml``, from any folder; a file of that name here comes first), else
+    the demo graph when none is given."""
+    if path is None:
+        return DEFAULT_GRAPH
+    file = Path(path)
+    if not file.exists() and len(file.parts) == 1:
+        bundled = GRAPHS_DIR / f"{file.name.removesuffix('.toml')}.toml"
+        if bundled.is_file():
+            return bundled
+    return file
+
+
 def load_graph(path: str | Path | None = None, *, plugins: bool = True) -> Graph:
-    """The graph in ``path`` (a TOML file), or the demo graph (see :func:`parse_graph`)."""
-    file = Path(path) if path is not None else DEFAULT_GRAPH
+    """The graph in ``path`` (a TOML file or a bundled graph's name: :func:`graph_file`), or
+    the demo graph (see :func:`parse_graph`)."""
+    file = graph_file(path)
     try:
         text = file.read_text(encoding="utf-8")
     except FileNotFoundError:
-        raise GraphError(f"graph {file} does not exist") from None
+        bundled = ", ".join(bundled_graphs())
+        raise GraphError(f"graph {file} does not exist (bundled graphs: {bundled})") from None
     except (OSError, UnicodeDecodeError) as exc:
         raise GraphError(f"cannot read graph {file}: {exc}") from None
     try:
