@@ -449,6 +449,11 @@ def test_a_taken_page_port_is_one_error_line(capsys: pytest.CaptureFixture[str])
 
 NEW_USER_CASES = [
     ("unknown graph name", ["run", "nosuch"], "graph nosuch does not exist (bundled graphs: demo"),
+    (
+        "wait-for typo",
+        ["sensor", "--wait-for", "points,pionts", "--ticks", "1"],
+        "--wait-for: no service 'pionts' (did you mean points? services: sensor, points,",
+    ),
 ]
 
 

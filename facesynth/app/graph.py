@@ -22,6 +22,7 @@ docker-compose file that runs each node in a container. Command-line flags overr
 
 from __future__ import annotations
 
+import difflib
 import tomllib
 from collections.abc import Mapping
 from pathlib import Path
@@ -82,7 +83,8 @@ def plugin_config(node: Any, where: str) -> msgspec.Struct | None:
 
 
 def check_node(name: str, node: Any, where: str) -> None:
-    """Check a node's name and its robot's (they become parts of keys)."""
+    """Check a node's name and its robot's (they become parts of keys), and that the services
+    a sensor waits for are stages (a misspelt one would be waited for in vain)."""
     try:
         keys.check_name(name, "node")
         robot = getattr(node, "robot", None)
@@ -90,6 +92,14 @@ def check_node(name: str, node: Any, where: str) -> None:
             keys.check_name(robot, "robot")
     except keys.KeyNameError as exc:
         raise GraphError(f"{where}: node {name}: {exc}") from None
+    for service in getattr(node, "wait_for", None) or ():
+        if service not in keys.SERVICES:
+            close = difflib.get_close_matches(service, keys.SERVICES, n=1)
+            hint = f"did you mean {close[0]}? " if close else ""
+            raise GraphError(
+                f"{where}: node {name}: --wait-for: no service {service!r} ({hint}services: "
+                f"{', '.join(keys.SERVICES)})"
+            )
 
 
 def check_graph(graph: Graph, where: str, *, plugins: bool = True) -> Graph:
