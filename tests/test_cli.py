@@ -454,6 +454,21 @@ NEW_USER_CASES = [
         ["sensor", "--wait-for", "points,pionts", "--ticks", "1"],
         "--wait-for: no service 'pionts' (did you mean points? services: sensor, points,",
     ),
+    (
+        "out two folders deep",
+        ["control", "--driver", "record", "--out", "new/deeper/c.jsonl"],
+        "cannot write record file new/deeper/c.jsonl: folder new does not exist",
+    ),
+    (
+        "render two folders deep",
+        ["render", "--out", "new/deeper/o.mp4"],
+        "cannot write video new/deeper/o.mp4: folder new does not exist",
+    ),
+    (
+        "run --render two folders deep",
+        ["run", "--render", "new/deeper/o.mp4", "--ticks", "1"],
+        "folder new does not exist",
+    ),
 ]
 
 
