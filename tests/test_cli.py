@@ -491,3 +491,22 @@ def test_help_lists_the_bundled_graphs(command: str, capsys: pytest.CaptureFixtu
         main([command, "--help"])
     out = " ".join(capsys.readouterr().out.split())
     assert "a bundled graph by name (demo: " in out and "; face: " in out
+
+
+def _closed_port() -> int:
+    import socket
+
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return int(probe.getsockname()[1])
+
+
+def test_record_without_a_router_leaves_no_empty_session(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "x.mcap"
+    connect = f"tcp/127.0.0.1:{_closed_port()}"
+    argv = ["record", "--out", str(out), "--connect", connect, "--router-timeout", "0"]
+    assert main(argv) == 2
+    assert "facesynth record: error: cannot open a Zenoh client session" in capsys.readouterr().err
+    assert not out.exists()

@@ -279,12 +279,16 @@ def cmd_record(args: argparse.Namespace) -> int:
         overwrite=args.overwrite,
     )
     recorder = Recorder(writer, options)
+    recorded = False
     try:
         run_async(
             run_single(zenoh, rig, "record", recorder.serve, stats_interval=args.stats_interval)
         )
+        recorded = True
     finally:
         writer.close()
+        if not recorded and writer.messages == 0:  # e.g. no router: leave no empty session
+            writer.path.unlink(missing_ok=True)
     summary = {
         "out": str(writer.path),
         "messages": sum(recorder.recorded.values()),
