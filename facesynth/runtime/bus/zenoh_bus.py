@@ -23,6 +23,7 @@ import dataclasses
 import json
 import logging
 import os
+import re
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -114,19 +115,43 @@ class ZenohOptions:
         return config
 
 
+_RUST_PLACE = re.compile(r"\s*at \S+\.rs:\d+\.?")
+_OS_ERROR = re.compile(r"\s*\(os error \d+\)")
+_RUST_DEBUG = re.compile(r"\b(?:Single|Some)\(([^()]*)\)")
+
+
+def zenoh_cause(text: str) -> str:
+    """Zenoh's error text without the places in Zenoh's Rust sources it was raised at
+    (``… at /root/.cargo/…/tcp.rs:61.``) and the OS error numbers: the cause alone."""
+    text = _RUST_DEBUG.sub(r"\1", _OS_ERROR.sub("", _RUST_PLACE.sub("", text)))
+    return " ".join(text.replace("[", "").replace("]", "").split()).rstrip(" .")
+
+
 def open_session(options: ZenohOptions) -> zenoh.Session:
-    """Open a Zenoh session, turning Zenoh's errors into :class:`ZenohConfigError`."""
+    """Open a Zenoh session, turning Zenoh's errors into :class:`ZenohConfigError` (one line:
+    the cause, and the option that changes it)."""
     config = options.build()
     try:
         return zenoh.open(config)
     except Exception as exc:
-        where = ", ".join(options.connect or options.listen) or "the configured endpoints"
+        cause = zenoh_cause(str(exc))
         mode = options.mode or "configured"
-        hint = ""
-        if options.mode == "client":
-            hint = " - is a router running there? (start one with: facesynth router)"
+        if "Address already in use" in cause:
+            where = ", ".join(options.listen) or "the configured endpoints"
+            hint = (
+                " - another program listens there: choose another endpoint with --listen "
+                "(e.g. tcp/127.0.0.1:7448; port 0 picks a free one)"
+            )
+        else:
+            where = ", ".join(options.connect or options.listen) or "the configured endpoints"
+            hint = ""
+            if options.mode == "client":
+                hint = (
+                    " - is a router running there? (start one with: facesynth router; or "
+                    "--connect another)"
+                )
         raise ZenohConfigError(
-            f"cannot open a Zenoh {mode} session ({where}): {exc}{hint}"
+            f"cannot open a Zenoh {mode} session ({where}): {cause}{hint}"
         ) from None
 
 
