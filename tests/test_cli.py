@@ -439,9 +439,10 @@ def test_a_taken_page_port_is_one_error_line(capsys: pytest.CaptureFixture[str])
             "--listen",
             "tcp/127.0.0.1:0",
         ]
-        assert main(argv) == 1
+        assert main(argv) == 2  # a usage error: another --http fixes it (issue 20)
     err = capsys.readouterr().err
     assert f"facesynth run: error: cannot serve the live face page on {address}" in err
+    assert "choose another address with --http HOST:PORT" in err
     assert "Traceback" not in err
 
 
@@ -510,3 +511,31 @@ def test_record_without_a_router_leaves_no_empty_session(
     assert main(argv) == 2
     assert "facesynth record: error: cannot open a Zenoh client session" in capsys.readouterr().err
     assert not out.exists()
+
+
+def test_a_taken_foxglove_port_names_the_flag(capsys: pytest.CaptureFixture[str]) -> None:
+    import socket
+
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        address = f"127.0.0.1:{taken.getsockname()[1]}"
+        argv = ["run", "--foxglove", address, "--ticks", "3", "--listen", "tcp/127.0.0.1:0"]
+        argv += ["--openface-csv", str(sample_openface_csv())]
+        assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert f"facesynth run: error: cannot serve Foxglove on {address}" in err
+    assert "choose another address with --foxglove HOST:PORT" in err and "Traceback" not in err
+
+
+def test_a_busy_router_port_names_the_flag(capsys: pytest.CaptureFixture[str]) -> None:
+    import socket
+
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        endpoint = f"tcp/127.0.0.1:{taken.getsockname()[1]}"
+        assert main(["router", "--listen", endpoint]) == 2
+    err = capsys.readouterr().err
+    assert f"facesynth router: error: cannot open a Zenoh router session ({endpoint})" in err
+    assert "Address already in use" in err and "--listen" in err and ".rs:" not in err

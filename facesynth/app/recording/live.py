@@ -116,7 +116,8 @@ class FoxgloveBridge:
             )
         except Exception as exc:  # the SDK raises its own error for a taken port or bad host
             raise LiveViewError(
-                f"cannot serve Foxglove on {self.address.host}:{self.address.port}: {exc}"
+                f"cannot serve Foxglove on {self.address.host}:{self.address.port}: {exc} - "
+                "choose another address with --foxglove HOST:PORT (port 0 picks a free one)"
             ) from None
         return self.server.port
 
