@@ -539,3 +539,33 @@ def test_a_busy_router_port_names_the_flag(capsys: pytest.CaptureFixture[str]) -
     err = capsys.readouterr().err
     assert f"facesynth router: error: cannot open a Zenoh router session ({endpoint})" in err
     assert "Address already in use" in err and "--listen" in err and ".rs:" not in err
+
+
+@pytest.mark.parametrize(
+    ("argv", "usage", "error"),
+    [
+        (
+            ["run", "--profle", "virtual"],
+            "usage: facesynth run ",
+            "facesynth run: error: unrecognized arguments: --profle (did you mean --profile?)",
+        ),
+        (
+            ["sensor", "--vidoe=x.mp4"],
+            "usage: facesynth sensor ",
+            "unrecognized arguments: --vidoe=x.mp4 (did you mean --video?)",
+        ),
+        (
+            ["control", "--qwerty"],
+            "usage: facesynth control ",
+            "facesynth control: error: unrecognized arguments: --qwerty\n",
+        ),
+    ],
+)
+def test_a_misspelt_flag_shows_its_commands_usage_and_a_suggestion(
+    argv: list[str], usage: str, error: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    with pytest.raises(SystemExit) as exit_info:
+        main(argv)
+    assert exit_info.value.code == 2
+    err = capsys.readouterr().err
+    assert err.startswith(usage) and error in err

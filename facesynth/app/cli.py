@@ -22,6 +22,7 @@ from facesynth.app.firmware import add_firmware_arguments, cmd_firmware
 from facesynth.app.graph import graph_help
 from facesynth.app.recording.attach import add_attach_arguments
 from facesynth.app.stage_args import add_stage_arguments
+from facesynth.app.usage import parse_arguments
 from facesynth.runtime import keys
 from services.control.drivers.base import DriverError
 from services.points.tracker.runtimes import backend_choices
@@ -396,7 +397,7 @@ def _model_arguments(parser: argparse.ArgumentParser) -> None:
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``facesynth`` console script."""
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args = parse_arguments(parser, argv)
     logging.basicConfig(
         level=getattr(args, "log_level", "INFO"),
         format="%(asctime)s %(name)s %(levelname)s %(message)s",
