@@ -569,3 +569,16 @@ def test_a_misspelt_flag_shows_its_commands_usage_and_a_suggestion(
     assert exit_info.value.code == 2
     err = capsys.readouterr().err
     assert err.startswith(usage) and error in err
+
+
+def test_the_foxglove_address_is_said_once(
+    capsys: pytest.CaptureFixture[str], caplog: pytest.LogCaptureFixture
+) -> None:
+    import logging
+
+    argv = ["run", "--foxglove", "127.0.0.1:0", "--ticks", "3", "--listen", "tcp/127.0.0.1:0"]
+    argv += ["--openface-csv", str(sample_openface_csv()), "--out", "/dev/null"]
+    with caplog.at_level(logging.INFO):
+        assert main(argv) == 0
+    said = capsys.readouterr().out + "\n".join(r.getMessage() for r in caplog.records)
+    assert said.count("ws://127.0.0.1:") == 1, said

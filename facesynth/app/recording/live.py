@@ -163,7 +163,8 @@ class FoxgloveBridge:
         ctx.subscriptions.append(stats)
         subscriptions.append(stats)
         ctx.ready()
-        ctx.log.info("Foxglove live view of rig %s on %s", ctx.rig, self.url)
+        ctx.log.debug("Foxglove live view of rig %s on %s", ctx.rig, self.url)  # said once, by
+        # the command that started it (inspect, run --foxglove): not again here
 
         async def pump(subscription: Subscription) -> None:
             async for sample in subscription:
