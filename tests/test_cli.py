@@ -582,3 +582,38 @@ def test_the_foxglove_address_is_said_once(
         assert main(argv) == 0
     said = capsys.readouterr().out + "\n".join(r.getMessage() for r in caplog.records)
     assert said.count("ws://127.0.0.1:") == 1, said
+
+
+def _help(argv: list[str], capsys: pytest.CaptureFixture[str]) -> str:
+    with pytest.raises(SystemExit):
+        main([*argv, "--help"])
+    return " ".join(capsys.readouterr().out.split())
+
+
+@pytest.mark.parametrize("command", ["run", "sensor", "points", "control", "render"])
+def test_help_says_nothing_twice(command: str, capsys: pytest.CaptureFixture[str]) -> None:
+    """Issue 20: `camera: camera: requested width`, summaries cut at a line break, `.;`."""
+    text = _help([command], capsys)
+    assert not re.search(r"\b(\w+): \1: ", text), "a plugin's name said twice"
+    assert ".;" not in text and "and the;" not in text
+    if command in ("run", "points"):
+        whole = (
+            "track: Replay of a ``facesynth track`` JSON-lines file (mesh, iris and 68-point "
+            "views, and the blendshapes when the file has them);"
+        )
+        assert whole in text
+
+
+def test_list_drivers_says_each_default_once(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["control", "--list-drivers"]) == 0
+    out = capsys.readouterr().out
+    assert "pages open at once (default 16)\n" in out
+    assert not re.search(r"\(default ([^()]*)\) \(default \1\)", out)
+    assert "(default 127.0.0.1:8080; port 0 = any free port)\n" in out
+
+
+def test_profile_show_has_a_header(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["profile", "show", "paper16"]) == 0
+    header, first = capsys.readouterr().out.splitlines()[:2]
+    assert header.split() == ["ch", "servo", "min_us", "neutral", "max_us", "reversed", "source"]
+    assert first.split()[:5] == ["0", "right_eyebrow", "1000", "1500", "2000"]
