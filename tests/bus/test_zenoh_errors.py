@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import socket
+from pathlib import Path
 
 import pytest
 
@@ -53,3 +54,13 @@ def test_a_busy_listen_port_names_the_flag() -> None:
     assert f"cannot open a Zenoh router session ({endpoint}):" in message
     assert "Address already in use - another program listens there" in message
     assert "with --listen" in message and ".rs" not in message and "os error" not in message
+
+
+def test_a_broken_config_file_is_one_line_without_zenohs_internals(tmp_path: Path) -> None:
+    path = tmp_path / "bad.json5"
+    path.write_text("{ mode: ")
+    with pytest.raises(ZenohConfigError) as error:
+        ZenohOptions(config_file=str(path)).build()
+    message = str(error.value)
+    assert message.startswith(f"cannot load Zenoh config {path}: ")
+    assert "\n" not in message and ".rs:" not in message and "expected array" in message

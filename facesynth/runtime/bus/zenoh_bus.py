@@ -97,7 +97,9 @@ class ZenohOptions:
         try:
             config = zenoh.Config.from_file(path) if path else zenoh.Config()
         except Exception as exc:  # zenoh raises its own ZError for unreadable or invalid files
-            raise ZenohConfigError(f"cannot load Zenoh config {path}: {exc}") from None
+            raise ZenohConfigError(
+                f"cannot load Zenoh config {path}: {zenoh_cause(str(exc))}"
+            ) from None
         try:
             if self.mode is not None:
                 config.insert_json5("mode", json.dumps(self.mode))
@@ -111,7 +113,7 @@ class ZenohOptions:
             for path, value in self.overrides.items():
                 config.insert_json5(path, json.dumps(value))
         except Exception as exc:
-            raise ZenohConfigError(f"invalid Zenoh option: {exc}") from None
+            raise ZenohConfigError(f"invalid Zenoh option: {zenoh_cause(str(exc))}") from None
         return config
 
 
