@@ -456,6 +456,11 @@ NEW_USER_CASES = [
         "--wait-for: no service 'pionts' (did you mean points? services: sensor, points,",
     ),
     (
+        "replay wait-for typo",
+        ["replay", "x.mcap", "--wait-for", "featuers"],
+        "--wait-for: no service 'featuers' (did you mean features?",
+    ),
+    (
         "out two folders deep",
         ["control", "--driver", "record", "--out", "new/deeper/c.jsonl"],
         "cannot write record file new/deeper/c.jsonl: folder new does not exist",

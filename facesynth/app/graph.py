@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import difflib
 import tomllib
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -92,14 +92,21 @@ def check_node(name: str, node: Any, where: str) -> None:
             keys.check_name(robot, "robot")
     except keys.KeyNameError as exc:
         raise GraphError(f"{where}: node {name}: {exc}") from None
-    for service in getattr(node, "wait_for", None) or ():
+    problem = wait_for_problem(getattr(node, "wait_for", None) or ())
+    if problem:
+        raise GraphError(f"{where}: node {name}: {problem}")
+
+
+def wait_for_problem(services: Sequence[str]) -> str | None:
+    """Why a ``--wait-for`` list names a service that never comes (not a stage), or None."""
+    for service in services:
         if service not in keys.SERVICES:
             close = difflib.get_close_matches(service, keys.SERVICES, n=1)
             hint = f"did you mean {close[0]}? " if close else ""
-            raise GraphError(
-                f"{where}: node {name}: --wait-for: no service {service!r} ({hint}services: "
-                f"{', '.join(keys.SERVICES)})"
+            return (
+                f"--wait-for: no service {service!r} ({hint}services: {', '.join(keys.SERVICES)})"
             )
+    return None
 
 
 def check_graph(graph: Graph, where: str, *, plugins: bool = True) -> Graph:

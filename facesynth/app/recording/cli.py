@@ -332,10 +332,14 @@ def cmd_replay(args: argparse.Namespace) -> int:
     """``facesynth replay``."""
     _need_extra()
     from facesynth.app.chain import run_single
+    from facesynth.app.graph import wait_for_problem
     from facesynth.app.recording.reader import Recording
-    from facesynth.app.recording.replay import Replayer, ReplayOptions
+    from facesynth.app.recording.replay import Replayer, ReplayOptionError, ReplayOptions
     from facesynth.runtime.service import run_async
 
+    problem = wait_for_problem(endpoints(args.wait_for))
+    if problem:
+        raise ReplayOptionError(problem)
     options = ReplayOptions(
         stage=args.from_stage,
         speed=args.speed,
