@@ -2,21 +2,23 @@
 
 The bundled video opens on a sad face with the inner brows raised (the tracker's browInnerUp
 0.29-0.43 over the first second), which F used to take as the neutral: every later resting brow
-then read as lowered, and in the laugh the virtual face's brows sat at their minimum. Measured
-over the frames after the first second where the performer smiles or laughs (mean mouthSmile
->= 0.5) and the tracker's own brow blendshapes say the brows are at rest (browDown*,
-browInnerUp, browOuterUp* all <= 0.2): 156 frames, 94 of them in the laugh (from frame 230).
-Shares of travel from neutral, before -> after the brows' neutral was taken from a second of
-resting brows (services.features.brow_rest):
+then read as lowered, and in the laugh the virtual face's brows sat at their minimum.
 
-* virtual_bs brows (blendshape brows): within +-0.25 of neutral 6 % / 16 % -> 100 % / 100 %;
-* virtual brows (geometric): median -0.91 / -1.00 -> +0.00 / -0.32 (at -0.5 or lower: 85 % /
-  99 % -> 18 % / 33 %);
-* head16 brows: median -0.86 / -0.98 / -1.00 -> +0.00 / -0.27 / -0.25.
+Measured over the frames after the first second where the performer smiles or laughs (mean
+mouthSmile >= 0.5) and the tracker's own brow blendshapes say the brows are at rest (browDown*,
+browInnerUp, browOuterUp* all <= 0.2): 163 frames, 95 of them in the laugh (from frame 230).
+Shares of travel from neutral, right / left, before -> after the brows' neutral was taken from
+a second of resting brows (services.features.brow_rest; ``python tools/brows_at_laugh.py``):
 
-paper16's left and middle eyebrows still read lowered there (median -1.00 / -0.84): its 2D
+* virtual_bs brows (blendshape brows): within +-0.25 of neutral 12 % / 40 % -> 100 % / 99 %;
+* virtual brows (geometric): median -0.76 / -0.97 -> +0.00 / -0.35 (at -0.5 or lower: 72 % /
+  99 % -> 13 % / 31 %);
+* head16 brows (right, left, middle): median -0.71 / -0.92 / -1.00 -> +0.00 / -0.30 / -0.23.
+
+paper16's left and middle eyebrows still read lowered there (median -1.00 / -0.86): its 2D
 nose distances shorten on the side the head turns away from (the laugh is turned 15-24 degrees
-to her left), which is not the neutral's doing.
+to her left; the left brow's distance falls 0.005 inter-ocular units per degree of yaw on
+resting-brow frames), which is not the neutral's doing.
 """
 
 from __future__ import annotations
