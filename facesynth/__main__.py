@@ -1,5 +1,5 @@
 """``python -m facesynth`` runs the ``facesynth`` command."""
 
-from facesynth.app.cli import main
+from facesynth.app.entry import main
 
 raise SystemExit(main())

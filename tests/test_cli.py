@@ -536,7 +536,186 @@ def test_a_taken_page_port_is_one_error_line(capsys: pytest.CaptureFixture[str])
             "--listen",
             "tcp/127.0.0.1:0",
         ]
-        assert main(argv) == 1
+        assert main(argv) == 2  # a usage error: another --http fixes it (issue 20)
     err = capsys.readouterr().err
     assert f"facesynth run: error: cannot serve the live face page on {address}" in err
+    assert "choose another address with --http HOST:PORT" in err
     assert "Traceback" not in err
+
+
+# Issue 20 (what a new user hit on a fresh clone): its rows, in a block of their own.
+
+NEW_USER_CASES = [
+    ("unknown graph name", ["run", "nosuch"], "graph nosuch does not exist (bundled graphs: demo"),
+    (
+        "wait-for typo",
+        ["sensor", "--wait-for", "points,pionts", "--ticks", "1"],
+        "--wait-for: no service 'pionts' (did you mean points? services: sensor, points,",
+    ),
+    (
+        "replay wait-for typo",
+        ["replay", "x.mcap", "--wait-for", "featuers"],
+        "--wait-for: no service 'featuers' (did you mean features?",
+    ),
+    (
+        "out two folders deep",
+        ["control", "--driver", "record", "--out", "new/deeper/c.jsonl"],
+        "cannot write record file new/deeper/c.jsonl: folder new does not exist",
+    ),
+    (
+        "render two folders deep",
+        ["render", "--out", "new/deeper/o.mp4"],
+        "cannot write video new/deeper/o.mp4: folder new does not exist",
+    ),
+    (
+        "run --render two folders deep",
+        ["run", "--render", "new/deeper/o.mp4", "--ticks", "1"],
+        "folder new does not exist",
+    ),
+]
+
+
+@pytest.mark.parametrize(
+    ("argv", "expected"), [c[1:] for c in NEW_USER_CASES], ids=[c[0] for c in NEW_USER_CASES]
+)
+def test_new_user_mistakes_give_one_clear_error(
+    argv: list[str],
+    expected: str,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    test_bad_input_gives_one_clear_error(argv, expected, tmp_path, capsys, monkeypatch)
+
+
+@pytest.mark.parametrize("command", ["run", "render"])
+def test_help_lists_the_bundled_graphs(command: str, capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit):
+        main([command, "--help"])
+    out = " ".join(capsys.readouterr().out.split())
+    assert "a bundled graph by name (demo: " in out and "; face: " in out
+
+
+def _closed_port() -> int:
+    import socket
+
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return int(probe.getsockname()[1])
+
+
+def test_record_without_a_router_leaves_no_empty_session(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "x.mcap"
+    connect = f"tcp/127.0.0.1:{_closed_port()}"
+    argv = ["record", "--out", str(out), "--connect", connect, "--router-timeout", "0"]
+    assert main(argv) == 2
+    assert "facesynth record: error: cannot open a Zenoh client session" in capsys.readouterr().err
+    assert not out.exists()
+
+
+def test_a_taken_foxglove_port_names_the_flag(capsys: pytest.CaptureFixture[str]) -> None:
+    import socket
+
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        address = f"127.0.0.1:{taken.getsockname()[1]}"
+        argv = ["run", "--foxglove", address, "--ticks", "3", "--listen", "tcp/127.0.0.1:0"]
+        argv += ["--openface-csv", str(sample_openface_csv())]
+        assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert f"facesynth run: error: cannot serve Foxglove on {address}" in err
+    assert "choose another address with --foxglove HOST:PORT" in err and "Traceback" not in err
+
+
+def test_a_busy_router_port_names_the_flag(capsys: pytest.CaptureFixture[str]) -> None:
+    import socket
+
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        endpoint = f"tcp/127.0.0.1:{taken.getsockname()[1]}"
+        assert main(["router", "--listen", endpoint]) == 2
+    err = capsys.readouterr().err
+    assert f"facesynth router: error: cannot open a Zenoh router session ({endpoint})" in err
+    assert "Address already in use" in err and "--listen" in err and ".rs:" not in err
+
+
+@pytest.mark.parametrize(
+    ("argv", "usage", "error"),
+    [
+        (
+            ["run", "--profle", "virtual"],
+            "usage: facesynth run ",
+            "facesynth run: error: unrecognized arguments: --profle (did you mean --profile?)",
+        ),
+        (
+            ["sensor", "--vidoe=x.mp4"],
+            "usage: facesynth sensor ",
+            "unrecognized arguments: --vidoe=x.mp4 (did you mean --video?)",
+        ),
+        (
+            ["control", "--qwerty"],
+            "usage: facesynth control ",
+            "facesynth control: error: unrecognized arguments: --qwerty\n",
+        ),
+    ],
+)
+def test_a_misspelt_flag_shows_its_commands_usage_and_a_suggestion(
+    argv: list[str], usage: str, error: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    with pytest.raises(SystemExit) as exit_info:
+        main(argv)
+    assert exit_info.value.code == 2
+    err = capsys.readouterr().err
+    assert err.startswith(usage) and error in err
+
+
+def test_the_foxglove_address_is_said_once(
+    capsys: pytest.CaptureFixture[str], caplog: pytest.LogCaptureFixture
+) -> None:
+    import logging
+
+    argv = ["run", "--foxglove", "127.0.0.1:0", "--ticks", "3", "--listen", "tcp/127.0.0.1:0"]
+    argv += ["--openface-csv", str(sample_openface_csv()), "--out", "/dev/null"]
+    with caplog.at_level(logging.INFO):
+        assert main(argv) == 0
+    said = capsys.readouterr().out + "\n".join(r.getMessage() for r in caplog.records)
+    assert said.count("ws://127.0.0.1:") == 1, said
+
+
+def _help(argv: list[str], capsys: pytest.CaptureFixture[str]) -> str:
+    with pytest.raises(SystemExit):
+        main([*argv, "--help"])
+    return " ".join(capsys.readouterr().out.split())
+
+
+@pytest.mark.parametrize("command", ["run", "sensor", "points", "control", "render"])
+def test_help_says_nothing_twice(command: str, capsys: pytest.CaptureFixture[str]) -> None:
+    """Issue 20: `camera: camera: requested width`, summaries cut at a line break, `.;`."""
+    text = _help([command], capsys)
+    assert not re.search(r"\b(\w+): \1: ", text), "a plugin's name said twice"
+    assert ".;" not in text and "and the;" not in text
+    if command in ("run", "points"):
+        whole = (
+            "track: Replay of a ``facesynth track`` JSON-lines file (mesh, iris and 68-point "
+            "views, and the blendshapes when the file has them);"
+        )
+        assert whole in text
+
+
+def test_list_drivers_says_each_default_once(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["control", "--list-drivers"]) == 0
+    out = capsys.readouterr().out
+    assert "pages open at once (default 16)\n" in out
+    assert not re.search(r"\(default ([^()]*)\) \(default \1\)", out)
+    assert "(default 127.0.0.1:8080; port 0 = any free port)\n" in out
+
+
+def test_profile_show_has_a_header(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["profile", "show", "paper16"]) == 0
+    header, first = capsys.readouterr().out.splitlines()[:2]
+    assert header.split() == ["ch", "servo", "min_us", "neutral", "max_us", "reversed", "source"]
+    assert first.split()[:5] == ["0", "right_eyebrow", "1000", "1500", "2000"]

@@ -173,7 +173,7 @@ class PluginFlags:
         """Declare ``--NAME``, ``--NAME-config`` and every plugin's field flags."""
         kind = self.registry.kind
         group = parser.add_argument_group(f"{kind} ({', '.join(self.registry.names())})")
-        summaries = "; ".join(f"{p.name}: {p.summary}" for p in self.registry)
+        summaries = "; ".join(f"{p.name}: {p.summary.rstrip('.')}" for p in self.registry)
         group.add_argument(
             self.selector,
             dest=f"plugin_{kind}",
@@ -199,7 +199,9 @@ class PluginFlags:
                     for p in self.registry
                     if any(f.flag == flag.flag for f in self._plugin_flags(p))
                 ]
-                flag_help = f"{'/'.join(owners)}: {flag.help}" if flag.help else None
+                prefix = f"{'/'.join(owners)}: "
+                text = flag.help.removeprefix(prefix) if flag.help else None  # not said twice
+                flag_help = prefix + text if text else None
                 seen.add(flag.flag)
                 group.add_argument(
                     flag.flag,

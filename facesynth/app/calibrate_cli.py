@@ -83,7 +83,10 @@ def run_calibration(args: argparse.Namespace, out: TextIO | None = None) -> Path
     """Record and save a calibration; return its path. Progress goes to ``out`` (stdout)."""
     out = out if out is not None else sys.stdout
     check_name(args.name, "calibration")
-    check_output(Path(args.out) if args.out else default_path(args.name), "calibration")
+    if args.out:
+        check_output(args.out, "calibration")
+    else:  # the default place (~/.config/facesynth/calibrations) is made whole
+        check_output(default_path(args.name), "calibration", make_parents=True)
     _, backend_config = apply_arguments("points", PointsNode(), args)
     _, source_config = apply_arguments("sensor", SensorNode(), args)
     backend = build_backend(backend_config)

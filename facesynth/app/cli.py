@@ -19,8 +19,10 @@ from facesynth.app import status
 from facesynth.app.bench.command import add_bench_arguments, cmd_bench
 from facesynth.app.control_tools import add_tool_arguments
 from facesynth.app.firmware import add_firmware_arguments, cmd_firmware
+from facesynth.app.graph import graph_help
 from facesynth.app.recording.attach import add_attach_arguments
 from facesynth.app.stage_args import add_stage_arguments
+from facesynth.app.usage import parse_arguments
 from facesynth.runtime import keys
 from services.control.drivers.base import DriverError
 from services.points.tracker.runtimes import backend_choices
@@ -135,7 +137,7 @@ def build_parser() -> argparse.ArgumentParser:
         "run a chain graph (default: the demo, S → P → F → T → C) in one process on an "
         "embedded Zenoh router",
     )
-    p.add_argument("graph", nargs="?", metavar="GRAPH", help="graph file (default: the demo graph)")
+    p.add_argument("graph", nargs="?", metavar="GRAPH", help=graph_help())
     add_stage_arguments(p, keys.SERVICES)
     add_attach_arguments(p)
     _zenoh_arguments(p)
@@ -172,7 +174,7 @@ def build_parser() -> argparse.ArgumentParser:
         "write the side-by-side video of a chain's input video: performer with landmarks | "
         "virtual face | servo bars, one output frame per input frame",
     )
-    p.add_argument("graph", nargs="?", metavar="GRAPH", help="graph file (default: the demo graph)")
+    p.add_argument("graph", nargs="?", metavar="GRAPH", help=graph_help())
     p.add_argument("--out", required=True, metavar="OUT.mp4", help="video file (.mp4, .avi, …)")
     p.add_argument(
         "--bars",
@@ -401,7 +403,7 @@ def _model_arguments(parser: argparse.ArgumentParser) -> None:
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``facesynth`` console script."""
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args = parse_arguments(parser, argv)
     logging.basicConfig(
         level=getattr(args, "log_level", "INFO"),
         format="%(asctime)s %(name)s %(levelname)s %(message)s",

@@ -322,6 +322,9 @@ def cmd_profile(args: argparse.Namespace) -> int:
         print(f"{args.name}: ok ({len(profile.servos)} servos)")
         return 0
     profile = load_profile(args.name)
+    print(
+        f"{'ch':>3} {'servo':<20} {'min_us':>7} {'neutral':>7} {'max_us':>7} {'reversed':<8} source"
+    )
     for spec in profile.servos:
         print(
             f"{spec.channel:>3} {spec.name:<20} {spec.min_us:>7g} {spec.neutral_us:>7g} "

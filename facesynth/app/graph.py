@@ -22,8 +22,9 @@ docker-compose file that runs each node in a container. Command-line flags overr
 
 from __future__ import annotations
 
+import difflib
 import tomllib
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -82,7 +83,8 @@ def plugin_config(node: Any, where: str) -> msgspec.Struct | None:
 
 
 def check_node(name: str, node: Any, where: str) -> None:
-    """Check a node's name and its robot's (they become parts of keys)."""
+    """Check a node's name and its robot's (they become parts of keys), and that the services
+    a sensor waits for are stages (a misspelt one would be waited for in vain)."""
     try:
         keys.check_name(name, "node")
         robot = getattr(node, "robot", None)
@@ -90,6 +92,21 @@ def check_node(name: str, node: Any, where: str) -> None:
             keys.check_name(robot, "robot")
     except keys.KeyNameError as exc:
         raise GraphError(f"{where}: node {name}: {exc}") from None
+    problem = wait_for_problem(getattr(node, "wait_for", None) or ())
+    if problem:
+        raise GraphError(f"{where}: node {name}: {problem}")
+
+
+def wait_for_problem(services: Sequence[str]) -> str | None:
+    """Why a ``--wait-for`` list names a service that never comes (not a stage), or None."""
+    for service in services:
+        if service not in keys.SERVICES:
+            close = difflib.get_close_matches(service, keys.SERVICES, n=1)
+            hint = f"did you mean {close[0]}? " if close else ""
+            return (
+                f"--wait-for: no service {service!r} ({hint}services: {', '.join(keys.SERVICES)})"
+            )
+    return None
 
 
 def check_graph(graph: Graph, where: str, *, plugins: bool = True) -> Graph:
@@ -144,13 +161,49 @@ def _located(message: str) -> str:
     return f"{path.rstrip('`')}: {text}" if sep else message
 
 
+def bundled_graphs() -> dict[str, str]:
+    """The graphs shipped with facesynth (``facesynth/app/graphs``): name -> description."""
+    out = {}
+    for file in sorted(GRAPHS_DIR.glob("*.toml")):
+        try:
+            description = tomllib.loads(file.read_text(encoding="utf-8")).get("description", "")
+        except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
+            description = ""
+        out[file.stem] = str(description)
+    return out
+
+
+def graph_help() -> str:
+    """The help of a GRAPH argument: a file, or a bundled graph's name (each listed)."""
+    names = "; ".join(
+        f"{name}: {text}" if text else name for name, text in bundled_graphs().items()
+    )
+    return f"graph file, or a bundled graph by name ({names}); default: demo"
+
+
+def graph_file(path: str | Path | None) -> Path:
+    """The file of a graph argument: a path as given, else a bundled graph of that name
+    (``face`` or ``face.toml``, from any folder; a file of that name here comes first), else
+    the demo graph when none is given."""
+    if path is None:
+        return DEFAULT_GRAPH
+    file = Path(path)
+    if not file.exists() and len(file.parts) == 1:
+        bundled = GRAPHS_DIR / f"{file.name.removesuffix('.toml')}.toml"
+        if bundled.is_file():
+            return bundled
+    return file
+
+
 def load_graph(path: str | Path | None = None, *, plugins: bool = True) -> Graph:
-    """The graph in ``path`` (a TOML file), or the demo graph (see :func:`parse_graph`)."""
-    file = Path(path) if path is not None else DEFAULT_GRAPH
+    """The graph in ``path`` (a TOML file or a bundled graph's name: :func:`graph_file`), or
+    the demo graph (see :func:`parse_graph`)."""
+    file = graph_file(path)
     try:
         text = file.read_text(encoding="utf-8")
     except FileNotFoundError:
-        raise GraphError(f"graph {file} does not exist") from None
+        bundled = ", ".join(bundled_graphs())
+        raise GraphError(f"graph {file} does not exist (bundled graphs: {bundled})") from None
     except (OSError, UnicodeDecodeError) as exc:
         raise GraphError(f"cannot read graph {file}: {exc}") from None
     try:

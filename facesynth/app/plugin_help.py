@@ -15,6 +15,8 @@ def describe_plugins(registry: Registry[Any]) -> str:
         lines = [f"{plugin.name}: {plugin.summary}"]
         for flag in struct_flags(plugin.config):
             default = _default(plugin.config, flag.field)
+            if "default" in flag.help.lower():  # the help says it already
+                default = ""
             lines.append(f"  {flag.flag:<18} {flag.help}{default}")
         blocks.append("\n".join(lines))
     return "\n".join(blocks)

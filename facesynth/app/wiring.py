@@ -7,8 +7,10 @@ the CLI prints it and exits with status 2.
 from __future__ import annotations
 
 import argparse
+import logging
 from collections.abc import Awaitable, Callable
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import msgspec
@@ -24,7 +26,7 @@ from facesynth.app.nodes import (
     stage_of,
 )
 from facesynth.runtime.bus.zenoh_bus import DEFAULT_ROUTER, ZenohOptions, endpoints
-from facesynth.runtime.calibration import Calibration, load_calibration
+from facesynth.runtime.calibration import Calibration, load_calibration, resolve_calibration
 from facesynth.runtime.feature_names import BLENDSHAPE_NAMES
 from facesynth.runtime.profiles import Profile, load_profile
 from facesynth.runtime.service import ServiceContext
@@ -124,9 +126,27 @@ def build_profile(name: str, mirror: bool) -> Profile:
     return profile
 
 
+#: Calibration files already confirmed in the log (F and T of one process load the same one).
+_CONFIRMED: set[Path] = set()
+
+
 def build_calibration(name: str | None) -> Calibration | None:
-    """The calibration called ``name``, if any."""
-    return load_calibration(name) if name else None
+    """The calibration called ``name``, if any; the file it came from, the performer and when it
+    was made are logged once per process (logger ``facesynth.calibration``)."""
+    if not name:
+        return None
+    calibration = load_calibration(name)
+    path = resolve_calibration(name).resolve()
+    if path not in _CONFIRMED:
+        _CONFIRMED.add(path)
+        logging.getLogger("facesynth.calibration").info(
+            "calibration %s: %s (performer %s, made %s)",
+            name,
+            path,
+            calibration.name,
+            calibration.created or "at an unrecorded time",
+        )
+    return calibration
 
 
 def build_processor(node: FeaturesNode, default_neutral_s: float = 1.0) -> FeatureProcessor:

@@ -91,8 +91,9 @@ class Registry(Generic[T]):
         name = struct_config.tag
 
         def decorate(factory: C) -> C:
-            doc = (factory.__doc__ or config.__doc__ or "").strip().splitlines()
-            self._plugins[name] = Plugin(name, config, factory, doc[0] if doc else "")
+            doc = (factory.__doc__ or config.__doc__ or "").strip()
+            summary = " ".join(doc.split("\n\n")[0].split())  # the first paragraph, whole
+            self._plugins[name] = Plugin(name, config, factory, summary)
             return factory
 
         return decorate

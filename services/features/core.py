@@ -32,6 +32,7 @@ from facesynth.runtime import blendshapes
 from facesynth.runtime.calibration import Calibration
 from facesynth.runtime.landmarks import IBUG68, IRIS10, MESH468, MESH478, N_IBUG, NOSE_TIP
 from schemas.messages import Features, Points
+from services.features.brow_rest import BROW_NAMED, BROW_POINTS, BrowRest, window_at_rest
 from services.features.expressions import (
     HEAD,
     default_ranges,
@@ -211,6 +212,11 @@ class FeatureProcessor:
         self.gaze = GazeHold()
         self.auto_range = auto_range
         self.auto: AutoNeutral | None = None
+        #: Whether the brows' part of a neutral F measures may be taken again (``brow_rest``):
+        #: never for a calibration's or a given neutral, nor with auto range (it adapts anyway).
+        self._brows_may_move = calibration is None and neutral is None and not auto_range
+        #: The search for the brows' neutral while the measured one's brows were not at rest.
+        self.brows: BrowRest | None = None
 
     @classmethod
     def from_calibration(
@@ -223,6 +229,8 @@ class FeatureProcessor:
         neutral = neutral_face(
             self.window.samples, self.reference, use_mesh=self.use_mesh is not False
         )
+        if self._brows_may_move and window_at_rest(self.window.samples) is False:
+            self.brows = BrowRest(self.window.window_ns / 1e9)
         self.window.samples = []
         self.frame_neutral = neutral.frame
         self.reference = neutral.reference
@@ -259,6 +267,10 @@ class FeatureProcessor:
         sample = Sample(ibug, frame, mesh, iris, scores)
         if self.frame_neutral is None and self.window.add(t, sample):
             self._complete_neutral()
+        elif self.brows is not None:
+            rest = self.brows.add(t, sample)
+            if rest is not None:
+                self._rebase_brows(rest)
         distance_neutral = self.estimator.neutral if ready else None
         frame_neutral = self.frame_neutral
         named: dict[str, float] = {}
@@ -278,12 +290,18 @@ class FeatureProcessor:
             for key in GAZE:
                 rel.pop(key, None)
             rel.update(held)
+            if self.brows is not None:  # the brows' rest is not known yet: hold them
+                rel.update((name, 0.0) for name in BROW_NAMED if name in rel)
             ranges = self.ranges if self.auto is None else self.auto.range.update(t, rel)
             named = scale(rel, ranges)
-        deltas = (distances - distance_neutral).tolist() if distance_neutral is not None else []
-        displacements = (
-            ((frame - frame_neutral) * _Y_UP).ravel().tolist() if frame_neutral is not None else []
-        )
+        delta = distances - distance_neutral if distance_neutral is not None else None
+        moved = (frame - frame_neutral) * _Y_UP if frame_neutral is not None else None
+        if self.brows is not None:  # and their points' deltas and displacements
+            for array in (delta, moved):
+                if array is not None:
+                    array[BROW_POINTS] = 0.0
+        deltas = delta.tolist() if delta is not None else []
+        displacements = moved.ravel().tolist() if moved is not None else []
         return Features(
             seq=points.seq,
             t_capture_ns=points.t_capture_ns,
@@ -296,6 +314,22 @@ class FeatureProcessor:
             raw=rel,
             displacements=displacements,
         )
+
+    def _rebase_brows(self, samples: list[Sample]) -> None:
+        """Take the brows' part of the neutral from ``samples`` (brows at rest)."""
+        self.brows = None
+        rest = neutral_face(samples, self.reference, use_mesh=self.use_mesh is not False)
+        if self.named_neutral is not None:
+            self.named_neutral.update(
+                (name, value) for name, value in rest.named.items() if name in BROW_NAMED
+            )
+        if self.frame_neutral is not None:
+            self.frame_neutral = self.frame_neutral.copy()
+            self.frame_neutral[BROW_POINTS] = rest.frame[BROW_POINTS]
+        if self.estimator.neutral is not None:
+            distances = np.median(np.stack([nose_distances(s.frame) for s in samples]), axis=0)
+            self.estimator.neutral = self.estimator.neutral.copy()
+            self.estimator.neutral[BROW_POINTS] = distances[BROW_POINTS]
 
     def _raw(
         self,

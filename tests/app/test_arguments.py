@@ -178,4 +178,4 @@ def test_help_names_every_plugin_of_a_shared_flag(plugin_flags: PluginFlags) -> 
     plugin_flags.add(parser, set(), "file")
     text = " ".join(parser.format_help().split())
     assert "file/port: again and again" in text
-    assert "reader (default file). file: Read a file.; port: Read a port." in text
+    assert "reader (default file). file: Read a file; port: Read a port" in text  # no ".;"

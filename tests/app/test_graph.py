@@ -129,3 +129,24 @@ def test_graph_to_toml_round_trips(tmp_path: Path) -> None:
     path = tmp_path / "g.toml"
     path.write_text(graph_to_toml(graph))
     assert load_graph(path) == graph
+
+
+def test_bundled_graphs_by_name_from_any_folder(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Issue 20: `facesynth run face` works outside the checkout; a local file comes first."""
+    from facesynth.app.graph import GRAPHS_DIR, bundled_graphs, graph_file, graph_help
+
+    monkeypatch.chdir(tmp_path)
+    assert set(bundled_graphs()) == {"demo", "face"}
+    assert graph_file("face") == graph_file("face.toml") == GRAPHS_DIR / "face.toml"
+    assert load_graph("face").nodes["page"].driver == {
+        "driver": "virtual",
+        "http": "127.0.0.1:8080",
+    }
+    assert load_graph("demo").description == load_graph().description
+    (tmp_path / "face").write_text('[nodes.f]\nstage = "features"\n')
+    assert list(load_graph("face").nodes) == ["f"]
+    assert graph_file("sub/face") == Path("sub/face")  # a path is never a bundled name
+    for name, description in bundled_graphs().items():
+        assert description and f"{name}: {description}" in graph_help()

@@ -28,7 +28,7 @@ SESSION_KEYS = {"started_ns", "profile", "host", "pid"}
 
 
 async def test_lines_have_exactly_the_documented_keys(tmp_path: Path) -> None:
-    out = tmp_path / "deep" / "dir" / "commands.jsonl"
+    out = tmp_path / "dir" / "commands.jsonl"  # its own folder is made (not a deeper tree)
     driver = RecordDriver(RecordConfig(out=str(out)))
     before = time.time_ns()
     await driver.connect()

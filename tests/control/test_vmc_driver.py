@@ -226,3 +226,14 @@ def test_the_shipped_arkit52_profile_goes_out_as_its_blendshapes() -> None:
     weights = mapping.blendshapes(positions)
     assert weights["jawOpen"] == pytest.approx(0.64) and weights["mouthSmileLeft"] == 0.0
     assert set(weights) == set(ARKIT52) - {"tongueOut"}
+
+
+async def test_where_it_sends_is_logged(caplog: pytest.LogCaptureFixture) -> None:
+    """Issue 20: `--driver vmc` says where its UDP goes (nothing else would tell)."""
+    import logging
+
+    driver = VmcDriver(VmcConfig(host="127.0.0.1", port=39600), load_profile("virtual"))
+    with caplog.at_level(logging.INFO, logger="facesynth.control"):
+        await driver.connect()
+    await driver.close()
+    assert any("vmc: sending to 127.0.0.1:39600 over UDP" in r.getMessage() for r in caplog.records)

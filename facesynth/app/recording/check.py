@@ -23,7 +23,7 @@ from mcap.records import Channel, Chunk, Footer, Header, Message, Metadata, Sche
 from mcap.stream_reader import breakup_chunk
 from mcap.writer import CompressionType, Writer
 
-from facesynth.app.recording.layout import METADATA_NAME, PROFILE
+from facesynth.app.recording.layout import ANNOTATIONS, IMAGE, METADATA_NAME, PROFILE, ROLE_FIELD
 from facesynth.app.recording.reader import DAMAGED, MAGIC, RecordingError, check_magic
 from facesynth.runtime.atomic import open_atomic
 
@@ -41,6 +41,14 @@ class ChannelFigures:
     count: int = 0
     first_ns: int | None = None
     last_ns: int | None = None
+    #: The channel's facesynth role (``layout.ROLES``): a bus message, or a view of one.
+    role: str = ""
+
+    @property
+    def view(self) -> bool:
+        """Whether the channel is a Foxglove view of other messages (frame pixels, landmarks),
+        not messages of the bus."""
+        return self.role in (IMAGE, ANNOTATIONS)
 
 
 @dataclass
@@ -167,7 +175,10 @@ def _take(
         result.channels.setdefault(
             record.id,
             ChannelFigures(
-                record.topic, record.message_encoding, schemas.get(record.schema_id, "")
+                record.topic,
+                record.message_encoding,
+                schemas.get(record.schema_id, ""),
+                role=record.metadata.get(ROLE_FIELD, ""),
             ),
         )
     elif isinstance(record, Metadata):
@@ -243,9 +254,11 @@ def _time(ns: int | None) -> str:
 def describe(result: Scan) -> str:
     """A human-readable account of a scan: state, session, channels with counts and times."""
     state = "complete" if result.complete else "TORN"
+    views = sum(f.count for f in result.channels.values() if f.view)
     lines = [
         f"{result.path}: {state}, {result.size} bytes, {result.chunks} chunks, "
-        f"{result.messages} messages",
+        f"{result.messages} MCAP messages: {result.messages - views} from the bus and {views} "
+        "Foxglove views of them (frame images, landmark annotations)",
         f"  written by {result.library or '?'} (profile {result.profile or '-'!r})",
     ]
     if not result.facesynth:

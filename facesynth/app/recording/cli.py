@@ -279,12 +279,16 @@ def cmd_record(args: argparse.Namespace) -> int:
         overwrite=args.overwrite,
     )
     recorder = Recorder(writer, options)
+    recorded = False
     try:
         run_async(
             run_single(zenoh, rig, "record", recorder.serve, stats_interval=args.stats_interval)
         )
+        recorded = True
     finally:
         writer.close()
+        if not recorded and writer.messages == 0:  # e.g. no router: leave no empty session
+            writer.path.unlink(missing_ok=True)
     summary = {
         "out": str(writer.path),
         "messages": sum(recorder.recorded.values()),
@@ -328,10 +332,14 @@ def cmd_replay(args: argparse.Namespace) -> int:
     """``facesynth replay``."""
     _need_extra()
     from facesynth.app.chain import run_single
+    from facesynth.app.graph import wait_for_problem
     from facesynth.app.recording.reader import Recording
-    from facesynth.app.recording.replay import Replayer, ReplayOptions
+    from facesynth.app.recording.replay import Replayer, ReplayOptionError, ReplayOptions
     from facesynth.runtime.service import run_async
 
+    problem = wait_for_problem(endpoints(args.wait_for))
+    if problem:
+        raise ReplayOptionError(problem)
     options = ReplayOptions(
         stage=args.from_stage,
         speed=args.speed,

@@ -116,7 +116,8 @@ class FoxgloveBridge:
             )
         except Exception as exc:  # the SDK raises its own error for a taken port or bad host
             raise LiveViewError(
-                f"cannot serve Foxglove on {self.address.host}:{self.address.port}: {exc}"
+                f"cannot serve Foxglove on {self.address.host}:{self.address.port}: {exc} - "
+                "choose another address with --foxglove HOST:PORT (port 0 picks a free one)"
             ) from None
         return self.server.port
 
@@ -162,7 +163,8 @@ class FoxgloveBridge:
         ctx.subscriptions.append(stats)
         subscriptions.append(stats)
         ctx.ready()
-        ctx.log.info("Foxglove live view of rig %s on %s", ctx.rig, self.url)
+        ctx.log.debug("Foxglove live view of rig %s on %s", ctx.rig, self.url)  # said once, by
+        # the command that started it (inspect, run --foxglove): not again here
 
         async def pump(subscription: Subscription) -> None:
             async for sample in subscription:

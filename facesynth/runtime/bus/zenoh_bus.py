@@ -23,6 +23,7 @@ import dataclasses
 import json
 import logging
 import os
+import re
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -96,7 +97,9 @@ class ZenohOptions:
         try:
             config = zenoh.Config.from_file(path) if path else zenoh.Config()
         except Exception as exc:  # zenoh raises its own ZError for unreadable or invalid files
-            raise ZenohConfigError(f"cannot load Zenoh config {path}: {exc}") from None
+            raise ZenohConfigError(
+                f"cannot load Zenoh config {path}: {zenoh_cause(str(exc))}"
+            ) from None
         try:
             if self.mode is not None:
                 config.insert_json5("mode", json.dumps(self.mode))
@@ -110,23 +113,47 @@ class ZenohOptions:
             for path, value in self.overrides.items():
                 config.insert_json5(path, json.dumps(value))
         except Exception as exc:
-            raise ZenohConfigError(f"invalid Zenoh option: {exc}") from None
+            raise ZenohConfigError(f"invalid Zenoh option: {zenoh_cause(str(exc))}") from None
         return config
 
 
+_RUST_PLACE = re.compile(r"\s*at \S+\.rs:\d+\.?")
+_OS_ERROR = re.compile(r"\s*\(os error \d+\)")
+_RUST_DEBUG = re.compile(r"\b(?:Single|Some)\(([^()]*)\)")
+
+
+def zenoh_cause(text: str) -> str:
+    """Zenoh's error text without the places in Zenoh's Rust sources it was raised at
+    (``… at /root/.cargo/…/tcp.rs:61.``) and the OS error numbers: the cause alone."""
+    text = _RUST_DEBUG.sub(r"\1", _OS_ERROR.sub("", _RUST_PLACE.sub("", text)))
+    return " ".join(text.replace("[", "").replace("]", "").split()).rstrip(" .")
+
+
 def open_session(options: ZenohOptions) -> zenoh.Session:
-    """Open a Zenoh session, turning Zenoh's errors into :class:`ZenohConfigError`."""
+    """Open a Zenoh session, turning Zenoh's errors into :class:`ZenohConfigError` (one line:
+    the cause, and the option that changes it)."""
     config = options.build()
     try:
         return zenoh.open(config)
     except Exception as exc:
-        where = ", ".join(options.connect or options.listen) or "the configured endpoints"
+        cause = zenoh_cause(str(exc))
         mode = options.mode or "configured"
-        hint = ""
-        if options.mode == "client":
-            hint = " - is a router running there? (start one with: facesynth router)"
+        if "Address already in use" in cause:
+            where = ", ".join(options.listen) or "the configured endpoints"
+            hint = (
+                " - another program listens there: choose another endpoint with --listen "
+                "(e.g. tcp/127.0.0.1:7448; port 0 picks a free one)"
+            )
+        else:
+            where = ", ".join(options.connect or options.listen) or "the configured endpoints"
+            hint = ""
+            if options.mode == "client":
+                hint = (
+                    " - is a router running there? (start one with: facesynth router; or "
+                    "--connect another)"
+                )
         raise ZenohConfigError(
-            f"cannot open a Zenoh {mode} session ({where}): {exc}{hint}"
+            f"cannot open a Zenoh {mode} session ({where}): {cause}{hint}"
         ) from None
 
 

@@ -256,6 +256,9 @@ class VmcDriver(ServoDriver):
         sock.setblocking(False)
         self._socket = sock
         self._started = time.monotonic()
+        host, port = self._address[0], self._address[1]
+        where = f"[{host}]:{port}" if ":" in str(host) else f"{host}:{port}"
+        log.info("vmc: sending to %s over UDP (OSC; VMC receivers listen on 39539)", where)
 
     def bundle(self, positions: Mapping[str, float]) -> bytes:
         """The OSC bundle for one command."""

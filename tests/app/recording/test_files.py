@@ -287,3 +287,17 @@ def test_a_chunk_that_does_not_decompress_is_a_damaged_file(tmp_path: Path) -> N
     _damage_chunk(path, garbled_data)
     with Recording(path) as recording, pytest.raises(RecordingError, match="damaged"):
         list(recording.payloads(recording.bus_keys()))
+
+
+def test_check_says_what_it_counts(tmp_path: Path) -> None:
+    """Issue 20: the bus's messages and the Foxglove views apart (the recorder logs the first)."""
+    path = tmp_path / "s.mcap"
+    written = write_session(path, 5)
+    result = scan(path)
+    views = sum(f.count for f in result.channels.values() if f.view)
+    assert views > 0 and result.messages == len(written) + views
+    first = describe(result).splitlines()[0]
+    assert (
+        f"{result.messages} MCAP messages: {len(written)} from the bus and {views} Foxglove "
+        "views of them (frame images, landmark annotations)"
+    ) in first

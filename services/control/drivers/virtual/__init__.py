@@ -22,7 +22,7 @@ from facesynth.runtime.profiles import Profile, load_profile
 from facesynth.runtime.rig_view import RigView
 from services.control.core import CommandInfo
 from services.control.drivers._extras import require
-from services.control.drivers.base import DriverError, ServoDriver
+from services.control.drivers.base import DriverConfigError, DriverError, ServoDriver
 from services.control.drivers.registry import DRIVERS
 from services.control.drivers.servo_map import ProfileLimits
 from services.control.drivers.virtual import wire
@@ -121,9 +121,10 @@ class VirtualDriver(ServoDriver):
         )
         try:
             await server.start()
-        except OSError as exc:
-            raise DriverError(
-                f"cannot serve the live face page on {self.config.http}: {exc}"
+        except OSError as exc:  # a usage error like a bad flag (exit 2), with the flag to change
+            raise DriverConfigError(
+                f"cannot serve the live face page on {self.config.http}: {exc} - choose another "
+                "address with --http HOST:PORT (port 0 picks a free one)"
             ) from None
         self.server = server
         what = "the face" if self.draws_face else f"bars of {self.profile.name}"

@@ -1,0 +1,83 @@
+"""The brows' part of a measured neutral, when the brows were not at rest over the first second.
+
+F takes the performer's neutral from the first second with a face (``core.FeatureProcessor``).
+When that second is not a neutral face, everything later is read against the wrong rest: the
+bundled video opens on a sad face with the inner brows raised (the tracker's ``browInnerUp``
+about 0.35 there, 0.01-0.03 in the laugh that follows), so the laugh's resting brows read as
+lowered and the face frowned at it. With the ``full`` tracker model the blendshapes say whether
+the brows were at rest: when the median of a brow blendshape over the neutral second is above
+:data:`REST_SCORE`, the brows' part of the neutral (their named features and blendshapes, the
+brow points' nose distances and eye-frame positions) is taken again from the first
+``seconds`` of media time in which every brow blendshape stays at rest, frame after frame; until
+then the brow features hold at 0 (neutral). The rest of the neutral, and a calibration's or a
+restored neutral, are never changed.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Final
+
+import numpy as np
+
+from facesynth.runtime import blendshapes
+from services.features.neutral import NeutralWindow, Sample
+
+#: The tracker's brow blendshapes.
+BROW_SHAPES: Final = (
+    "browDownLeft",
+    "browDownRight",
+    "browInnerUp",
+    "browOuterUpLeft",
+    "browOuterUpRight",
+)
+#: A brow blendshape at most this strong counts as at rest (laughing brows: at most 0.2 on the
+#: bundled video; its sad opening second: browInnerUp 0.29-0.43, browOuterUp up to 0.55).
+REST_SCORE: Final = 0.2
+#: The iBUG 68 brow points (17-21 right, 22-26 left).
+BROW_POINTS: Final = slice(17, 27)
+#: The named features read from the brows: re-based with them, held at 0 while pending.
+BROW_NAMED: Final = frozenset(
+    {
+        f"{stem}_{side}"
+        for stem in ("brow_raise_inner", "brow_raise_outer", "brow_lower")
+        for side in ("right", "left")
+    }
+    | set(BROW_SHAPES)
+)
+_INDEX: Final = [blendshapes.INDEX[name] for name in BROW_SHAPES]
+
+
+def brows_at_rest(scores: np.ndarray) -> bool:
+    """Whether every brow blendshape of one frame's 52 scores is at rest."""
+    return float(np.max(scores[_INDEX])) <= REST_SCORE
+
+
+def window_at_rest(samples: Sequence[Sample]) -> bool | None:
+    """Whether the brows were at rest over a neutral's frames (per-shape medians); None when
+    the frames carry no blendshapes (nothing to tell)."""
+    scores = [s.blendshapes for s in samples if s.blendshapes is not None]
+    if not scores:
+        return None
+    medians = np.median(np.stack(scores)[:, _INDEX], axis=0)
+    return float(np.max(medians)) <= REST_SCORE
+
+
+class BrowRest:
+    """Looks for the first ``seconds`` of media time in which the brows stay at rest."""
+
+    def __init__(self, seconds: float) -> None:
+        self.seconds = seconds
+        self.window: NeutralWindow[Sample] = NeutralWindow(seconds)
+
+    def add(self, t_media_ns: int, sample: Sample) -> list[Sample] | None:
+        """Add a face frame; the frames of the brows' neutral once they span ``seconds``.
+
+        A frame whose brows move (or without blendshapes) starts the search again.
+        """
+        if sample.blendshapes is None or not brows_at_rest(sample.blendshapes):
+            self.window = NeutralWindow(self.seconds)
+            return None
+        if self.window.add(t_media_ns, sample):
+            return self.window.samples
+        return None
