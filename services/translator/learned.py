@@ -28,22 +28,18 @@ profiles. Mirroring (``mirror``) swaps the performer's right and left before ste
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from typing import Protocol
 
 import numpy as np
 
 from facesynth.runtime.profiles import Profile, Smoothing, has_source
 from facesynth.runtime.profiles.learned import predictor, unpack
-
-
-class _Filter(Protocol):
-    def __call__(self, value: float, t_ns: int) -> float: ...
+from services.translator.filters import OneEuroFilter
 
 
 class LearnedTargets:
     """Target positions of a learned profile's servos, frame by frame."""
 
-    def __init__(self, profile: Profile, filters: Mapping[str, _Filter | None]) -> None:
+    def __init__(self, profile: Profile, filters: Mapping[str, OneEuroFilter | None]) -> None:
         """``filters``: a One Euro filter per output servo name (None: unfiltered)."""
         learned = profile.learned
         if learned is None:
@@ -112,8 +108,8 @@ class LearnedTargets:
 
 def learned_targets(
     profile: Profile,
-    filters: dict[tuple[object, ...], _Filter | None],
-    make_filter: Callable[[Smoothing | None], _Filter | None],
+    filters: dict[tuple[object, ...], OneEuroFilter | None],
+    make_filter: Callable[[Smoothing | None], OneEuroFilter | None],
 ) -> LearnedTargets | None:
     """The learned targets of ``profile`` (None when it is not learned); each output's One
     Euro filter is added to the translator's ``filters`` (key ``("learned", name)``)."""
