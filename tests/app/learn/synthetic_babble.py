@@ -27,9 +27,7 @@ class SyntheticHead:
     def __init__(self, seed: int = 1, noise: float = 0.01) -> None:
         rng = np.random.default_rng(seed)
         n_servos, n_features = 16, len(MOVED)
-        self.span = np.array(
-            [BY_NAME[n].default_max - BY_NAME[n].default_min for n in MOVED]
-        )
+        self.span = np.array([BY_NAME[n].default_max - BY_NAME[n].default_min for n in MOVED])
         self.gain_up = rng.uniform(0.6, 1.4, n_servos)
         self.gain_down = rng.uniform(0.4, 1.2, n_servos)
         self.power = rng.uniform(0.7, 1.6, n_servos)
@@ -75,9 +73,7 @@ def synthetic_babble(n: int = 1500, seed: int = 0, head: SyntheticHead | None = 
                 u[row] = 0.0
                 u[row, s] = value
                 kinds[row] = "sweep"
-    faces = np.concatenate(
-        [head.features(u), rng.normal(0.0, 0.02, (n, len(STILL)))], axis=1
-    )
+    faces = np.concatenate([head.features(u), rng.normal(0.0, 0.02, (n, len(STILL)))], axis=1)
     faces[rng.integers(0, n, 12), rng.integers(0, len(MOVED), 12)] = np.nan  # lost values
     neutral = np.array([s.neutral_us for s in profile.servos])
     up = np.array([s.max_us - s.neutral_us for s in profile.servos])
