@@ -125,10 +125,10 @@ def parse_learned_profile(data: bytes, source: str = "<learned profile>") -> Pro
     it is not msgpack, not a learned profile, of another version, or malformed in any part."""
     try:
         header = msgspec.msgpack.decode(data, type=Header)
+    except msgspec.ValidationError as exc:  # msgpack, but not a map
+        raise _error(source, [f"not a learned profile ({exc})"]) from None
     except msgspec.DecodeError as exc:
         raise _error(source, [f"not a learned profile (not msgpack: {exc})"]) from None
-    except msgspec.ValidationError as exc:  # not a map
-        raise _error(source, [f"not a learned profile ({exc})"]) from None
     if header.format != FORMAT:
         raise _error(source, [f"not a learned profile (format {header.format!r}, not {FORMAT!r})"])
     if header.version != VERSION:
