@@ -346,6 +346,16 @@ CASES = [
     ("nice range", ["features", "--nice", "30"], "--nice: Expected `int` <= 19"),
     ("realtime range", ["points", "--realtime", "0"], "--realtime: Expected `int` >= 1"),
     ("router realtime range", ["router", "--realtime", "200"], "--realtime 200: must be within"),
+    (
+        "hardware profile in T",
+        ["translator", "--profile", "head16_hardware"],
+        "profile head16_hardware has servos without a source (right_eyebrow",
+    ),
+    (
+        "missing learned profile",
+        ["translator", "--profile", "/nonexistent/robot.learned"],
+        "profile file /nonexistent/robot.learned does not exist",
+    ),
 ]
 
 
