@@ -163,3 +163,13 @@ def test_a_hardware_profile_is_refused() -> None:
         match=r"servos without a source \(right_eyebrow, left_eyebrow, middle_eyebrow, …\)",
     ):
         Translator(load_profile("head16_hardware"))
+
+
+def test_resume_starts_learned_servos_where_they_are() -> None:
+    limited = learned_profile()
+    limited.servos[0].max_speed = 3000.0
+    translator = Translator(limited)
+    translator.resume({"right_eyebrow": 1800.0})
+    moves = [translator.step(frame(i, {"brow_raise_inner_right": -0.05})) for i in range(2)]
+    assert moves[0]["right_eyebrow"] == 1800.0  # from where the servo is, no jump
+    assert moves[1]["right_eyebrow"] == pytest.approx(1700.0, abs=TOL)  # 100 µs a frame

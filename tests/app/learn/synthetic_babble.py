@@ -24,10 +24,11 @@ def hardware() -> Profile:
 class SyntheticHead:
     """The face's features (relative to its neutral) for normalized commands, with noise."""
 
-    def __init__(self, seed: int = 1, noise: float = 0.01) -> None:
+    def __init__(self, seed: int = 1, noise: float = 0.01, moved: tuple[str, ...] = MOVED) -> None:
         rng = np.random.default_rng(seed)
-        n_servos, n_features = 16, len(MOVED)
-        self.span = np.array([BY_NAME[n].default_max - BY_NAME[n].default_min for n in MOVED])
+        self.moved = moved
+        n_servos, n_features = 16, len(moved)
+        self.span = np.array([BY_NAME[n].default_max - BY_NAME[n].default_min for n in moved])
         self.gain_up = rng.uniform(0.6, 1.4, n_servos)
         self.gain_down = rng.uniform(0.4, 1.2, n_servos)
         self.power = rng.uniform(0.7, 1.6, n_servos)
@@ -48,7 +49,7 @@ class SyntheticHead:
         return np.where(v >= 0, self.gain_up * curve, self.gain_down * curve)
 
     def features(self, u: np.ndarray) -> np.ndarray:
-        """(n, 40) raw features for (n, 16) normalized commands, relative to u = 0."""
+        """(n, features) raw features for (n, 16) normalized commands, relative to u = 0."""
         a = self._actuators(u) - self._actuators(np.zeros((1, u.shape[1])))
         z = a @ self.weights.T
         z = np.tanh(0.8 * z + self.quadratic * z * z) / 2.0
@@ -74,7 +75,7 @@ def synthetic_babble(n: int = 1500, seed: int = 0, head: SyntheticHead | None = 
                 u[row, s] = value
                 kinds[row] = "sweep"
     faces = np.concatenate([head.features(u), rng.normal(0.0, 0.02, (n, len(STILL)))], axis=1)
-    faces[rng.integers(0, n, 12), rng.integers(0, len(MOVED), 12)] = np.nan  # lost values
+    faces[rng.integers(0, n, 12), rng.integers(0, len(head.moved), 12)] = np.nan  # lost values
     neutral = np.array([s.neutral_us for s in profile.servos])
     up = np.array([s.max_us - s.neutral_us for s in profile.servos])
     down = np.array([s.neutral_us - s.min_us for s in profile.servos])
@@ -82,7 +83,7 @@ def synthetic_babble(n: int = 1500, seed: int = 0, head: SyntheticHead | None = 
     return BabbleSet(
         servos=tuple(s.name for s in profile.servos),
         commands=commands,
-        inputs=MOVED + STILL,
+        inputs=head.moved + STILL,
         faces=faces,
         kinds=tuple(kinds),
     )

@@ -138,3 +138,11 @@ def test_unfittable_babbling_is_a_clear_error() -> None:
 def test_time_translator_needs_a_learned_profile() -> None:
     with pytest.raises(FitError, match="not learned"):
         time_translator(load_profile("paper16"))
+
+
+def test_a_seeded_fit_is_reproducible() -> None:
+    options = FitOptions(candidates=("poly_ridge", "knn"), seed=4)
+    one = fit_learned_profile(_small(), hardware(), options).learned
+    two = fit_learned_profile(_small(), hardware(), options).learned
+    assert one.report.servo_error == two.report.servo_error
+    assert one.inverse == two.inverse and one.inputs == two.inputs

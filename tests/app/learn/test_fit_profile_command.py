@@ -94,3 +94,15 @@ def test_check_a_hardware_profile_and_a_broken_learned_file(
     ]
     assert main(["profile", "show", str(broken)]) == 2
     assert "not a learned profile" in capsys.readouterr().err
+
+
+def test_the_fit_module_reports_and_times_t(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from facesynth.app.learn.fit import main as fit_main
+
+    assert fit_main([str(_learned_file(tmp_path)), "--frames", "20"]) == 0
+    out = capsys.readouterr().out
+    assert "robot: poly_ridge from 1 inputs, 321 samples" in out
+    assert "  middle_eyebrow       dead (kept at neutral)" in out
+    assert out.splitlines()[-1].startswith("T: ") and out.endswith(" ms per frame\n")
