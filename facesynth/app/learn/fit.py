@@ -200,7 +200,7 @@ def _choose_inputs(babble: BabbleSet, u: np.ndarray, options: FitOptions) -> _Da
         offset = np.nan_to_num(np.nanmedian(neutral_rows[:, chosen], axis=0))
     _, groups = np.unique(np.round(babble.commands[keep], 1), axis=0, return_inverse=True)
     return _Data(
-        inputs=[babble.inputs[c] for c in chosen],
+        inputs=[str(babble.inputs[c]) for c in chosen],
         t=values[keep] - offset,
         u=u[keep],
         groups=np.asarray(groups).reshape(-1),
@@ -289,7 +289,7 @@ def _fit(babble: BabbleSet, profile: Profile, options: FitOptions) -> Profile:
     scale = np.where(scale > 0, scale, 1.0)
     x = (data.t - mean) / scale
     dead_mask = _dead(x, data.u, options)
-    servos = list(babble.servos)
+    servos = [str(name) for name in babble.servos]  # numpy strings do not encode
     live = [s for s, d in zip(servos, dead_mask, strict=True) if not d]
     dead = [s for s in names if s not in live]
     if not live:

@@ -146,3 +146,18 @@ def test_a_seeded_fit_is_reproducible() -> None:
     two = fit_learned_profile(_small(), hardware(), options).learned
     assert one.report.servo_error == two.report.servo_error
     assert one.inverse == two.inverse and one.inputs == two.inputs
+
+
+def test_names_read_as_numpy_strings_are_saved(tmp_path: Path) -> None:
+    """A BabbleSet read back from an array file names things with numpy strings."""
+    babble = _small()
+    babble = BabbleSet(
+        tuple(np.array(babble.servos)),
+        babble.commands,
+        tuple(np.array(babble.inputs)),
+        babble.faces,
+        tuple(np.array(babble.kinds)),
+    )
+    profile = fit_learned_profile(babble, hardware(), FitOptions(candidates=("poly_ridge",)))
+    path = save_learned_profile(profile, tmp_path / "r.learned")
+    assert load_profile(str(path)).learned == profile.learned

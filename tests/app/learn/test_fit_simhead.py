@@ -22,9 +22,16 @@ FRAME_NS = 33_333_333
 
 
 def babble_simhead(
-    profile: Profile, poses: int, *, head: str = "simhead16", seed: int = 0, neutral_every: int = 20
+    profile: Profile,
+    poses: int,
+    *,
+    head: str = "simhead16",
+    seed: int = 0,
+    neutral_every: int = 20,
+    frames: int = 2,
 ) -> BabbleSet:
-    """``poses`` random poses (uniform in normalized units) of a simulated head."""
+    """``poses`` random poses (uniform in normalized units) of a simulated head, each tracked
+    for ``frames`` frames (the tracker follows its last face: more frames, less hysteresis)."""
     sim = SimHead(load_head(head))
     backend = TrackerBackend(TrackerConfig(model="full"))
     processor = FeatureProcessor(neutral_seconds=0.1)
@@ -61,7 +68,7 @@ def babble_simhead(
         else:
             u, kind = rng.uniform(-1.0, 1.0, len(specs)), "random"
         pulses = neutral + np.where(u >= 0, u * up, u * down)
-        raw = look(pulses, 2)
+        raw = look(pulses, frames)
         commands.append(pulses)
         faces.append([raw.get(name, np.nan) for name in NAMES])
         kinds.append(kind)
