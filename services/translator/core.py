@@ -32,9 +32,8 @@ Per frame, per servo:
 7. **Safety.** Exclusive rules (:mod:`services.translator.safety`) on targets and on outputs,
    then every position is clamped to its limits (always last).
 
-A learned profile (``profile.learned``) replaces steps 1-4 with :mod:`services.translator.learned`
-(retargeting, inverse model, smoothing of its outputs); a profile with servos without a source
-that is not learned (a hardware profile) is refused.
+A learned profile replaces steps 1-4 with :mod:`services.translator.learned`; a hardware profile
+(servos without a source) that is not learned is refused.
 
 The first frame after construction or :meth:`Translator.reset` initialises every filter and
 limiter (no history to smooth or limit against). In a chain this is a neutral frame: F needs a
@@ -57,6 +56,8 @@ from schemas.messages import Features, ServoCommands
 from services.translator.filters import OneEuroFilter, RateLimiter
 from services.translator.learned import learned_targets, unsourced
 from services.translator.safety import apply_exclusive
+
+Raw = Mapping[str, float] | None  # Features.raw (a learned profile's inputs)
 
 #: Named features whose sign flips in a mirror image (x directions and in-plane turns).
 MIRROR_NEGATED = frozenset({"gaze_right_x", "gaze_left_x", "head_yaw", "head_roll"})
@@ -307,11 +308,7 @@ class Translator:
         return interpolate(max(movement, 0.0) if spec.one_sided else movement, low, high, spec)
 
     def _targets(
-        self,
-        deltas: np.ndarray | None,
-        named: Mapping[str, float],
-        t_ns: int | None,
-        raw: Mapping[str, float] | None = None,
+        self, deltas: np.ndarray | None, named: Mapping[str, float], t_ns: int | None, raw: Raw
     ) -> list[float | None]:
         if self._learned is not None:  # services.translator.learned
             return self._learned.targets(raw or {}, named, t_ns)
@@ -319,10 +316,7 @@ class Translator:
         return [self._target(servo, deltas, named, t_ns, cache) for servo in self._servos]
 
     def positions(
-        self,
-        deltas: np.ndarray,
-        named: Mapping[str, float] | None = None,
-        raw: Mapping[str, float] | None = None,
+        self, deltas: np.ndarray, named: Mapping[str, float] | None = None, raw: Raw = None
     ) -> dict[str, float]:
         """Unfiltered, unlimited positions for 68 deltas (and named, raw features) from neutral.
 

@@ -173,3 +173,11 @@ def test_resume_starts_learned_servos_where_they_are() -> None:
     moves = [translator.step(frame(i, {"brow_raise_inner_right": -0.05})) for i in range(2)]
     assert moves[0]["right_eyebrow"] == 1800.0  # from where the servo is, no jump
     assert moves[1]["right_eyebrow"] == pytest.approx(1700.0, abs=TOL)  # 100 µs a frame
+
+
+@pytest.mark.parametrize("name", ["paper16", "head16_bs"])
+def test_time_translator_runs_written_and_learned_profiles(name: str) -> None:
+    from services.translator.timing import time_translator
+
+    assert 0 < time_translator(load_profile(name), frames=30, runs=1) < 50
+    assert 0 < time_translator(learned_profile(), frames=30, runs=1) < 50

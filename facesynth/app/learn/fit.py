@@ -44,16 +44,7 @@ import numpy as np
 from facesynth.app.learn.dataset import BabbleSet
 from facesynth.runtime.feature_names import BY_NAME
 from facesynth.runtime.profiles import Learned, Profile
-from facesynth.runtime.profiles.learned import (
-    KNN,
-    MLP,
-    Layer,
-    Model,
-    PolyRidge,
-    Report,
-    pack,
-    unpack,
-)
+from facesynth.runtime.profiles.learned import KNN, MLP, Layer, Model, PolyRidge, Report, pack
 
 #: The inverse models compared, by name.
 CANDIDATES = ("poly_ridge", "knn", "mlp")
@@ -355,53 +346,13 @@ def format_report(profile: Profile) -> str:
     return "\n".join(lines)
 
 
-def time_translator(profile: Profile, frames: int = 2000, seed: int = 0) -> float:
-    """Milliseconds per frame of T (:class:`~services.translator.core.Translator.step`) with
-    ``profile``: tracked frames with every input moving (random within twice the robot's
-    reach), smoothing, motion limits and safety included; the median of five runs."""
-    from schemas.messages import Features
-    from services.translator.core import Translator
-
-    if profile.learned is None:
-        raise FitError(f"profile {profile.name} is not learned")
-    learned = profile.learned
-    rng = np.random.default_rng(seed)
-    low, high = unpack(learned.reach_low), unpack(learned.reach_high)
-    messages = []
-    for index in range(frames):
-        values = rng.uniform(2 * low, 2 * high)
-        raw = dict(zip(learned.inputs, values.tolist(), strict=True))
-        named = {
-            name: float(v)
-            for name, v in zip(learned.inputs, rng.uniform(-1, 1, len(values)), strict=True)
-        }
-        messages.append(
-            Features(
-                seq=index,
-                t_capture_ns=index * 33_333_333,
-                t_media_ns=index * 33_333_333,
-                face=True,
-                neutral_ready=True,
-                named=named,
-                raw=raw,
-            )
-        )
-    runs = []
-    for _ in range(5):
-        translator = Translator(profile)
-        begun = time.perf_counter()
-        for message in messages:
-            translator.step(message)
-        runs.append((time.perf_counter() - begun) * 1000.0 / frames)
-    return float(np.median(runs))
-
-
 def main(argv: list[str] | None = None) -> int:
     """``python -m facesynth.app.learn.fit PROFILE [--frames N]``: a learned profile's fit
     report and T's milliseconds per frame with it."""
     import argparse
 
     from facesynth.runtime.profiles import load_profile
+    from services.translator.timing import time_translator
 
     parser = argparse.ArgumentParser(prog="python -m facesynth.app.learn.fit")
     parser.add_argument("profile", help="a learned profile (NAME or PATH.learned)")

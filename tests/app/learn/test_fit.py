@@ -16,11 +16,11 @@ from facesynth.app.learn.fit import (
     command_error,
     fit_learned_profile,
     format_report,
-    time_translator,
 )
 from facesynth.runtime.profiles import load_profile, save_learned_profile
 from facesynth.runtime.profiles.learned import predictor, unpack
 from services.translator.core import Translator
+from services.translator.timing import time_translator
 
 
 @pytest.fixture(scope="module")
@@ -133,11 +133,6 @@ def test_unfittable_babbling_is_a_clear_error() -> None:
         fit_learned_profile(babble, load_profile("virtual"), options)
     with pytest.raises(FitError, match="unknown models"):
         fit_learned_profile(babble, hardware(), FitOptions(candidates=("forest",)))
-
-
-def test_time_translator_needs_a_learned_profile() -> None:
-    with pytest.raises(FitError, match="not learned"):
-        time_translator(load_profile("paper16"))
 
 
 def test_a_seeded_fit_is_reproducible() -> None:
