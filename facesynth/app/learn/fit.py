@@ -188,7 +188,9 @@ def _choose_inputs(babble: BabbleSet, u: np.ndarray, options: FitOptions) -> _Da
         notes.append(f"{dropped} samples with a missing chosen input dropped")
     offset = np.zeros(len(chosen))
     if len(neutral_rows):
-        offset = np.nan_to_num(np.nanmedian(neutral_rows[:, chosen], axis=0))
+        with warnings.catch_warnings():  # an input never seen at neutral: offset 0
+            warnings.simplefilter("ignore", RuntimeWarning)
+            offset = np.nan_to_num(np.nanmedian(neutral_rows[:, chosen], axis=0))
     _, groups = np.unique(np.round(babble.commands[keep], 1), axis=0, return_inverse=True)
     return _Data(
         inputs=[str(babble.inputs[c]) for c in chosen],
