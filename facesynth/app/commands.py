@@ -309,7 +309,7 @@ def cmd_profile(args: argparse.Namespace) -> int:
     )
 
     if args.action == "list":
-        for name in available_profiles():
+        for name in available_profiles(hardware=True):
             print(name)
         return 0
     if not args.name:

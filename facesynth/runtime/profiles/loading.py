@@ -39,11 +39,28 @@ class ProfileError(ValueError):
 PROFILES = NamedFiles("profile", ".toml", "FACESYNTH_PROFILES", PACKAGE_DIR, list_available=True)
 
 
-def available_profiles() -> list[str]:
-    """Names of every profile (written or learned) found in the search folders."""
+def available_profiles(*, hardware: bool = False) -> list[str]:
+    """Names of the profiles found in the search folders that a chain can run (written and
+    learned ones); with ``hardware``, also those with servos without a source (hardware
+    profiles, for ``facesynth learn`` and the control interface: the translator refuses them)."""
     dirs = [d for d in PROFILES.search_dirs() if d.is_dir()]
     learned = {p.stem for d in dirs for p in d.glob(f"*{SUFFIX}")}
-    return sorted(set(PROFILES.available()) | learned)
+    written = set(PROFILES.available())
+    if not hardware:
+        written = {name for name in written if not _hardware_only(resolve_profile(name))}
+    return sorted(written | learned)
+
+
+def _hardware_only(path: Path) -> bool:
+    """Whether a TOML profile has a servo without a source (unreadable files: no)."""
+    try:
+        servos = tomllib.loads(path.read_text(encoding="utf-8")).get("servos")
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
+        return False
+    sources = ("points", "feature", "blendshape", "mix")
+    return isinstance(servos, list) and any(
+        isinstance(servo, dict) and not any(servo.get(key) for key in sources) for servo in servos
+    )
 
 
 def resolve_profile(name_or_path: str) -> Path:
@@ -60,7 +77,7 @@ def resolve_profile(name_or_path: str) -> Path:
                     return path
         raise ProfileError(
             f"no profile named {name_or_path!r} "
-            f"(available: {', '.join(available_profiles()) or 'none'})"
+            f"(available: {', '.join(available_profiles(hardware=True)) or 'none'})"
         )
     try:
         return PROFILES.resolve(name_or_path)

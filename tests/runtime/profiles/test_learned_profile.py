@@ -42,7 +42,10 @@ def test_round_trip_and_lookup(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) 
     assert load_profile(str(path)) == profile
     monkeypatch.setenv("FACESYNTH_PROFILES", str(tmp_path))
     assert load_profile("robot") == profile
-    assert "robot" in available_profiles() and "head16_hardware" in available_profiles()
+    assert "robot" in available_profiles() and "head16_hardware" in available_profiles(
+        hardware=True
+    )
+    assert "head16_hardware" not in available_profiles()  # a chain cannot run it (T refuses)
     # A written profile of the same name in the same folder comes first.
     (tmp_path / "robot.toml").write_text((PACKAGE_DIR / "head16_hardware.toml").read_text())
     assert load_profile("robot").learned is None
