@@ -34,7 +34,7 @@ from __future__ import annotations
 import time
 import warnings
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from datetime import UTC, datetime
 from typing import Any
 
@@ -66,6 +66,9 @@ class FitOptions:
     candidates: tuple[str, ...] = CANDIDATES
     knn_k: int = 5
     mlp_layers: tuple[int, ...] = (64, 64)
+    #: The MLP's L2 penalty (``fit_model``); the fit compares one MLP per ``mlp_alphas``.
+    mlp_alpha: float = 0.1
+    mlp_alphas: tuple[float, ...] = (0.1, 1.0)
 
 
 def _sklearn() -> Any:
@@ -109,7 +112,7 @@ def _mlp(x: np.ndarray, y: np.ndarray, options: FitOptions) -> tuple[Any, MLP]:
         hidden_layer_sizes=options.mlp_layers,
         activation="tanh",
         solver="lbfgs",
-        alpha=1e-3,
+        alpha=options.mlp_alpha,
         max_iter=1000,
         random_state=options.seed,
     )
@@ -138,6 +141,18 @@ def sklearn_predict(fitted: Any, x: np.ndarray) -> np.ndarray:
     else:
         out = fitted.predict(x)
     return np.asarray(out, dtype=np.float64).reshape(len(x), -1)
+
+
+def _variants(options: FitOptions) -> dict[str, tuple[str, FitOptions]]:
+    """The candidates compared, by the name the report gives them: an MLP per penalty."""
+    variants = {}
+    for name in options.candidates:
+        if name != "mlp":
+            variants[name] = (name, options)
+            continue
+        for alpha in options.mlp_alphas or (options.mlp_alpha,):
+            variants[f"mlp(alpha={alpha:g})"] = (name, replace(options, mlp_alpha=alpha))
+    return variants
 
 
 def fit_model(name: str, x: np.ndarray, y: np.ndarray, options: FitOptions) -> tuple[Any, Model]:
@@ -291,13 +306,15 @@ def _fit(babble: BabbleSet, profile: Profile, options: FitOptions) -> Profile:
     train, test = _split(data.groups, options)
     errors: dict[str, np.ndarray] = {}
     seconds: dict[str, float] = {}
-    for name in options.candidates:
+    variants = _variants(options)
+    for label, (name, variant) in variants.items():
         begun = time.perf_counter()
-        fitted, _ = fit_model(name, x[train], y[train], options)
-        errors[name] = command_error(profile, live, sklearn_predict(fitted, x[test]), y[test])
-        seconds[name] = time.perf_counter() - begun
-    best = min(errors, key=lambda name: float(errors[name].mean()))
-    _, inverse = fit_model(best, x, y, options)
+        fitted, _ = fit_model(name, x[train], y[train], variant)
+        errors[label] = command_error(profile, live, sklearn_predict(fitted, x[test]), y[test])
+        seconds[label] = time.perf_counter() - begun
+    best = min(errors, key=lambda label: float(errors[label].mean()))
+    family, variant = variants[best]
+    _, inverse = fit_model(family, x, y, variant)
     _, forward = _poly_ridge(y, x, options)
     low = np.minimum(np.percentile(data.t, 1, axis=0), 0.0)
     high = np.maximum(np.percentile(data.t, 99, axis=0), 0.0)

@@ -38,7 +38,7 @@ def test_held_out_command_error_is_within_five_percent_of_range(fitted) -> None:
     profile, _, seconds = fitted
     learned = profile.learned
     report = learned.report
-    assert set(report.candidates) == {"poly_ridge", "knn", "mlp"}
+    assert set(report.candidates) == {"poly_ridge", "knn", "mlp(alpha=0.1)", "mlp(alpha=1)"}
     assert report.model == min(report.candidates, key=report.candidates.__getitem__)
     assert set(report.servo_error) == set(learned.outputs)
     assert max(report.servo_error.values()) <= 0.05, report.servo_error
