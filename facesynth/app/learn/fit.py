@@ -17,7 +17,9 @@ hardware profile it was babbled with and returns that profile with its
    dead: its command moved nothing the camera sees, so it stays at neutral. Servos of the
    profile that the babbling never commanded are dead too.
 3. **Inverse model.** Candidates (ridge on degree-2 polynomial features with a per-servo
-   penalty by generalized cross-validation, k nearest neighbours, a small MLP) are trained on the
+   penalty by generalized cross-validation, k nearest neighbours, a small tanh MLP at each
+   penalty of ``mlp_alphas``; fitted on one BLAS thread: on these small matrices more threads
+   only fight over the cores) are trained on the
    poses of a seeded split by pose (a pose visited twice, e.g. the neutral, is on one side only)
    and compared by their command error on the held-out poses: the mean absolute error in µs, as
    a fraction of each servo's range (``max_us - min_us``). The best is refitted on every pose.
