@@ -420,6 +420,16 @@ CASES = [
         "not a babbling session",
     ),
     (
+        "hardware profile in T",
+        ["translator", "--profile", "head16_hardware"],
+        "profile head16_hardware has servos without a source (right_eyebrow",
+    ),
+    (
+        "missing learned profile",
+        ["translator", "--profile", "/nonexistent/robot.learned"],
+        "profile file /nonexistent/robot.learned does not exist",
+    ),
+    (
         "simhead unknown head",
         ["simhead", "nohead", "--serial-link", "tty"],
         "unknown head 'nohead'",

@@ -296,18 +296,20 @@ def cmd_router(args: argparse.Namespace) -> int:
 
 
 def cmd_profile(args: argparse.Namespace) -> int:
-    """``facesynth profile list|check|show``."""
+    """``facesynth profile list|check|show`` (written, hardware-only and learned profiles)."""
     import sys
 
     from facesynth.runtime.profiles import (
         ProfileError,
         available_profiles,
+        describe_learned,
         describe_source,
+        has_source,
         load_profile,
     )
 
     if args.action == "list":
-        for name in available_profiles():
+        for name in available_profiles(hardware=True):
             print(name)
         return 0
     if not args.name:
@@ -319,17 +321,34 @@ def cmd_profile(args: argparse.Namespace) -> int:
             for problem in exc.problems:
                 print(f"facesynth profile: error: {problem}", file=sys.stderr)
             return 2
-        print(f"{args.name}: ok ({len(profile.servos)} servos)")
+        kind = ""
+        if profile.learned is not None:
+            kind = f"; {describe_learned(profile.learned)}"
+        elif not any(has_source(spec) for spec in profile.servos):
+            kind = "; hardware only: no sources, for facesynth learn and control"
+        print(f"{args.name}: ok ({len(profile.servos)} servos{kind})")
         return 0
     profile = load_profile(args.name)
+    learned = profile.learned
+    if learned is not None:
+        print(describe_learned(learned))
     print(
         f"{'ch':>3} {'servo':<20} {'min_us':>7} {'neutral':>7} {'max_us':>7} {'reversed':<8} source"
     )
     for spec in profile.servos:
+        if learned is None:
+            source = describe_source(spec)
+        elif spec.name in learned.dead:
+            source = "learned: dead, kept at neutral"
+        else:
+            error = learned.report.servo_error.get(spec.name)
+            source = "learned" + (
+                f": held-out error {error:.3f} of range" if error is not None else ""
+            )
+        reversed_ = "reversed" if spec.reversed and learned is None else ""
         print(
             f"{spec.channel:>3} {spec.name:<20} {spec.min_us:>7g} {spec.neutral_us:>7g} "
-            f"{spec.max_us:>7g} "
-            f"{'reversed' if spec.reversed else '':<8} {describe_source(spec)}"
+            f"{spec.max_us:>7g} {reversed_:<8} {source}"
         )
     return 0
 

@@ -32,6 +32,9 @@ Per frame, per servo:
 7. **Safety.** Exclusive rules (:mod:`services.translator.safety`) on targets and on outputs,
    then every position is clamped to its limits (always last).
 
+A learned profile replaces steps 1-4 with :mod:`services.translator.learned`; a hardware profile
+(servos without a source) that is not learned is refused.
+
 The first frame after construction or :meth:`Translator.reset` initialises every filter and
 limiter (no history to smooth or limit against). In a chain this is a neutral frame: F needs a
 second of face before its neutral is ready. :meth:`Translator.resume` starts the limiters where
@@ -51,7 +54,10 @@ from facesynth.runtime.landmarks import MIRROR, N_IBUG
 from facesynth.runtime.profiles import Profile, ServoSpec, Smoothing
 from schemas.messages import Features, ServoCommands
 from services.translator.filters import OneEuroFilter, RateLimiter
+from services.translator.learned import learned_targets, unsourced
 from services.translator.safety import apply_exclusive
+
+Raw = Mapping[str, float] | None  # Features.raw (a learned profile's inputs)
 
 #: Named features whose sign flips in a mirror image (x directions and in-plane turns).
 MIRROR_NEGATED = frozenset({"gaze_right_x", "gaze_left_x", "head_yaw", "head_roll"})
@@ -152,6 +158,8 @@ class Translator:
     """Features messages in, ServoCommands messages out, for one profile (stateful)."""
 
     def __init__(self, profile: Profile, calibration: Calibration | None = None) -> None:
+        if problem := unsourced(profile):
+            raise TranslationError(problem)
         self.profile = profile
         self._specs = {spec.name: spec for spec in profile.servos}
         self._ranges: list[tuple[float, float]] = []
@@ -167,6 +175,7 @@ class Translator:
                 self._filters[servo.group_key] = _filter(servo.params)
             for key in servo.feature_keys.values():
                 self._filters[key] = _filter(servo.params)
+        self._learned = learned_targets(profile, self._filters, _filter)  # learned profile
         self.reset()
 
     def _face_range(self, spec: ServoSpec, calibration: Calibration | None) -> tuple[float, float]:
@@ -299,22 +308,25 @@ class Translator:
         return interpolate(max(movement, 0.0) if spec.one_sided else movement, low, high, spec)
 
     def _targets(
-        self, deltas: np.ndarray | None, named: Mapping[str, float], t_ns: int | None
+        self, deltas: np.ndarray | None, named: Mapping[str, float], t_ns: int | None, raw: Raw
     ) -> list[float | None]:
+        if self._learned is not None:  # services.translator.learned
+            return self._learned.targets(raw or {}, named, t_ns)
         cache: dict[object, float] = {}
         return [self._target(servo, deltas, named, t_ns, cache) for servo in self._servos]
 
     def positions(
-        self, deltas: np.ndarray, named: Mapping[str, float] | None = None
+        self, deltas: np.ndarray, named: Mapping[str, float] | None = None, raw: Raw = None
     ) -> dict[str, float]:
-        """Unfiltered, unlimited positions for 68 deltas (and named features) from neutral.
+        """Unfiltered, unlimited positions for 68 deltas (and named, raw features) from neutral.
 
         Stateless: the paper's mapping per servo; servos whose source is missing are at neutral.
         """
         array = self._deltas(deltas)
         named = mirror_named(named or {}) if self.profile.mirror else (named or {})
+        raw = mirror_named(raw) if raw and self.profile.mirror else raw
         saved = [servo.seen for servo in self._servos]
-        targets = self._targets(array, named, None)
+        targets = self._targets(array, named, None, raw)
         for servo, seen in zip(self._servos, saved, strict=True):
             servo.seen = seen
         return {
@@ -353,10 +365,13 @@ class Translator:
         tracking = features.face and features.neutral_ready
         deltas = self._deltas(features.deltas) if tracking and features.deltas else None
         named: Mapping[str, float] = {}
+        raw_in: Mapping[str, float] = {}
         if tracking:
             named = mirror_named(features.named) if self.profile.mirror else features.named
-            tracking = deltas is not None or bool(named)
-        raw = self._targets(deltas, named, t_ns) if tracking else [None] * len(self._servos)
+            if self._learned is not None:
+                raw_in = mirror_named(features.raw) if self.profile.mirror else features.raw
+            tracking = deltas is not None or bool(named) or bool(raw_in)
+        raw = self._targets(deltas, named, t_ns, raw_in) if tracking else [None] * len(self._servos)
         targets = {}
         for servo, target in zip(self._servos, raw, strict=True):
             spec = servo.spec

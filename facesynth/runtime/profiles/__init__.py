@@ -31,23 +31,34 @@ default) and ``[[safety.exclusive]]`` rules (never two servos of a group beyond
 ``threshold`` of their travel at once). :data:`FORMAT_REFERENCE` is a commented example of every
 field.
 
+A *hardware profile* gives servos with channels, limits and speeds and no source: what
+``facesynth learn`` and the control interface need. A *learned profile* (``NAME.learned``, one
+msgpack file: :mod:`.learned_file`) is a hardware profile plus the mapping fitted on the
+robot's own babbling (:mod:`.learned`, in ``Profile.learned``): T drives its servos with that
+mapping; C ignores it. T refuses a profile with servos without a source unless it is learned.
+
 Lookup order for a name: a path to an existing file; ``$FACESYNTH_PROFILES``;
-``~/.config/facesynth/profiles``; the profiles shipped in this package.
+``~/.config/facesynth/profiles``; the profiles shipped in this package; in each folder
+``NAME.toml`` before ``NAME.learned``.
 
 Modules: :mod:`.model` (the structs), :mod:`.loading` (lookup, parsing, :class:`ProfileError`),
-:mod:`.validation` (every problem message), :mod:`.format_reference`; their public names are
-importable from here.
+:mod:`.validation` (every problem message), :mod:`.format_reference`, :mod:`.learned` (the
+learned mapping and its numpy inference), :mod:`.learned_file` (its file); their public names
+are importable from here.
 """
 
 from __future__ import annotations
 
 from .format_reference import FORMAT_REFERENCE
+from .learned import Learned, describe_learned
+from .learned_file import encode_learned_profile, save_learned_profile
 from .loading import (
     PACKAGE_DIR,
     PROFILES,
     ProfileError,
     available_profiles,
     load_profile,
+    parse_learned_profile,
     parse_profile,
     resolve_profile,
 )
@@ -59,6 +70,7 @@ from .model import (
     Smoothing,
     SmoothingOverride,
     describe_source,
+    has_source,
 )
 from .validation import validate_profile
 
@@ -67,6 +79,7 @@ __all__ = [
     "PACKAGE_DIR",
     "PROFILES",
     "ExclusiveRule",
+    "Learned",
     "Profile",
     "ProfileError",
     "Safety",
@@ -74,9 +87,14 @@ __all__ = [
     "Smoothing",
     "SmoothingOverride",
     "available_profiles",
+    "describe_learned",
     "describe_source",
+    "encode_learned_profile",
+    "has_source",
     "load_profile",
+    "parse_learned_profile",
     "parse_profile",
     "resolve_profile",
+    "save_learned_profile",
     "validate_profile",
 ]

@@ -60,6 +60,14 @@ max_us = 1000
 blendshape = "mouthSmileRight" # source: an ARKit blendshape (--model full), scaled like features
 one_sided = true               # below the performer's neutral reads as neutral, never past it
 
+[[servos]]                     # no source: a hardware-only servo (channel, limits, speeds),
+name = "lid"                   # what facesynth learn and the control interface need; the
+channel = 4                    # translator drives it only from a learned profile (NAME.learned,
+min_us = 1000                  # written by facesynth learn; it ignores reversed: the learned
+neutral_us = 1500              # model knows the wiring)
+max_us = 2000
+max_speed = 3000
+
 [[safety.exclusive]]           # never two of these servos beyond threshold of their travel
 servos = ["brow_raise", "brow_lower"]
 threshold = 0.8                # in (0, 1]

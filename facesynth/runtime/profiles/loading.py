@@ -1,11 +1,14 @@
-"""Profiles by name: finding the TOML file, parsing it and reporting every problem at once.
+"""Profiles by name: finding the file, parsing it and reporting every problem at once.
 
 Lookup order for a name: a path to an existing file; ``$FACESYNTH_PROFILES``;
-``~/.config/facesynth/profiles``; the profiles shipped in this package.
+``~/.config/facesynth/profiles``; the profiles shipped in this package. In each folder
+``NAME.toml`` (a written profile) comes before ``NAME.learned`` (a learned profile,
+:mod:`.learned_file`).
 """
 
 from __future__ import annotations
 
+import os
 import tomllib
 from pathlib import Path
 from typing import Any
@@ -15,6 +18,7 @@ import msgspec
 from facesynth.runtime.named_files import NamedFiles
 from facesynth.runtime.oneline import one_line
 
+from .learned_file import FORMAT, SUFFIX, VERSION, Header, LearnedFile, split_file
 from .model import Profile, ServoSpec
 from .validation import validate_profile
 
@@ -35,13 +39,46 @@ class ProfileError(ValueError):
 PROFILES = NamedFiles("profile", ".toml", "FACESYNTH_PROFILES", PACKAGE_DIR, list_available=True)
 
 
-def available_profiles() -> list[str]:
-    """Names of every profile found in the search folders."""
-    return PROFILES.available()
+def available_profiles(*, hardware: bool = False) -> list[str]:
+    """Names of the profiles found in the search folders that a chain can run (written and
+    learned ones); with ``hardware``, also those with servos without a source (hardware
+    profiles, for ``facesynth learn`` and the control interface: the translator refuses them)."""
+    dirs = [d for d in PROFILES.search_dirs() if d.is_dir()]
+    learned = {p.stem for d in dirs for p in d.glob(f"*{SUFFIX}")}
+    written = set(PROFILES.available())
+    if not hardware:
+        written = {name for name in written if not _hardware_only(resolve_profile(name))}
+    return sorted(written | learned)
+
+
+def _hardware_only(path: Path) -> bool:
+    """Whether a TOML profile has a servo without a source (unreadable files: no)."""
+    try:
+        servos = tomllib.loads(path.read_text(encoding="utf-8")).get("servos")
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
+        return False
+    sources = ("points", "feature", "blendshape", "mix")
+    return isinstance(servos, list) and any(
+        isinstance(servo, dict) and not any(servo.get(key) for key in sources) for servo in servos
+    )
 
 
 def resolve_profile(name_or_path: str) -> Path:
     """The file a profile name or path refers to, or raise :class:`ProfileError`."""
+    if Path(name_or_path).suffix == SUFFIX or os.sep in name_or_path:
+        if Path(name_or_path).is_file():
+            return Path(name_or_path)
+        raise ProfileError(f"profile file {name_or_path} does not exist")
+    if Path(name_or_path).suffix != PROFILES.suffix:
+        for folder in PROFILES.search_dirs():
+            for suffix in (PROFILES.suffix, SUFFIX):
+                path = folder / f"{name_or_path}{suffix}"
+                if path.is_file():
+                    return path
+        raise ProfileError(
+            f"no profile named {name_or_path!r} "
+            f"(available: {', '.join(available_profiles(hardware=True)) or 'none'})"
+        )
     try:
         return PROFILES.resolve(name_or_path)
     except LookupError as exc:
@@ -54,6 +91,8 @@ def parse_profile(text: str, source: str = "<profile>") -> Profile:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise _error(source, [f"not valid TOML: {exc}"]) from None
+    if "learned" in data:
+        raise _error(source, ["learned: only a learned profile file (NAME.learned) has one"])
     try:
         profile = msgspec.convert(data, Profile)
     except msgspec.ValidationError as exc:
@@ -98,9 +137,44 @@ def _structure_problems(data: dict[str, Any], whole: msgspec.ValidationError) ->
     return problems or [str(whole)]
 
 
+def parse_learned_profile(data: bytes, source: str = "<learned profile>") -> Profile:
+    """Read and check a learned profile file's bytes; :class:`ProfileError` (one line) when
+    it is not msgpack, not a learned profile, of another version, or malformed in any part."""
+    try:
+        header = msgspec.msgpack.decode(data, type=Header)
+    except msgspec.ValidationError as exc:  # msgpack, but not a map
+        raise _error(source, [f"not a learned profile ({exc})"]) from None
+    except msgspec.DecodeError as exc:
+        raise _error(source, [f"not a learned profile (not msgpack: {exc})"]) from None
+    if header.format != FORMAT:
+        raise _error(source, [f"not a learned profile (format {header.format!r}, not {FORMAT!r})"])
+    if header.version != VERSION:
+        raise _error(
+            source,
+            [f"learned profile version {header.version!r} is not supported (this reads {VERSION})"],
+        )
+    try:
+        document = msgspec.msgpack.decode(data, type=LearnedFile)
+    except (msgspec.DecodeError, msgspec.ValidationError) as exc:
+        raise _error(source, [f"malformed learned profile: {exc}"]) from None
+    if document.profile.learned is not None:
+        raise _error(source, ["profile.learned: the hardware profile holds no mapping"])
+    profile = split_file(document)
+    problems = validate_profile(profile)
+    if problems:
+        raise _error(source, problems)
+    return profile
+
+
 def load_profile(name_or_path: str) -> Profile:
-    """Load a profile by name or path, validated."""
+    """Load a profile (written ``.toml`` or learned ``.learned``) by name or path, validated."""
     path = resolve_profile(name_or_path)
+    if path.suffix == SUFFIX:
+        try:
+            data = path.read_bytes()
+        except OSError as exc:
+            raise ProfileError(f"cannot read profile {path}: {exc}") from None
+        return parse_learned_profile(data, str(path))
     try:
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:

@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import msgspec
 
+from .learned import Learned
+
 
 class Smoothing(msgspec.Struct, forbid_unknown_fields=True, kw_only=True):
     """One Euro filter parameters (Casiez, Roussel, Vogel, CHI 2012).
@@ -100,6 +102,9 @@ class Profile(msgspec.Struct, forbid_unknown_fields=True, kw_only=True):
     smoothing: Smoothing | None = None
     safety: Safety = msgspec.field(default_factory=Safety)
     servos: list[ServoSpec]
+    #: The learned mapping of a ``NAME.learned`` file (None for a TOML profile): T drives the
+    #: servos with it instead of their sources; C ignores it.
+    learned: Learned | None = None
 
     def servo(self, name: str) -> ServoSpec:
         """The servo called ``name`` (KeyError if there is none)."""
@@ -144,3 +149,8 @@ def describe_source(spec: ServoSpec) -> str:
         if value != default:
             parts.append(f"{field} {value:g}")
     return "; ".join(parts) or "no source"
+
+
+def has_source(spec: ServoSpec) -> bool:
+    """Whether anything drives ``spec`` (a hardware-only servo has no source)."""
+    return bool(spec.points) or spec.weights() is not None

@@ -8,6 +8,7 @@ import math
 from facesynth.runtime.feature_names import BLENDSHAPE_NAMES, NAMES
 from facesynth.runtime.landmarks import N_IBUG
 
+from .learned import learned_problems
 from .model import Profile, ServoSpec, Smoothing, SmoothingOverride
 
 #: ``max_command_age_s`` bounds: shorter than a frame's way through a loaded chain drops live
@@ -54,8 +55,6 @@ def _source_problems(where: str, spec: ServoSpec) -> list[str]:
     named = [
         field for field in ("feature", "blendshape", "mix") if getattr(spec, field) is not None
     ]
-    if not spec.points and not named:
-        problems.append(f"{where}: no points, feature, blendshape or mix (give exactly one source)")
     if len(named) > 1:
         problems.append(
             f"{where}: several sources ({' and '.join(named)}); give exactly one "
@@ -180,4 +179,7 @@ def validate_profile(profile: Profile) -> list[str]:
         if spec.min_us < 0:
             problems.append(f"{where}: min_us {spec.min_us:g} is negative")
     problems.extend(_safety_problems(profile, names))
+    if profile.learned is not None:
+        servos = [spec.name for spec in profile.servos]
+        problems.extend(f"learned: {p}" for p in learned_problems(profile.learned, servos))
     return problems

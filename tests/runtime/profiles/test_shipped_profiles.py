@@ -144,7 +144,8 @@ def test_virtual_profile() -> None:
 
 def test_format_reference_is_a_valid_profile() -> None:
     profile = parse_profile(FORMAT_REFERENCE)
-    assert [s.name for s in profile.servos] == ["jaw", "brow_raise", "brow_lower", "smile"]
+    assert [s.name for s in profile.servos] == ["jaw", "brow_raise", "brow_lower", "smile", "lid"]
+    assert not profile.servo("lid").points and profile.servo("lid").weights() is None
     smile = profile.servo("smile")
     assert smile.blendshape == "mouthSmileRight" and smile.one_sided
     assert profile.safety.exclusive[0].servos == ["brow_raise", "brow_lower"]

@@ -1,0 +1,389 @@
+"""Fit a learned profile from babbling: the robot's self-model and its inverse (scikit-learn).
+
+:func:`fit_learned_profile` takes a :class:`~facesynth.app.learn.dataset.BabbleSet` and the
+hardware profile it was babbled with and returns that profile with its
+:class:`~facesynth.runtime.profiles.Learned` mapping (save it with
+:func:`~facesynth.runtime.profiles.save_learned_profile`):
+
+1. **Inputs.** The features the robot actually moved: present (finite) in at least
+   ``min_present`` of the samples, and with a spread (standard deviation) of at least
+   ``min_std`` of the feature's default range (:mod:`facesynth.runtime.feature_names`). Rows with
+   NaN in a chosen input are dropped (counted in the report). Each input is taken relative to
+   the robot's neutral (the median of the ``"neutral"`` samples, when there are any);
+   ``reach_low`` / ``reach_high`` are its 1st / 99th percentiles (0 included).
+2. **Dead servos.** A forward model (ridge on degree-2 polynomial features of every servo's
+   normalized command ``u``) predicts the standardized inputs; a servo whose full travel
+   (``u`` = ±1, the others at neutral) moves no input by ``dead_effect`` standard deviations is
+   dead: its command moved nothing the camera sees, so it stays at neutral. Servos of the
+   profile that the babbling never commanded are dead too.
+3. **Inverse model.** Candidates (ridge on degree-2 polynomial features with a per-servo
+   penalty by generalized cross-validation, k nearest neighbours, a small tanh MLP at each
+   penalty of ``mlp_alphas``; fitted on one BLAS thread: on these small matrices more threads
+   only fight over the cores) are trained on the
+   poses of a seeded split by pose (a pose visited twice, e.g. the neutral, is on one side only)
+   and compared by their command error on the held-out poses: the mean absolute error in µs, as
+   a fraction of each servo's range (``max_us - min_us``). The best is refitted on every pose.
+4. **Forward model** on the live servos (the same ridge) is kept in the file as the robot's
+   self-model: ``u`` → standardized inputs.
+
+scikit-learn is imported here only (the ``learn`` extra); the board side runs the result in
+numpy (:func:`facesynth.runtime.profiles.learned.predictor`, which gives what these
+scikit-learn models' ``predict`` give).
+"""
+
+from __future__ import annotations
+
+import time
+import warnings
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+from datetime import UTC, datetime
+from typing import Any
+
+import msgspec
+import numpy as np
+
+from facesynth.app.learn.dataset import BabbleSet
+from facesynth.runtime.feature_names import BY_NAME
+from facesynth.runtime.profiles import Learned, Profile
+from facesynth.runtime.profiles.learned import KNN, MLP, Layer, Model, PolyRidge, Report, pack
+
+#: The inverse models compared, by name.
+CANDIDATES = ("poly_ridge", "knn", "mlp")
+
+
+class FitError(ValueError):
+    """Babbling data from which no profile can be fitted."""
+
+
+@dataclass(frozen=True)
+class FitOptions:
+    """How to fit (the defaults suit a few hundred to a few thousand poses)."""
+
+    seed: int = 0
+    held_out: float = 0.2
+    min_present: float = 0.9
+    min_std: float = 0.03
+    dead_effect: float = 0.3
+    candidates: tuple[str, ...] = CANDIDATES
+    knn_k: int = 5
+    mlp_layers: tuple[int, ...] = (64, 64)
+    #: The MLP's L2 penalty (``fit_model``); the fit compares one MLP per ``mlp_alphas``.
+    mlp_alpha: float = 0.1
+    mlp_alphas: tuple[float, ...] = (0.1, 1.0)
+
+
+def _sklearn() -> Any:
+    try:
+        from sklearn import linear_model, neighbors, neural_network, preprocessing
+    except ImportError:
+        raise FitError("fitting needs scikit-learn: pip install 'facesynth[learn]'") from None
+
+    return linear_model, neighbors, neural_network, preprocessing
+
+
+# --- models, fitted and exported ----------------------------------------------------------------
+
+
+def _poly_ridge(x: np.ndarray, y: np.ndarray, options: FitOptions) -> tuple[Any, PolyRidge]:
+    linear_model, _, _, preprocessing = _sklearn()
+    poly = preprocessing.PolynomialFeatures(degree=2, include_bias=False).fit(x)
+    ridge = linear_model.RidgeCV(alphas=np.logspace(-4, 2, 7), alpha_per_target=True)
+    ridge.fit(poly.transform(x), y)
+    coef = np.atleast_2d(ridge.coef_)
+    model = PolyRidge(
+        degree=2,
+        powers=pack(poly.powers_.astype(np.float64)),
+        coef=pack(coef),
+        intercept=pack(np.atleast_1d(ridge.intercept_)),
+    )
+    return (poly, ridge), model
+
+
+def _knn(x: np.ndarray, y: np.ndarray, options: FitOptions) -> tuple[Any, KNN]:
+    _, neighbors, _, _ = _sklearn()
+    k = min(options.knn_k, len(x))
+    knn = neighbors.KNeighborsRegressor(n_neighbors=k, weights="distance", algorithm="brute")
+    knn.fit(x, y)
+    return knn, KNN(k=k, weights="distance", train_x=pack(x), train_y=pack(y))
+
+
+def _mlp(x: np.ndarray, y: np.ndarray, options: FitOptions) -> tuple[Any, MLP]:
+    _, _, neural_network, _ = _sklearn()
+    mlp = neural_network.MLPRegressor(
+        hidden_layer_sizes=options.mlp_layers,
+        activation="tanh",
+        solver="lbfgs",
+        alpha=options.mlp_alpha,
+        max_iter=1000,
+        random_state=options.seed,
+    )
+    with warnings.catch_warnings():  # an lbfgs MLP stopping at max_iter is still a model
+        warnings.simplefilter("ignore")
+        mlp.fit(x, y)
+    layers = [
+        Layer(weights=pack(w), bias=pack(b))
+        for w, b in zip(mlp.coefs_, mlp.intercepts_, strict=True)
+    ]
+    return mlp, MLP(activation="tanh", layers=layers)
+
+
+FITTERS: dict[str, Callable[[np.ndarray, np.ndarray, FitOptions], tuple[Any, Model]]] = {
+    "poly_ridge": _poly_ridge,
+    "knn": _knn,
+    "mlp": _mlp,
+}
+
+
+def sklearn_predict(fitted: Any, x: np.ndarray) -> np.ndarray:
+    """scikit-learn's own prediction of a fitted candidate, (n, outputs)."""
+    if isinstance(fitted, tuple):
+        poly, ridge = fitted
+        out = ridge.predict(poly.transform(x))
+    else:
+        out = fitted.predict(x)
+    return np.asarray(out, dtype=np.float64).reshape(len(x), -1)
+
+
+def _variants(options: FitOptions) -> dict[str, tuple[str, FitOptions]]:
+    """The candidates compared, by the name the report gives them: an MLP per penalty."""
+    variants = {}
+    for name in options.candidates:
+        if name != "mlp":
+            variants[name] = (name, options)
+            continue
+        for alpha in options.mlp_alphas or (options.mlp_alpha,):
+            variants[f"mlp(alpha={alpha:g})"] = (name, replace(options, mlp_alpha=alpha))
+    return variants
+
+
+def fit_model(name: str, x: np.ndarray, y: np.ndarray, options: FitOptions) -> tuple[Any, Model]:
+    """Fit candidate ``name`` on ``x`` → ``y``: (the scikit-learn model, the exported model)."""
+    if name not in FITTERS:
+        raise FitError(f"unknown model {name!r} (one of {', '.join(FITTERS)})")
+    fitted, model = FITTERS[name](x, y, options)
+    return fitted, model
+
+
+# --- the data ------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class _Data:
+    inputs: list[str]
+    t: np.ndarray  # (n, d) relative to the robot's neutral
+    u: np.ndarray  # (n, S) normalized commands
+    groups: np.ndarray  # (n,) pose index
+    dropped: int
+    notes: list[str]
+
+
+def _choose_inputs(babble: BabbleSet, u: np.ndarray, options: FitOptions) -> _Data:
+    faces = np.asarray(babble.faces, dtype=np.float64)
+    present = np.isfinite(faces).mean(axis=0) if len(faces) else np.zeros(faces.shape[1])
+    kinds = np.asarray(babble.kinds)
+    neutral_rows = faces[kinds == "neutral"]
+    notes = []
+    chosen = []
+    for column, name in enumerate(babble.inputs):
+        feature = BY_NAME.get(name)
+        if feature is None:
+            notes.append(f"input {name!r} is not a feature: left out")
+            continue
+        if present[column] < options.min_present:
+            notes.append(f"input {name} present in {present[column]:.0%} of samples: left out")
+            continue
+        spread = float(np.nanstd(faces[:, column]))
+        if spread >= options.min_std * (feature.default_max - feature.default_min):
+            chosen.append(column)
+    if not chosen:
+        raise FitError("the babbling moved no feature: is the camera on the robot's face?")
+    values = faces[:, chosen]
+    keep = np.all(np.isfinite(values), axis=1)
+    dropped = int((~keep).sum())
+    if dropped:
+        notes.append(f"{dropped} samples with a missing chosen input dropped")
+    offset = np.zeros(len(chosen))
+    if len(neutral_rows):
+        with warnings.catch_warnings():  # an input never seen at neutral: offset 0
+            warnings.simplefilter("ignore", RuntimeWarning)
+            offset = np.nan_to_num(np.nanmedian(neutral_rows[:, chosen], axis=0))
+    _, groups = np.unique(np.round(babble.commands[keep], 1), axis=0, return_inverse=True)
+    return _Data(
+        inputs=[str(babble.inputs[c]) for c in chosen],
+        t=values[keep] - offset,
+        u=u[keep],
+        groups=np.asarray(groups).reshape(-1),
+        dropped=dropped,
+        notes=notes,
+    )
+
+
+def _split(groups: np.ndarray, options: FitOptions) -> tuple[np.ndarray, np.ndarray]:
+    """Row masks (train, held out): a seeded share of the poses held out."""
+    poses = np.unique(groups)
+    rng = np.random.default_rng(options.seed)
+    n_out = round(len(poses) * options.held_out)
+    if len(poses) < 10 or n_out < 1:
+        raise FitError(f"{len(poses)} different poses: too few to fit and check a model")
+    out = np.isin(groups, rng.permutation(poses)[:n_out])
+    return ~out, out
+
+
+def _ranges(profile: Profile, servos: list[str]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    specs = [profile.servo(name) for name in servos]
+    neutral = np.array([s.neutral_us for s in specs])
+    up = np.array([s.max_us - s.neutral_us for s in specs])
+    down = np.array([s.neutral_us - s.min_us for s in specs])
+    return neutral, up, down
+
+
+def command_error(
+    profile: Profile, servos: list[str], u: np.ndarray, wanted: np.ndarray
+) -> np.ndarray:
+    """Per servo, the mean absolute error of commands ``u`` against ``wanted`` (both (n, S)
+    normalized), in µs as a fraction of the servo's range (max_us - min_us)."""
+    neutral, up, down = _ranges(profile, servos)
+
+    def pulses(v: np.ndarray) -> np.ndarray:
+        v = np.clip(v, -1.0, 1.0)
+        out: np.ndarray = neutral + np.where(v >= 0, v * up, v * down)
+        return out
+
+    error: np.ndarray = np.abs(pulses(u) - pulses(wanted)).mean(axis=0) / (up + down)
+    return error
+
+
+def _dead(x: np.ndarray, u: np.ndarray, options: FitOptions) -> np.ndarray:
+    """Per servo: whether its full travel moves no input by ``dead_effect`` std."""
+    fitted, _ = _poly_ridge(u, x, options)
+    n = u.shape[1]
+    probes = np.vstack([np.zeros(n), np.eye(n), -np.eye(n)])
+    predicted = sklearn_predict(fitted, probes)
+    effect = np.abs(predicted[1:] - predicted[0]).max(axis=1)
+    effect = np.maximum(effect[:n], effect[n:])
+    dead: np.ndarray = effect < options.dead_effect
+    return dead
+
+
+def fit_learned_profile(
+    babble: BabbleSet, profile: Profile, options: FitOptions | None = None
+) -> Profile:
+    """``profile`` (a hardware profile) with the mapping fitted on ``babble`` (see the module).
+
+    Raises :class:`FitError` when the data cannot give a model (no moving feature, too few
+    poses, servos the profile lacks, no servo moving the face).
+    """
+    options = options or FitOptions()
+    _sklearn()
+    from threadpoolctl import threadpool_limits  # a dependency of scikit-learn
+
+    # One core: multithreaded BLAS on these small matrices only fights over the cores (a
+    # 50-fold slow-down measured on a loaded two-core machine).
+    with threadpool_limits(limits=1):
+        return _fit(babble, profile, options)
+
+
+def _fit(babble: BabbleSet, profile: Profile, options: FitOptions) -> Profile:
+    started = time.perf_counter()
+    names = [spec.name for spec in profile.servos]
+    unknown = [name for name in babble.servos if name not in names]
+    if unknown:
+        raise FitError(f"the babbling commanded servos {unknown} that profile {profile.name} lacks")
+    unknown_models = [c for c in options.candidates if c not in FITTERS]
+    if unknown_models or not options.candidates:
+        raise FitError(f"unknown models {unknown_models} (known: {', '.join(FITTERS)})")
+    data = _choose_inputs(babble, babble.normalized(profile), options)
+    mean = data.t.mean(axis=0)
+    scale = data.t.std(axis=0)
+    scale = np.where(scale > 0, scale, 1.0)
+    x = (data.t - mean) / scale
+    dead_mask = _dead(x, data.u, options)
+    servos = [str(name) for name in babble.servos]  # numpy strings do not encode
+    live = [s for s, d in zip(servos, dead_mask, strict=True) if not d]
+    dead = [s for s in names if s not in live]
+    if not live:
+        raise FitError("no servo moved the face while babbling")
+    y = data.u[:, ~dead_mask]
+    train, test = _split(data.groups, options)
+    errors: dict[str, np.ndarray] = {}
+    seconds: dict[str, float] = {}
+    variants = _variants(options)
+    for label, (name, variant) in variants.items():
+        begun = time.perf_counter()
+        fitted, _ = fit_model(name, x[train], y[train], variant)
+        errors[label] = command_error(profile, live, sklearn_predict(fitted, x[test]), y[test])
+        seconds[label] = time.perf_counter() - begun
+    best = min(errors, key=lambda label: float(errors[label].mean()))
+    family, variant = variants[best]
+    _, inverse = fit_model(family, x, y, variant)
+    _, forward = _poly_ridge(y, x, options)
+    low = np.minimum(np.percentile(data.t, 1, axis=0), 0.0)
+    high = np.maximum(np.percentile(data.t, 99, axis=0), 0.0)
+    notes = data.notes + [f"{name} fitted in {seconds[name]:.1f} s" for name in seconds]
+    report = Report(
+        model=best,
+        servo_error={s: float(e) for s, e in zip(live, errors[best], strict=True)},
+        candidates={name: float(e.mean()) for name, e in errors.items()},
+        samples=len(x),
+        held_out=int(test.sum()),
+        dropped=data.dropped,
+        fit_seconds=round(time.perf_counter() - started, 3),
+        created=datetime.now(UTC).isoformat(timespec="seconds"),
+        notes=notes,
+    )
+    learned = Learned(
+        inputs=data.inputs,
+        reach_low=pack(low),
+        reach_high=pack(high),
+        input_mean=pack(mean),
+        input_scale=pack(scale),
+        outputs=live,
+        dead=dead,
+        inverse=inverse,
+        forward=forward,
+        report=report,
+    )
+    return msgspec.structs.replace(profile, learned=learned)
+
+
+def format_report(profile: Profile) -> str:
+    """The fit's report: the models compared, then each servo's held-out command error."""
+    if profile.learned is None:
+        return f"profile {profile.name} is not learned"
+    learned, report = profile.learned, profile.learned.report
+    lines = [
+        f"{profile.name}: {report.model} from {len(learned.inputs)} inputs, "
+        f"{report.samples} samples ({report.held_out} held out, {report.dropped} dropped), "
+        f"fitted in {report.fit_seconds:.1f} s",
+        "held-out command error (fraction of range): "
+        + ", ".join(f"{name} {error:.3f}" for name, error in report.candidates.items()),
+    ]
+    for name in learned.outputs:
+        lines.append(f"  {name:<20} {report.servo_error[name]:.3f}")
+    for name in learned.dead:
+        lines.append(f"  {name:<20} dead (kept at neutral)")
+    lines.extend(f"note: {note}" for note in report.notes)
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``python -m facesynth.app.learn.fit PROFILE [--frames N]``: a learned profile's fit
+    report and T's milliseconds per frame with it."""
+    import argparse
+
+    from facesynth.runtime.profiles import load_profile
+    from services.translator.timing import time_translator
+
+    parser = argparse.ArgumentParser(prog="python -m facesynth.app.learn.fit")
+    parser.add_argument("profile", help="a learned profile (NAME or PATH.learned)")
+    parser.add_argument("--frames", type=int, default=2000)
+    args = parser.parse_args(argv)
+    profile = load_profile(args.profile)
+    print(format_report(profile))
+    print(f"T: {time_translator(profile, args.frames):.3f} ms per frame")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,359 @@
+"""A learned mapping: the face → servo-command model of a learned profile, in plain numpy.
+
+A learned profile (``NAME.learned``, :mod:`.learned_file`) is a hardware profile (servos with
+channels, limits and speeds, no sources) plus a :class:`Learned` mapping fitted on the robot's
+own babbling (``facesynth learn``):
+
+* ``inputs``: the feature names (keys of ``Features.raw``) the robot moved while babbling;
+* ``reach_low`` / ``reach_high``: how far the robot's face moved each input, relative to its
+  neutral (``reach_low <= 0 <= reach_high``, raw units);
+* ``input_mean`` / ``input_scale``: the models see ``(t - input_mean) / input_scale``;
+* ``outputs``: the live servos, in the inverse model's output order; ``dead``: servos whose
+  command moved no input, kept at neutral;
+* ``inverse``: standardized inputs → each output servo's normalized command ``u`` in [-1, 1]
+  (0 neutral, +1 ``max_us``, -1 ``min_us``; *not* reversed-aware: the model learned the wiring,
+  so ``reversed`` is ignored for a learned servo);
+* ``forward``: ``u`` of the outputs → standardized inputs (the robot's self-model), or None;
+* ``report``: how the fit went (held-out command error per servo, as a fraction of its range).
+
+Arrays travel as :class:`ArrayData` (little-endian float32/float64 bytes with a shape), never
+pickled. Models are a tagged union (``kind``): :class:`PolyRidge` (ridge regression on
+polynomial features), :class:`KNN` (k nearest neighbours), :class:`MLP` (a small perceptron).
+:func:`predictor` turns one into a numpy function that gives what scikit-learn's ``predict``
+gives for the model it was exported from; :func:`learned_problems` checks every size, shape and
+value (the loader reports them as one :class:`~.loading.ProfileError`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+
+import msgspec
+import numpy as np
+
+from facesynth.runtime.feature_names import NAMES
+
+#: The dtypes an array may have in a file.
+DTYPES = ("<f4", "<f8")
+
+
+class ArrayData(msgspec.Struct, forbid_unknown_fields=True):
+    """A numeric array: dtype (``"<f4"`` or ``"<f8"``), shape, and its bytes (C order)."""
+
+    dtype: str
+    shape: list[int]
+    data: bytes
+
+
+class PolyRidge(msgspec.Struct, tag="poly_ridge", tag_field="kind", forbid_unknown_fields=True):
+    """Ridge regression on polynomial features (scikit-learn's PolynomialFeatures + Ridge).
+
+    ``powers`` (T, D): each term's power of each input (whole numbers, row sums <= degree);
+    ``coef`` (O, T); ``intercept`` (O,). y = prod(x ** powers) @ coef.T + intercept.
+    """
+
+    degree: int
+    powers: ArrayData
+    coef: ArrayData
+    intercept: ArrayData
+
+
+class KNN(msgspec.Struct, tag="knn", tag_field="kind", forbid_unknown_fields=True):
+    """k nearest neighbours (Euclidean) on the training set; ``weights`` ``"uniform"`` (mean)
+    or ``"distance"`` (1 / distance, an exact match wins), as KNeighborsRegressor."""
+
+    k: int
+    weights: str
+    train_x: ArrayData
+    train_y: ArrayData
+
+
+class Layer(msgspec.Struct, forbid_unknown_fields=True):
+    """One dense layer: ``x @ weights + bias``; ``weights`` (in, out), ``bias`` (out,)."""
+
+    weights: ArrayData
+    bias: ArrayData
+
+
+class MLP(msgspec.Struct, tag="mlp", tag_field="kind", forbid_unknown_fields=True):
+    """A multilayer perceptron (MLPRegressor): ``activation`` (``"relu"`` or ``"tanh"``) after
+    every layer but the last, which is linear."""
+
+    activation: str
+    layers: list[Layer]
+
+
+Model = PolyRidge | KNN | MLP
+
+
+class Report(msgspec.Struct, forbid_unknown_fields=True, kw_only=True):
+    """How the fit went. Errors are mean absolute command errors on held-out babbling poses,
+    as a fraction of each servo's range (max_us - min_us)."""
+
+    model: str
+    servo_error: dict[str, float]
+    candidates: dict[str, float]
+    samples: int
+    held_out: int
+    dropped: int = 0
+    fit_seconds: float = 0.0
+    created: str = ""
+    notes: list[str] = []
+
+
+class Learned(msgspec.Struct, forbid_unknown_fields=True, kw_only=True):
+    """The learned mapping of a profile (see the module's docstring)."""
+
+    inputs: list[str]
+    reach_low: ArrayData
+    reach_high: ArrayData
+    input_mean: ArrayData
+    input_scale: ArrayData
+    outputs: list[str]
+    dead: list[str]
+    inverse: Model
+    forward: Model | None = None
+    report: Report
+
+
+def pack(array: np.ndarray, dtype: str = "<f8") -> ArrayData:
+    """``array`` as :class:`ArrayData` (converted to ``dtype``)."""
+    data = np.ascontiguousarray(array, dtype=np.dtype(dtype))
+    return ArrayData(dtype=dtype, shape=list(data.shape), data=data.tobytes())
+
+
+def array_problem(array: ArrayData) -> str | None:
+    """What is wrong with ``array`` (None: nothing): dtype, shape, size, finite values."""
+    if array.dtype not in DTYPES:
+        return f"dtype {array.dtype!r} is not one of {', '.join(DTYPES)}"
+    if any(n < 0 for n in array.shape) or len(array.shape) > 2:
+        return f"shape {array.shape} is not a vector or a matrix"
+    itemsize = np.dtype(array.dtype).itemsize
+    expected = math.prod(array.shape) * itemsize
+    if len(array.data) != expected:
+        return f"holds {len(array.data)} bytes, shape {array.shape} needs {expected}"
+    values = np.frombuffer(array.data, dtype=np.dtype(array.dtype))
+    if not np.all(np.isfinite(values)):
+        return "holds values that are not finite"
+    return None
+
+
+def unpack(array: ArrayData) -> np.ndarray:
+    """The float64 numpy array of a valid :class:`ArrayData` (see :func:`array_problem`)."""
+    values = np.frombuffer(array.data, dtype=np.dtype(array.dtype))
+    return values.astype(np.float64).reshape(array.shape)
+
+
+def _model_arrays(model: Model) -> dict[str, ArrayData]:
+    if isinstance(model, PolyRidge):
+        return {"powers": model.powers, "coef": model.coef, "intercept": model.intercept}
+    if isinstance(model, KNN):
+        return {"train_x": model.train_x, "train_y": model.train_y}
+    arrays = {}
+    for index, layer in enumerate(model.layers):
+        arrays[f"layers[{index}].weights"] = layer.weights
+        arrays[f"layers[{index}].bias"] = layer.bias
+    return arrays
+
+
+def _shape_problems(model: Model, n_in: int, n_out: int) -> list[str]:
+    """Shape and value problems of a model whose arrays are valid."""
+    if isinstance(model, PolyRidge):
+        powers, coef = unpack(model.powers), unpack(model.coef)
+        intercept = unpack(model.intercept)
+        if powers.ndim != 2 or powers.shape[1] != n_in:
+            return [f"powers shape {list(powers.shape)} is not (terms, {n_in})"]
+        if not (1 <= model.degree <= 4):
+            return [f"degree {model.degree} is outside 1..4"]
+        if np.any(powers < 0) or np.any(powers != np.round(powers)):
+            return ["powers must be whole numbers >= 0"]
+        if np.any(powers.sum(axis=1) > model.degree):
+            return [f"a term's powers add up to more than the degree {model.degree}"]
+        if coef.shape != (n_out, powers.shape[0]) or intercept.shape != (n_out,):
+            return [
+                f"coef {list(coef.shape)} / intercept {list(intercept.shape)} do not fit "
+                f"{n_out} outputs of {powers.shape[0]} terms"
+            ]
+        return []
+    if isinstance(model, KNN):
+        x, y = unpack(model.train_x), unpack(model.train_y)
+        if x.ndim != 2 or x.shape[1] != n_in or y.shape != (x.shape[0], n_out):
+            return [
+                f"train_x {list(x.shape)} / train_y {list(y.shape)} are not (n, {n_in}) / "
+                f"(n, {n_out})"
+            ]
+        if not 1 <= model.k <= x.shape[0]:
+            return [f"k {model.k} is outside 1..{x.shape[0]} (the training set)"]
+        if model.weights not in ("uniform", "distance"):
+            return [f"weights {model.weights!r} is not 'uniform' or 'distance'"]
+        return []
+    if model.activation not in ACTIVATIONS:
+        return [f"activation {model.activation!r} is not one of {', '.join(ACTIVATIONS)}"]
+    if not model.layers:
+        return ["an MLP needs at least one layer"]
+    width = n_in
+    for index, layer in enumerate(model.layers):
+        weights, bias = unpack(layer.weights), unpack(layer.bias)
+        if weights.ndim != 2 or weights.shape[0] != width or bias.shape != (weights.shape[1],):
+            return [
+                f"layers[{index}]: weights {list(weights.shape)} / bias {list(bias.shape)} do "
+                f"not follow {width} inputs"
+            ]
+        width = weights.shape[1]
+    if width != n_out:
+        return [f"the last layer gives {width} outputs, not {n_out}"]
+    return []
+
+
+def model_problems(where: str, model: Model, n_in: int, n_out: int) -> list[str]:
+    """Every problem of ``model`` mapping ``n_in`` values to ``n_out``."""
+    problems = []
+    for name, array in _model_arrays(model).items():
+        problem = array_problem(array)
+        if problem is not None:
+            problems.append(f"{where}.{name}: {problem}")
+    if problems:
+        return problems
+    return [f"{where}: {p}" for p in _shape_problems(model, n_in, n_out)]
+
+
+def learned_problems(learned: Learned, servos: list[str]) -> list[str]:
+    """Every problem of a learned mapping for a profile with ``servos`` (empty: valid)."""
+    problems: list[str] = []
+    n_in = len(learned.inputs)
+    if not n_in:
+        problems.append("inputs is empty")
+    unknown = [name for name in learned.inputs if name not in NAMES]
+    if unknown:
+        problems.append(f"inputs {unknown[:3]} are not features (facesynth.runtime.feature_names)")
+    if len(set(learned.inputs)) != n_in:
+        problems.append("inputs names a feature twice")
+    for name in ("reach_low", "reach_high", "input_mean", "input_scale"):
+        array = getattr(learned, name)
+        problem = array_problem(array)
+        if problem is None and array.shape != [n_in]:
+            problem = f"shape {array.shape} is not [{n_in}] (one per input)"
+        if problem is not None:
+            problems.append(f"{name}: {problem}")
+    if not problems:
+        if np.any(unpack(learned.reach_low) > 0) or np.any(unpack(learned.reach_high) < 0):
+            problems.append("needs reach_low <= 0 <= reach_high")
+        if np.any(unpack(learned.input_scale) <= 0):
+            problems.append("input_scale must be > 0")
+    named = learned.outputs + learned.dead
+    if len(set(named)) != len(named):
+        problems.append("a servo is both in outputs and dead, or named twice")
+    if sorted(named) != sorted(servos) and len(set(named)) == len(named):
+        missing = sorted(set(servos) - set(named))
+        extra = sorted(set(named) - set(servos))
+        problems.append(
+            f"outputs and dead must name each servo once (missing {missing}, unknown {extra})"
+        )
+    if not learned.outputs:
+        problems.append("outputs is empty (no servo moved the face)")
+    problems.extend(model_problems("inverse", learned.inverse, n_in, len(learned.outputs)))
+    if learned.forward is not None:
+        problems.extend(model_problems("forward", learned.forward, len(learned.outputs), n_in))
+    return problems
+
+
+# --- inference --------------------------------------------------------------------------------
+
+ACTIVATIONS: dict[str, Callable[[np.ndarray], np.ndarray]] = {
+    "relu": lambda x: np.maximum(x, 0.0),
+    "tanh": np.tanh,
+}
+
+Predict = Callable[[np.ndarray], np.ndarray]
+
+
+def _poly_ridge(model: PolyRidge) -> Predict:
+    powers = unpack(model.powers).astype(np.intp)
+    coef_t = np.ascontiguousarray(unpack(model.coef).T)
+    intercept = unpack(model.intercept)
+    # Each term as the inputs it multiplies, left to right as PolynomialFeatures does (index
+    # n_in is a constant 1.0): ((x_i * x_j) * x_k), so the products are bit-identical.
+    n_terms, n_in = powers.shape
+    degree = max(int(powers.sum(axis=1).max(initial=0)), 1)
+    factors = np.full((n_terms, degree), n_in, dtype=np.intp)
+    for term, row in enumerate(powers):
+        chosen = np.repeat(np.arange(n_in), row)
+        factors[term, : len(chosen)] = chosen
+
+    def predict(x: np.ndarray) -> np.ndarray:
+        extended = np.concatenate([x, np.ones((x.shape[0], 1))], axis=1)
+        terms = extended[:, factors]  # (n, T, degree); times the constant 1.0 is exact
+        product = terms[:, :, 0]
+        for column in range(1, degree):
+            product = product * terms[:, :, column]
+        out: np.ndarray = product @ coef_t + intercept
+        return out
+
+    return predict
+
+
+def _knn(model: KNN) -> Predict:
+    train_x, train_y = unpack(model.train_x), unpack(model.train_y)
+    k, by_distance = model.k, model.weights == "distance"
+
+    def predict(x: np.ndarray) -> np.ndarray:
+        d2 = (
+            np.sum(x * x, axis=1)[:, None]
+            - 2.0 * x @ train_x.T
+            + np.sum(train_x * train_x, axis=1)[None, :]
+        )
+        d2 = np.maximum(d2, 0.0)
+        nearest = np.argpartition(d2, k - 1, axis=1)[:, :k] if k < d2.shape[1] else None
+        if nearest is None:
+            nearest = np.broadcast_to(np.arange(d2.shape[1]), d2.shape)
+        neighbours = train_y[nearest]  # (n, k, O)
+        if not by_distance:
+            mean: np.ndarray = neighbours.mean(axis=1)
+            return mean
+        dist = np.sqrt(np.take_along_axis(d2, nearest, axis=1))
+        with np.errstate(divide="ignore"):
+            weights = 1.0 / dist
+        exact = dist == 0.0
+        rows = exact.any(axis=1)
+        weights[rows] = exact[rows].astype(np.float64)
+        out: np.ndarray = (
+            np.einsum("nk,nko->no", weights, neighbours) / weights.sum(axis=1)[:, None]
+        )
+        return out
+
+    return predict
+
+
+def _mlp(model: MLP) -> Predict:
+    layers = [(unpack(layer.weights), unpack(layer.bias)) for layer in model.layers]
+    activation = ACTIVATIONS[model.activation]
+
+    def predict(x: np.ndarray) -> np.ndarray:
+        for index, (weights, bias) in enumerate(layers):
+            x = x @ weights + bias
+            if index < len(layers) - 1:
+                x = activation(x)
+        return x
+
+    return predict
+
+
+def predictor(model: Model) -> Predict:
+    """A numpy function ``(n, inputs) -> (n, outputs)`` for a valid model."""
+    if isinstance(model, PolyRidge):
+        return _poly_ridge(model)
+    if isinstance(model, KNN):
+        return _knn(model)
+    return _mlp(model)
+
+
+def describe_learned(learned: Learned) -> str:
+    """One line about a learned mapping (for ``facesynth profile show``)."""
+    report = learned.report
+    live = [report.servo_error[n] for n in learned.outputs if n in report.servo_error]
+    error = f", held-out error {np.mean(live):.3f} of range (worst {max(live):.3f})" if live else ""
+    return (
+        f"learned: {report.model} from {len(learned.inputs)} inputs to {len(learned.outputs)} "
+        f"servos ({len(learned.dead)} dead){error}, {report.samples} samples"
+    )

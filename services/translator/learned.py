@@ -1,0 +1,136 @@
+"""Translator T with a learned profile, pure numpy: retarget the performer's face onto the
+robot's, then run the inverse model (:mod:`facesynth.runtime.profiles.learned`).
+
+Per frame, for each of the mapping's inputs ``i`` (a key of ``Features.raw``):
+
+1. **Retarget.** ``r`` is the performer's raw value (relative to the performer's neutral) and
+   ``n`` its calibrated scale (``Features.named``: 0 neutral, ±1 the performer's extremes).
+   The robot's face should move ``t = sign(r) · min(|r|, |n| · reach)``, ``reach`` being how
+   far the robot moved that input on that side while babbling: the performer's own movement
+   where the robot can follow it, scaled (a fraction of the performer's range becomes the same
+   fraction of the robot's) only where the robot's range is smaller; then ``t`` is clipped into
+   ``[reach_low, reach_high]``. An input without ``n`` is taken as ``r``, clipped; an input
+   missing from the frame (or NaN) as 0, the robot's neutral; a frame with none of the inputs
+   holds every servo (as a missing source does).
+2. **Inverse model.** ``u = inverse((t - input_mean) / input_scale)``, each output servo's
+   normalized command, clipped to [-1, 1].
+3. **Smoothing.** Each output's ``u`` goes through a One Euro filter with the profile's
+   (per-servo) smoothing parameters, in range units (the filters belong to the translator, so
+   :meth:`~services.translator.core.Translator.reset` and ``resume`` restart them).
+4. **Position.** ``u`` → µs as :func:`services.translator.core.scaled_position` maps it (+1
+   ``max_us``, -1 ``min_us``) but never reversed: the model learned the wiring. Dead servos
+   stay at ``neutral_us``.
+
+Motion limits, exclusive safety rules and clamping follow in the translator, as for written
+profiles. Mirroring (``mirror``) swaps the performer's right and left before step 1.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+
+import numpy as np
+
+from facesynth.runtime.profiles import Profile, Smoothing, has_source
+from facesynth.runtime.profiles.learned import predictor, unpack
+from services.translator.filters import OneEuroFilter
+
+
+class LearnedTargets:
+    """Target positions of a learned profile's servos, frame by frame."""
+
+    def __init__(self, profile: Profile, filters: Mapping[str, OneEuroFilter | None]) -> None:
+        """``filters``: a One Euro filter per output servo name (None: unfiltered)."""
+        learned = profile.learned
+        if learned is None:
+            raise ValueError(f"profile {profile.name} is not a learned profile")
+        self.inputs = list(learned.inputs)
+        self.low, self.high = unpack(learned.reach_low), unpack(learned.reach_high)
+        self.mean, self.scale = unpack(learned.input_mean), unpack(learned.input_scale)
+        self.predict = predictor(learned.inverse)
+        self.names = [spec.name for spec in profile.servos]
+        self.outputs = list(learned.outputs)
+        self.filters = [filters.get(name) for name in self.outputs]
+        specs = [profile.servo(name) for name in self.outputs]
+        self.neutral = np.array([s.neutral_us for s in specs])
+        self.up = np.array([s.max_us - s.neutral_us for s in specs])
+        self.down = np.array([s.neutral_us - s.min_us for s in specs])
+        self.min_us = np.array([s.min_us for s in specs])
+        self.max_us = np.array([s.max_us for s in specs])
+        self.fixed = {name: profile.servo(name).neutral_us for name in learned.dead}
+
+    def retarget(self, raw: Mapping[str, float], named: Mapping[str, float]) -> np.ndarray | None:
+        """The robot's input values ``t`` for a frame (None: none of the inputs is there)."""
+        r = np.array([raw.get(name, np.nan) for name in self.inputs], dtype=np.float64)
+        present = np.isfinite(r)
+        if not present.any():
+            return None
+        r = np.where(present, r, 0.0)
+        n = np.array([named.get(name, np.nan) for name in self.inputs], dtype=np.float64)
+        reach = np.where(r >= 0, self.high, -self.low)
+        scaled = np.abs(n) * reach
+        magnitude = np.where(np.isfinite(scaled), np.minimum(np.abs(r), scaled), np.abs(r))
+        out: np.ndarray = np.clip(np.sign(r) * magnitude, self.low, self.high)
+        return out
+
+    def commands(self, t: np.ndarray) -> np.ndarray:
+        """Each output's normalized command ``u`` in [-1, 1] for the robot's inputs ``t``."""
+        x = ((t - self.mean) / self.scale)[None, :]
+        out: np.ndarray = np.clip(self.predict(x)[0], -1.0, 1.0)
+        return out
+
+    def positions(self, u: np.ndarray) -> np.ndarray:
+        """Pulses of the outputs for ``u`` (not reversed-aware), within their limits."""
+        out: np.ndarray = np.clip(
+            self.neutral + np.where(u >= 0, u * self.up, u * self.down), self.min_us, self.max_us
+        )
+        return out
+
+    def targets(
+        self, raw: Mapping[str, float], named: Mapping[str, float], t_ns: int | None
+    ) -> list[float | None]:
+        """Every servo's target in the profile's order (None: hold); filtered when ``t_ns``."""
+        t = self.retarget(raw, named)
+        if t is None:
+            return [None] * len(self.names)
+        u = self.commands(t)
+        if t_ns is not None:
+            u = np.array(
+                [
+                    v if f is None else f(float(v), t_ns)
+                    for f, v in zip(self.filters, u, strict=True)
+                ]
+            )
+        by_name: dict[str, float] = dict(self.fixed)
+        by_name.update(zip(self.outputs, self.positions(u).tolist(), strict=True))
+        return [by_name[name] for name in self.names]
+
+
+def learned_targets(
+    profile: Profile,
+    filters: dict[tuple[object, ...], OneEuroFilter | None],
+    make_filter: Callable[[Smoothing | None], OneEuroFilter | None],
+) -> LearnedTargets | None:
+    """The learned targets of ``profile`` (None when it is not learned); each output's One
+    Euro filter is added to the translator's ``filters`` (key ``("learned", name)``)."""
+    if profile.learned is None:
+        return None
+    own = {}
+    for name in profile.learned.outputs:
+        own[name] = filters[("learned", name)] = make_filter(
+            profile.smoothing_for(profile.servo(name))
+        )
+    return LearnedTargets(profile, own)
+
+
+def unsourced(profile: Profile) -> str | None:
+    """Why T cannot drive ``profile``: servos without a source (a hardware profile) in a
+    profile that is not learned (None: it can)."""
+    missing = [spec.name for spec in profile.servos if not has_source(spec)]
+    if profile.learned is not None or not missing:
+        return None
+    shown = ", ".join(missing[:3]) + (", …" if len(missing) > 3 else "")
+    return (
+        f"profile {profile.name} has servos without a source ({shown}): a hardware profile "
+        "drives nothing until it is learned (facesynth learn writes NAME.learned)"
+    )

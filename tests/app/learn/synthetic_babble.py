@@ -1,0 +1,89 @@
+"""A synthetic robot face for fitting tests: 16 commands → 40 features, nonlinear, coupled,
+offset and noisy, two dead channels, plus features the head never moves and missing values."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from facesynth.app.learn.dataset import BabbleSet
+from facesynth.runtime.feature_names import BY_NAME, NAMES
+from facesynth.runtime.profiles import Profile, load_profile
+
+#: Servo indices of head16_hardware that move nothing.
+DEAD = (5, 11)
+#: The features the synthetic head moves, and some it never moves (head pose).
+MOVED = tuple(n for n in NAMES if not n.startswith(("head_", "gaze_")))[:40]
+STILL = ("head_yaw", "head_pitch", "head_roll")
+
+
+def hardware() -> Profile:
+    """The bundled hardware profile the synthetic head is wired like."""
+    return load_profile("head16_hardware")
+
+
+class SyntheticHead:
+    """The face's features (relative to its neutral) for normalized commands, with noise."""
+
+    def __init__(self, seed: int = 1, noise: float = 0.01, moved: tuple[str, ...] = MOVED) -> None:
+        rng = np.random.default_rng(seed)
+        self.moved = moved
+        n_servos, n_features = 16, len(moved)
+        self.span = np.array([BY_NAME[n].default_max - BY_NAME[n].default_min for n in moved])
+        self.gain_up = rng.uniform(0.6, 1.4, n_servos)
+        self.gain_down = rng.uniform(0.4, 1.2, n_servos)
+        self.power = rng.uniform(0.7, 1.6, n_servos)
+        self.offset = rng.uniform(-0.2, 0.2, n_servos)  # the rest pulse is off neutral
+        weights = rng.normal(0.0, 0.12, (n_features, n_servos))  # coupling
+        live = [s for s in range(n_servos) if s not in DEAD]
+        for j in range(n_features):
+            weights[j, live[j % len(live)]] = rng.choice([-1.0, 1.0]) * rng.uniform(0.7, 1.2)
+        weights[:, list(DEAD)] = 0.0
+        self.weights = weights
+        self.quadratic = rng.normal(0.0, 0.25, n_features)
+        self.noise = noise
+        self.rng = np.random.default_rng(seed + 1000)
+
+    def _actuators(self, u: np.ndarray) -> np.ndarray:
+        v = np.clip(u + self.offset, -1.0, 1.0)
+        curve = np.sign(v) * np.abs(v) ** self.power
+        return np.where(v >= 0, self.gain_up * curve, self.gain_down * curve)
+
+    def features(self, u: np.ndarray) -> np.ndarray:
+        """(n, features) raw features for (n, 16) normalized commands, relative to u = 0."""
+        a = self._actuators(u) - self._actuators(np.zeros((1, u.shape[1])))
+        z = a @ self.weights.T
+        z = np.tanh(0.8 * z + self.quadratic * z * z) / 2.0
+        noise = self.rng.normal(0.0, self.noise, z.shape)
+        return (z + noise) * self.span
+
+
+def synthetic_babble(n: int = 1500, seed: int = 0, head: SyntheticHead | None = None) -> BabbleSet:
+    """A babbling set: sweeps, random poses, a neutral every 25 poses; a few NaN."""
+    head = head or SyntheticHead()
+    profile = hardware()
+    rng = np.random.default_rng(seed)
+    u = rng.uniform(-1.0, 1.0, (n, 16))
+    kinds = ["random"] * n
+    for i in range(0, n, 25):
+        u[i], kinds[i] = 0.0, "neutral"
+    sweeps = 16 * 4
+    for s in range(16):
+        for k, value in enumerate((-1.0, -0.5, 0.5, 1.0)):
+            row = 1 + s * 4 + k
+            if kinds[row] == "random" and row < min(n, sweeps + 1):
+                u[row] = 0.0
+                u[row, s] = value
+                kinds[row] = "sweep"
+    faces = np.concatenate([head.features(u), rng.normal(0.0, 0.02, (n, len(STILL)))], axis=1)
+    faces[rng.integers(0, n, 12), rng.integers(0, len(head.moved), 12)] = np.nan  # lost values
+    neutral = np.array([s.neutral_us for s in profile.servos])
+    up = np.array([s.max_us - s.neutral_us for s in profile.servos])
+    down = np.array([s.neutral_us - s.min_us for s in profile.servos])
+    commands = neutral + np.where(u >= 0, u * up, u * down)
+    return BabbleSet(
+        servos=tuple(s.name for s in profile.servos),
+        commands=commands,
+        inputs=head.moved + STILL,
+        faces=faces,
+        kinds=tuple(kinds),
+    )
