@@ -289,9 +289,10 @@ def check_blendshapes(parts: list[StageParts]) -> None:
     for part in parts:
         if isinstance(part.service, Translator):
             profile = part.service.profile
-            used = sorted(
-                {n for spec in profile.servos for n in spec.weights() or {}} & BLENDSHAPE_NAMES
-            )
+            named = {n for spec in profile.servos for n in spec.weights() or {}}
+            if profile.learned is not None:
+                named.update(profile.learned.inputs)
+            used = sorted(named & BLENDSHAPE_NAMES)
             if used:
                 shown = ", ".join(used[:3]) + (", …" if len(used) > 3 else "")
                 raise OptionError(

@@ -34,7 +34,8 @@ from schemas.messages import Features, Points
 from services.control.core import Arrival, CommandError, ControlCore, StaleCommand
 from services.features.core import FeatureProcessor
 from services.features.state import LearnedState, StateError, parse_state, restore
-from services.translator.core import Translator
+from services.translator.core import TranslationError, Translator
+from services.translator.learned import unsourced
 
 pytestmark = [pytest.mark.fuzz, pytest.mark.timeout(600)]
 
@@ -56,12 +57,17 @@ def _features(index: int, value: float, named: list[str]) -> Features:
 
 def drive(profile: Profile, calibration: Calibration | None = None) -> None:
     """A translator and a control core of ``profile`` through extreme features: every
-    position finite and within the profile's limits."""
+    position finite and within the profile's limits. A hardware profile (servos without a
+    source) drives C alone: T refuses it with its own error, which is checked here too."""
     specs = {spec.name: spec for spec in profile.servos}
-    translator = Translator(profile, calibration)
     core = ControlCore(profile, motion_time="media")
     for name, value in core.start(0).positions.items():
         assert specs[name].min_us <= value <= specs[name].max_us
+    if unsourced(profile) is not None:
+        with pytest.raises(TranslationError):
+            Translator(profile, calibration)
+        return
+    translator = Translator(profile, calibration)
     named = sorted(NAMES)
     for index, value in enumerate([0.0, 5.0, -5.0, 1e6, -1e6, 0.5]):
         commands = translator.translate(_features(index, value, named))
