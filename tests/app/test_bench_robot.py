@@ -1,0 +1,122 @@
+"""facesynth.app.bench.robot: the performer tracked once, a profile driving a head in process."""
+
+from __future__ import annotations
+
+import math
+from collections import defaultdict
+
+import numpy as np
+import pytest
+
+from facesynth.app.bench.robot import (
+    Performance,
+    RobotError,
+    RobotLoop,
+    bench_robot,
+    run_profile,
+    track_performer,
+)
+from facesynth.app.data import sample_video
+from facesynth.runtime.profiles import load_profile
+from services.points.tracker.offline import iter_video_frames
+
+FRAMES = 36
+
+
+@pytest.fixture(scope="module")
+def performance() -> Performance:
+    return track_performer(str(sample_video()), frames=FRAMES)
+
+
+@pytest.fixture(scope="module")
+def face_image() -> np.ndarray:
+    image = next(iter(iter_video_frames(sample_video(), 1)))
+    return np.ascontiguousarray(image[0:360, 140:500])
+
+
+class StillHead:
+    """A head whose face never moves; it records every command and step."""
+
+    def __init__(self, image: np.ndarray) -> None:
+        self.image = image
+        self.now_ns = 0
+        self.steps: list[int] = []
+        self.commands: dict[int, list[tuple[int, float]]] = defaultdict(list)
+
+    def command(self, channel: int, pulse_us: float) -> None:
+        self.commands[channel].append((self.now_ns, pulse_us))
+
+    def step(self, t_ns: int) -> None:
+        assert t_ns >= self.now_ns, "time never goes back"
+        self.now_ns = t_ns
+        self.steps.append(t_ns)
+
+    def render(self) -> np.ndarray:
+        return self.image
+
+
+def test_the_performer_is_tracked_once_with_raw_features(performance: Performance) -> None:
+    assert len(performance.features) == FRAMES
+    assert performance.fps == pytest.approx(23.976, abs=0.01)
+    assert {"jaw_open", "eye_open_left", "mouthSmileLeft"} <= set(performance.stream.names)
+    ready = [f.neutral_ready for f in performance.features]
+    assert not ready[0] and ready[-1]  # F's neutral: the first second with a face
+    assert np.isfinite(performance.stream.column("jaw_open")[-1])
+    assert np.isnan(performance.stream.column("jaw_open")[0])
+
+
+def test_a_profile_drives_the_head_within_c_limits(
+    performance: Performance, face_image: np.ndarray
+) -> None:
+    profile = load_profile("paper16")
+    head = StillHead(face_image)
+    frames: list[int] = []
+    robot = run_profile(performance, profile, head, on_frame=lambda i, image, f: frames.append(i))
+    assert frames == list(range(FRAMES))
+    assert robot.names == performance.stream.names and len(robot) == FRAMES
+    # the neutral was learned on the still head: every frame has values, all at 0
+    jaw = robot.column("jaw_open")
+    assert np.isfinite(jaw).all() and np.abs(jaw).max() < 1e-6
+    specs = {spec.channel: spec for spec in profile.servos}
+    assert set(head.commands) == set(specs)
+    for channel, sent in head.commands.items():
+        spec = specs[channel]
+        assert sent[0] == (0, spec.neutral_us)  # C starts at neutral
+        for (t0, p0), (t1, p1) in zip(sent, sent[1:], strict=False):
+            assert spec.min_us <= p1 <= spec.max_us
+            assert abs(p1 - p0) <= spec.max_speed * (t1 - t0) / 1e9 + 1e-6
+    # C steps on its own clock between frames too (every MAX_STEP_S while chasing a target)
+    period = 1e9 / performance.fps
+    times = sorted({t for t, _ in head.commands[0]})
+    assert any(abs((t - times[0]) / period - round((t - times[0]) / period)) > 0.01 for t in times)
+
+
+def test_a_head_without_a_face_is_an_error(performance: Performance) -> None:
+    loop = RobotLoop(load_profile("head16"), StillHead(np.zeros((320, 320, 3), np.uint8)), fps=30)
+    with pytest.raises(RobotError, match="no face .* held at head16's neutral within 6 s"):
+        loop.start()
+
+
+def test_the_bench_marks_what_a_still_head_cannot_reach(
+    performance: Performance, face_image: np.ndarray
+) -> None:
+    names: list[str] = []
+
+    def open_head(name: str) -> StillHead:
+        names.append(name)
+        return StillHead(face_image)
+
+    result = bench_robot(performance, ["still"], ["paper16", "head16"], open_head)
+    assert names == ["still", "still"] and result.frames == FRAMES
+    (head,) = result.heads
+    assert head.head == "still" and [run.profile for run in head.profiles] == ["paper16", "head16"]
+    for run in head.profiles:
+        assert run.summary.moved > 0 and run.summary.reachable == 0
+        assert math.isnan(run.summary.mean_rho) and run.summary.mean_rho_all == 0.0
+    with pytest.raises(RobotError, match="robo9"):
+        bench_robot(performance, ["still"], ["robo9"], open_head)
+
+
+def test_frames_must_be_positive() -> None:
+    with pytest.raises(RobotError, match="--frames must be at least 1"):
+        track_performer(str(sample_video()), frames=0)
