@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections import defaultdict
 
@@ -82,7 +83,7 @@ def test_a_profile_drives_the_head_within_c_limits(
     for channel, sent in head.commands.items():
         spec = specs[channel]
         assert sent[0] == (0, spec.neutral_us)  # C starts at neutral
-        for (t0, p0), (t1, p1) in zip(sent, sent[1:], strict=False):
+        for (t0, p0), (t1, p1) in itertools.pairwise(sent):
             assert spec.min_us <= p1 <= spec.max_us
             assert abs(p1 - p0) <= spec.max_speed * (t1 - t0) / 1e9 + 1e-6
     # C steps on its own clock between frames too (every MAX_STEP_S while chasing a target)
@@ -93,7 +94,7 @@ def test_a_profile_drives_the_head_within_c_limits(
 
 def test_a_head_without_a_face_is_an_error(performance: Performance) -> None:
     loop = RobotLoop(load_profile("head16"), StillHead(np.zeros((320, 320, 3), np.uint8)), fps=30)
-    with pytest.raises(RobotError, match="no face .* held at head16's neutral within 6 s"):
+    with pytest.raises(RobotError, match=r"no face .* held at head16's neutral within 6 s"):
         loop.start()
 
 
