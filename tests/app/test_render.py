@@ -128,7 +128,7 @@ def test_the_face_moves_exactly_as_a_bus_run_commands_it(
 
     def spy(self, image, seq, t_media_ns, fps):  # type: ignore[no-untyped-def]
         result = original(self, image, seq, t_media_ns, fps)
-        controls.append(result[1])
+        controls.append(result.face)
         return result
 
     video_module.RenderChain.step = spy  # type: ignore[method-assign]

@@ -21,6 +21,7 @@ def add_bench_arguments(p: argparse.ArgumentParser) -> None:
             "face",
             "fidelity",
             "drivers",
+            "robot",
         ),
     )
     p.add_argument("video", nargs="?", help="video (default: the bundled performer video)")
@@ -41,7 +42,9 @@ def add_bench_arguments(p: argparse.ArgumentParser) -> None:
         "--openface-csv", metavar="PATH", help="chain: replay these landmarks instead of tracking"
     )
     p.add_argument(
-        "--frames", type=int, help="tracker: frames to measure (default: the whole video)"
+        "--frames",
+        type=int,
+        help="tracker: frames to measure; robot: the video's first N frames (default: all)",
     )
     p.add_argument(
         "--encoding",
@@ -93,7 +96,22 @@ def add_bench_arguments(p: argparse.ArgumentParser) -> None:
         help="chain: also time each hop and show which hops grow in the slowest frames "
         "(the observer then receives every stage's messages, which costs some CPU)",
     )
-    p.add_argument("--profile", default="paper16", help="smoothing, drivers: profile to measure")
+    p.add_argument(
+        "--profile",
+        action="append",
+        metavar="NAME|PATH",
+        help="smoothing, drivers: profile to measure (default paper16); robot: a profile to "
+        "drive the heads with, repeatable, a name or a file (e.g. X.learned; default paper16, "
+        "head16, head16_bs)",
+    )
+    p.add_argument(
+        "--head",
+        action="append",
+        metavar="NAME|PATH",
+        help="robot: a simulated head to drive, repeatable, a bundled name or a head file "
+        "(default: every bundled head)",
+    )
+    p.add_argument("--json", action="store_true", help="robot: print the result as JSON")
     p.add_argument(
         "--track", help="smoothing: a facesynth track file to measure tracking noise from"
     )
@@ -144,15 +162,19 @@ def cmd_bench(args: argparse.Namespace) -> int:
     """``facesynth bench chain|tracker|smoothing|recording|face|fidelity|drivers``."""
     if args.what == "fidelity":
         return _bench_fidelity(args)
+    if args.what == "robot":
+        from facesynth.app.bench.robot_command import bench_robot_command
+
+        return bench_robot_command(args)
     if args.what == "drivers":
         from facesynth.app.bench.drivers import bench_drivers, format_drivers
 
-        print(format_drivers(*bench_drivers(args.profile)))
+        print(format_drivers(*bench_drivers(_one_profile(args))))
         return 0
     if args.what == "smoothing":
         from facesynth.app.bench.smoothing import bench_smoothing, format_smoothing
 
-        print(format_smoothing(bench_smoothing(args.profile, track=args.track)))
+        print(format_smoothing(bench_smoothing(_one_profile(args), track=args.track)))
         return 0
     if args.what == "recording":
         from facesynth.app.bench.recording import bench_recording, format_recording_bench
@@ -189,6 +211,11 @@ def cmd_bench(args: argparse.Namespace) -> int:
     )
     print(format_bench(result))
     return 0
+
+
+def _one_profile(args: argparse.Namespace) -> str:
+    """The profile a one-profile benchmark measures: the last ``--profile`` (or paper16)."""
+    return str(args.profile[-1]) if args.profile else "paper16"
 
 
 def _choices(value: str, flag: str, allowed: tuple[str, ...]) -> list[str]:

@@ -26,6 +26,7 @@ from typing import Final, Protocol
 
 import numpy as np
 
+from facesynth.runtime.calibration import Calibration
 from facesynth.runtime.frames import encode_frame
 from facesynth.runtime.profiles import Profile, load_profile
 from schemas.messages import Features, Points
@@ -147,12 +148,13 @@ class RobotLoop:
         fps: float,
         backend: PointsBackend | None = None,
         settle_s: float = SETTLE_S,
+        calibration: Calibration | None = None,
     ) -> None:
         if not fps > 0:
             raise RobotError("the frame rate must be positive")
         self.profile = profile
         self.head = head
-        self.translator = Translator(profile)
+        self.translator = Translator(profile, calibration)
         self.control = ControlCore(profile)
         self.channels = {spec.name: spec.channel for spec in profile.servos}
         self.backend = backend if backend is not None else tracker()
@@ -161,6 +163,8 @@ class RobotLoop:
         self.settle_ns = round(settle_s * 1e9)
         self.now_ns = 0
         self.seq = 0
+        #: The points the tracker found on the head's last camera image.
+        self.points: Points | None = None
         #: The robot's clock at the performer's media time 0 (known after :meth:`start`).
         self.origin_ns: int | None = None
 
@@ -218,7 +222,8 @@ class RobotLoop:
             image, seq=self.seq, t_capture_ns=self.now_ns, t_media_ns=self.now_ns, encoding="raw"
         )
         self.seq += 1
-        return self.backend.process(frame)
+        self.points = self.backend.process(frame)
+        return self.points
 
     def _look(self, image: np.ndarray) -> Features:
         return self.processor.process(self._points(image))
