@@ -34,6 +34,9 @@ __all__ = [
     "Expression",
     "Face",
     "base_face",
+    "falloff",
+    "iris_radius",
+    "remove_irises",
     "render",
     "warp",
 ]
@@ -108,7 +111,7 @@ class Expression:
     mouth_open: bool = False
 
 
-def _falloff(local: np.ndarray, centres: np.ndarray, sigma: float) -> np.ndarray:
+def falloff(local: np.ndarray, centres: np.ndarray, sigma: float) -> np.ndarray:
     """Per point, the Gaussian weight of its distance to the nearest of ``centres``."""
     d2 = ((local[:, None, :] - centres[None, :, :]) ** 2).sum(axis=2).min(axis=1)
     weight: np.ndarray = np.exp(-d2 / (2.0 * sigma * sigma))
@@ -125,7 +128,7 @@ def smile(face: Face, out: float = 0.07, up: float = 0.06) -> np.ndarray:
     local = face.local()
     move = np.zeros((478, 2))
     for corner, sign in zip(LIP_CORNERS, (-1.0, 1.0), strict=True):
-        weight = _falloff(local, local[[corner]], 0.12)
+        weight = falloff(local, local[[corner]], 0.12)
         move += weight[:, None] * np.array([sign * out, up])
     return _eyes_still(move)
 
@@ -135,7 +138,7 @@ def brow_raise(face: Face, up: float = 0.08) -> np.ndarray:
     0.1 IOD: the upper forehead stays)."""
     local = face.local()
     brows = local[list(RIGHT_BROW) + list(LEFT_BROW)]
-    weight = _falloff(local, brows, 0.08)
+    weight = falloff(local, brows, 0.08)
     move = np.zeros((478, 2))
     move[:, 1] = up * weight
     return _eyes_still(move)
@@ -146,9 +149,9 @@ def frown(face: Face, down: float = 0.05, inward: float = 0.035) -> np.ndarray:
     local = face.local()
     move = np.zeros((478, 2))
     brows = local[list(RIGHT_BROW) + list(LEFT_BROW)]
-    move[:, 1] = -down * _falloff(local, brows, 0.08)
+    move[:, 1] = -down * falloff(local, brows, 0.08)
     for inner, sign in zip(INNER_BROW, (1.0, -1.0), strict=True):
-        move[:, 0] += sign * inward * _falloff(local, local[list(inner)], 0.08)
+        move[:, 0] += sign * inward * falloff(local, local[list(inner)], 0.08)
     return _eyes_still(move)
 
 
@@ -270,9 +273,22 @@ def _eye_masks(shape: tuple[int, ...], points: np.ndarray) -> list[np.ndarray]:
     return masks
 
 
-def _iris_radius(points: np.ndarray, eye: int) -> float:
+def iris_radius(points: np.ndarray, eye: int) -> float:
+    """The mean radius (pixels) of iris ``eye`` (0 right, 1 left) from its contour points."""
     contour = points[list(IRIS_CONTOURS[eye]), :2]
     return float(np.linalg.norm(contour - points[IRIS_CENTRES[eye], :2], axis=1).mean())
+
+
+def remove_irises(image: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """``image`` with both irises (at ``points``' iris landmarks) painted over with the
+    surrounding sclera and lids (inpainted), so they can be drawn elsewhere."""
+    hole = np.zeros(image.shape[:2], np.uint8)
+    for eye in range(2):
+        centre = tuple(np.round(points[IRIS_CENTRES[eye], :2]).astype(int))
+        cv2.circle(hole, centre, int(np.ceil(iris_radius(points, eye) * 1.15)), 255, -1)
+    widened: np.ndarray = cv2.dilate(hole, np.ones((3, 3), np.uint8))
+    result: np.ndarray = cv2.inpaint(image, widened, 5, cv2.INPAINT_TELEA)
+    return result
 
 
 def _draw_irises(
@@ -287,7 +303,7 @@ def _draw_irises(
     out = image.copy()
     old_masks = _eye_masks(image.shape, points)
     for eye, mask in enumerate(_eye_masks(image.shape, lids)):
-        radius = _iris_radius(points, eye)
+        radius = iris_radius(points, eye)
         old = points[IRIS_CENTRES[eye], :2]
         disc = np.zeros(image.shape[:2], np.uint8)
         cv2.circle(disc, tuple(np.round(old).astype(int)), int(np.ceil(radius * 1.15)), 255, -1)
