@@ -11,6 +11,7 @@ from facesynth.app.bench.robot_compare import (
     MOVED_SPAN,
     FeatureRow,
     FeatureStream,
+    best_lag,
     compare,
     mark_reach,
     moved_threshold,
@@ -127,14 +128,39 @@ def test_from_frames_fills_gaps_with_nan() -> None:
 
 
 def test_reach_is_decided_across_the_profiles_of_one_head() -> None:
-    wave = 0.1 * np.sin(T)
-    performer = stream(jaw_open=wave, lips_part=wave, lip_pucker=wave)
-    weak = compare(performer, stream(jaw_open=wave, lips_part=0.05 * wave, lip_pucker=0.01 * wave))
-    strong = compare(performer, stream(jaw_open=wave, lips_part=0.5 * wave, lip_pucker=0.05 * wave))
+    wave = 0.1 * np.sin(T)  # a span of 0.2 IOD
+    performer = stream(jaw_open=wave, lips_part=wave, lip_pucker=wave, head_yaw=50 * wave)
+    weak = compare(
+        performer,
+        stream(jaw_open=wave, lips_part=0.05 * wave, lip_pucker=0.01 * wave, head_yaw=6 * wave),
+    )
+    strong = compare(
+        performer,
+        stream(jaw_open=wave, lips_part=0.5 * wave, lip_pucker=0.05 * wave, head_yaw=6 * wave),
+    )
     weak_marked, strong_marked = mark_reach([weak, strong])
     reach = {row.name: row.reachable for row in weak_marked}
-    assert reach == {"jaw_open": True, "lips_part": True, "lip_pucker": False}
+    # head_yaw: a ratio of 0.12, but 1.2 degrees is below half of the 3-degree threshold
+    assert reach == {"jaw_open": True, "lips_part": True, "lip_pucker": False, "head_yaw": False}
     assert {row.name: row.reachable for row in strong_marked} == reach
+
+
+def test_a_lag_compares_later_robot_frames() -> None:
+    wave = 0.1 * np.sin(T)
+    late = np.roll(wave, 4)  # the robot follows 4 frames late
+    late[:4] = 0.0
+    performer, robot = stream(jaw_open=wave, lips_part=wave), stream(jaw_open=late, lips_part=late)
+    aligned = compare(performer, robot)[0]
+    shifted = compare(performer, robot, lag=4)[0]
+    assert shifted.rho == pytest.approx(1.0) and shifted.frames == N - 4
+    assert aligned.rho < shifted.rho
+    lag, rho = best_lag(performer, robot)
+    assert lag == 4 and rho == pytest.approx(1.0)
+    assert best_lag(performer, robot, max_lag=2)[0] == 2
+    still = stream(jaw_open=np.zeros(N))
+    assert best_lag(still, still)[0] == 0 and math.isnan(best_lag(still, still)[1])
+    with pytest.raises(ValueError, match="a lag of 200 frames"):
+        compare(performer, robot, lag=N)
 
 
 def test_summary_over_moved_and_reachable_features() -> None:

@@ -37,7 +37,15 @@ from services.points.backends.tracker import TrackerBackend, TrackerConfig
 from services.sensor.sources.video import VideoConfig, VideoSource
 from services.translator.core import Translator
 
-from .robot_compare import FeatureRow, FeatureStream, Summary, compare, mark_reach, summarize
+from .robot_compare import (
+    FeatureRow,
+    FeatureStream,
+    Summary,
+    best_lag,
+    compare,
+    mark_reach,
+    summarize,
+)
 
 __all__ = [
     "DEFAULT_PROFILES",
@@ -232,12 +240,15 @@ class RobotLoop:
 @dataclass(frozen=True)
 class ProfileRun:
     """One profile on one head: per feature rows (reach marked across the head's profiles),
-    the summary, and the seconds it took."""
+    the summary, the lag (frames) at which the robot follows best with the mean ρ over the
+    moved features there, and the seconds it took."""
 
     profile: str
     rows: list[FeatureRow]
     summary: Summary
     seconds: float
+    lag_frames: int = 0
+    lag_rho: float = float("nan")
 
 
 @dataclass(frozen=True)
@@ -299,20 +310,22 @@ def bench_robot(
     for head_name in heads:
         runs: list[list[FeatureRow]] = []
         seconds: list[float] = []
+        lags: list[tuple[int, float]] = []
         for profile in loaded:
             if progress is not None:
                 progress(f"{head_name} / {profile.name}")
             started = time.monotonic()
             robot = run_profile(performance, profile, open_head(head_name))
             runs.append(compare(performance.stream, robot))
+            lags.append(best_lag(performance.stream, robot))
             seconds.append(time.monotonic() - started)
         marked = mark_reach(runs)
         result.heads.append(
             HeadRun(
                 head_name,
                 [
-                    ProfileRun(profile.name, rows, summarize(rows), round(s, 2))
-                    for profile, rows, s in zip(loaded, marked, seconds, strict=True)
+                    ProfileRun(profile.name, rows, summarize(rows), round(s, 2), *lag)
+                    for profile, rows, s, lag in zip(loaded, marked, seconds, lags, strict=True)
                 ],
             )
         )

@@ -11,9 +11,15 @@ its camera sees it through the same tracker and F. Per feature:
 * **ρ**: Pearson's correlation over the frames where both sides have a value (0 when either
   side is constant there: a head that never moves a feature does not follow it);
 * **ratio**: the robot's span over the performer's (same percentiles, same frames);
-* **reach**: across every profile measured on one head, a feature whose ratio never reaches
-  :data:`REACH_RATIO` is one the head cannot reach (:func:`mark_reach`): nothing any profile
-  did moved it more than a tenth of the performer's amplitude.
+* **reach**: across every profile measured on one head, a feature the robot never moves by
+  :data:`REACH_RATIO` of the performer's span and by :data:`REACH_FLOOR` of its unit's
+  threshold is one the head cannot reach (:func:`mark_reach`): nothing any profile did moved it
+  beyond a tenth of the performer's amplitude or beyond the tracker's jitter (a head that
+  cannot turn still reads a degree or so of head pose as its skin moves).
+
+Frames are compared as they are aligned (the robot's frame ``i`` is its face after the
+performer's frame ``i``); :func:`best_lag` says how many frames later the robot's face matches
+best (T's smoothing, C's speed limits and the actuators' slew and lag delay it).
 
 A profile's summary (:func:`summarize`): mean ρ over the moved features the head can reach
 (and over all moved features), the median ratio over those it can reach, and the share of them
@@ -32,12 +38,15 @@ import numpy as np
 from facesynth.runtime.feature_names import BY_NAME
 
 __all__ = [
+    "MAX_LAG",
     "MOVED_SPAN",
     "RATIO_BAND",
+    "REACH_FLOOR",
     "REACH_RATIO",
     "FeatureRow",
     "FeatureStream",
     "Summary",
+    "best_lag",
     "compare",
     "mark_reach",
     "moved_threshold",
@@ -53,8 +62,12 @@ MOVED_SPAN: Final[dict[str, float]] = {
     "inter-ocular distance": 0.02,
     "score (0..1)": 0.1,
 }
-#: Below this ratio under every profile, the head cannot reach a feature.
+#: Below this ratio under every profile, the head cannot reach a feature ...
 REACH_RATIO: Final = 0.1
+#: ... nor below this share of the unit's :data:`MOVED_SPAN` (the tracker's jitter).
+REACH_FLOOR: Final = 0.5
+#: :func:`best_lag` looks this many frames late at most.
+MAX_LAG: Final = 12
 #: Amplitude ratios that count as the performer's amplitude.
 RATIO_BAND: Final = (0.8, 1.25)
 #: The span's percentiles (robust to a few tracking outliers).
@@ -154,21 +167,25 @@ class FeatureRow:
         return RATIO_BAND[0] <= self.ratio <= RATIO_BAND[1]
 
 
-def compare(performer: FeatureStream, robot: FeatureStream) -> list[FeatureRow]:
+def compare(performer: FeatureStream, robot: FeatureStream, lag: int = 0) -> list[FeatureRow]:
     """Per performer feature (known to the contract), aligned frame by frame with the robot's.
 
     The streams must have the same number of frames (frame ``i`` of the robot is its face after
-    the performer's frame ``i`` drove it)."""
+    the performer's frame ``i`` drove it); with ``lag``, the performer's frame ``i`` is compared
+    with the robot's frame ``i + lag``."""
     if len(performer) != len(robot):
         raise ValueError(f"{len(performer)} performer frames but {len(robot)} robot frames")
+    if not 0 <= lag < len(performer):
+        raise ValueError(f"a lag of {lag} frames in a stream of {len(performer)}")
     rows = []
+    end = len(performer) - lag
     for name in performer.names:
         if name not in BY_NAME:
             continue
-        theirs, ours = performer.column(name), robot.column(name)
+        theirs, ours = performer.column(name)[:end], robot.column(name)[lag:]
         both = np.isfinite(theirs) & np.isfinite(ours)
         count = int(both.sum())
-        performer_span = span(theirs)
+        performer_span = span(performer.column(name))  # moved: over the whole stream
         threshold = moved_threshold(name)
         moved = math.isfinite(performer_span) and performer_span >= threshold
         if count >= MIN_FRAMES:
@@ -193,17 +210,37 @@ def compare(performer: FeatureStream, robot: FeatureStream) -> list[FeatureRow]:
     return rows
 
 
+def _reaches(row: FeatureRow) -> bool:
+    return (
+        math.isfinite(row.ratio)
+        and row.ratio >= REACH_RATIO
+        and row.robot_span >= REACH_FLOOR * moved_threshold(row.name)
+    )
+
+
 def mark_reach(runs: Sequence[Sequence[FeatureRow]]) -> list[list[FeatureRow]]:
-    """The runs of one head (one per profile), each feature marked unreachable when its ratio
-    stays below :data:`REACH_RATIO` in every run (or it has too few frames in every run)."""
-    best: dict[str, float] = {}
-    for rows in runs:
-        for row in rows:
-            ratio = row.ratio if math.isfinite(row.ratio) else 0.0
-            best[row.name] = max(best.get(row.name, 0.0), ratio)
-    return [
-        [replace(row, reachable=best[row.name] >= REACH_RATIO) for row in rows] for rows in runs
-    ]
+    """The runs of one head (one per profile), each feature marked unreachable when no run
+    moves it by :data:`REACH_RATIO` of the performer's span and :data:`REACH_FLOOR` of its
+    unit's threshold (or it has too few frames in every run)."""
+    reached = {row.name for rows in runs for row in rows if _reaches(row)}
+    return [[replace(row, reachable=row.name in reached) for row in rows] for rows in runs]
+
+
+def best_lag(
+    performer: FeatureStream, robot: FeatureStream, max_lag: int = MAX_LAG
+) -> tuple[int, float]:
+    """The lag (frames, 0..``max_lag``) at which the robot's face follows best, and the mean ρ
+    over the moved features there (the performer's frame ``i`` against the robot's
+    ``i + lag``); ``(0, nan)`` when nothing is moved."""
+    best = (0, math.nan)
+    for lag in range(min(max_lag, len(performer) - MIN_FRAMES) + 1):
+        rhos = [row.rho for row in compare(performer, robot, lag) if row.moved]
+        if not rhos:
+            return best
+        mean = float(np.mean(rhos))
+        if not mean <= best[1]:  # the first, or better
+            best = (lag, mean)
+    return best
 
 
 @dataclass(frozen=True)

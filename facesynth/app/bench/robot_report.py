@@ -8,11 +8,18 @@ from typing import Any
 from facesynth.runtime.feature_names import NAMES
 
 from .robot import HeadRun, RobotBench
-from .robot_compare import MOVED_SPAN, RATIO_BAND, REACH_RATIO, FeatureRow, Summary
+from .robot_compare import (
+    MOVED_SPAN,
+    RATIO_BAND,
+    REACH_FLOOR,
+    REACH_RATIO,
+    FeatureRow,
+    Summary,
+)
 
 __all__ = ["format_robot", "robot_json"]
 
-NAME_WIDTH = 30
+NAME_WIDTH = 26
 CELL = 15
 
 
@@ -31,15 +38,20 @@ def _legend() -> str:
     return (
         f"features the performer moves: span (p95 - p5) >= {thresholds}\n"
         f"rho: Pearson per frame; ratio: robot span / performer span (goal "
-        f"{RATIO_BAND[0]}-{RATIO_BAND[1]}); 'cannot reach': ratio < {REACH_RATIO} under every "
-        f"profile on that head"
+        f"{RATIO_BAND[0]}-{RATIO_BAND[1]}); reach 'no': under every profile on that head the "
+        f"robot's span stays below {REACH_RATIO} of the performer's or {REACH_FLOOR} of the "
+        f"unit's threshold"
     )
 
 
 def _summary_lines(head: HeadRun) -> list[str]:
     def row(label: str, cell: Any) -> str:
         cells = "".join(f"{cell(run.summary):<{CELL}}" for run in head.profiles)
-        return f"  {label:<{NAME_WIDTH + 10}}{cells}"
+        return f"  {label:<{NAME_WIDTH + 16}}{cells}"
+
+    lagged = "".join(
+        f"{f'{run.lag_frames} ({_number(run.lag_rho)})':<{CELL}}" for run in head.profiles
+    )
 
     def share(summary: Summary) -> str:
         return "-" if not math.isfinite(summary.in_band) else f"{summary.in_band:.0%}"
@@ -50,6 +62,7 @@ def _summary_lines(head: HeadRun) -> list[str]:
         row("mean rho, every moved feature", lambda s: _number(s.mean_rho_all)),
         row("median ratio, features it can reach", lambda s: _number(s.median_ratio)),
         row(f"ratio within {RATIO_BAND[0]}-{RATIO_BAND[1]}", share),
+        f"  {'best lag, frames (mean rho there)':<{NAME_WIDTH + 16}}{lagged}",
     ]
 
 
@@ -66,20 +79,20 @@ def format_head(head: HeadRun, frames: int) -> str:
     table = {run.profile: {row.name: row for row in run.rows} for run in head.profiles}
     lines = [f"head {head.head}: {frames} frames"]
     lines.append(
-        f"  {'':<{NAME_WIDTH}}{'performer':<10}"
+        f"  {'':<{NAME_WIDTH}}{'performer':<10}{'':6}"
         + "".join(f"{run.profile:<{CELL}}" for run in head.profiles)
     )
     lines.append(
-        f"  {'feature':<{NAME_WIDTH}}{'span':<10}"
-        + "".join(f"{'rho':>6} {'ratio':<{CELL - 7}}" for _ in head.profiles)
+        f"  {'feature':<{NAME_WIDTH}}{'span':<10}{'reach':6}"
+        + "".join(f"{'rho':>5} {'ratio':<{CELL - 6}}" for _ in head.profiles)
     )
     for row in moved:
-        label = row.name if row.reachable else f"{row.name} (cannot reach)"
         cells = ""
         for run in head.profiles:
             theirs = table[run.profile][row.name]
-            cells += f"{_number(theirs.rho):>6} {_number(theirs.ratio):<{CELL - 7}}"
-        lines.append(f"  {label:<{NAME_WIDTH}}{_span(row.performer_span):<10}{cells}")
+            cells += f"{_number(theirs.rho):>5} {_number(theirs.ratio):<{CELL - 6}}"
+        reach = "yes" if row.reachable else "no"
+        lines.append(f"  {row.name:<{NAME_WIDTH}}{_span(row.performer_span):<10}{reach:6}{cells}")
     still = sum(not row.moved for row in first)
     lines.append(f"  ({still} features the performer does not move are left out)")
     lines.append("  summary")
@@ -141,6 +154,7 @@ def robot_json(result: RobotBench) -> dict[str, Any]:
         "moved_span": dict(MOVED_SPAN),
         "ratio_band": list(RATIO_BAND),
         "reach_ratio": REACH_RATIO,
+        "reach_floor": REACH_FLOOR,
         "performer_seconds": result.performer_seconds,
         "heads": [
             {
@@ -149,6 +163,8 @@ def robot_json(result: RobotBench) -> dict[str, Any]:
                     {
                         "profile": run.profile,
                         "seconds": run.seconds,
+                        "best_lag_frames": run.lag_frames,
+                        "best_lag_mean_rho": _finite(run.lag_rho),
                         "summary": _summary_json(run.summary),
                         "features": [_row_json(row) for row in run.rows],
                     }

@@ -25,6 +25,9 @@ from services.features.core import FeatureError, ibug_points
 
 __all__ = ["RobotPanel", "open_simulated_head", "robot_image"]
 
+#: Height of the darkened band under the panel's title (pixels).
+TITLE_BAND = 26
+
 
 def open_simulated_head(name_or_path: str) -> Head:
     """A simulated head, bundled (by name) or from a head file."""
@@ -79,5 +82,6 @@ def robot_image(
     out = panel(height, width)
     y, x = (height - size[1]) // 2, (width - size[0]) // 2
     out[y : y + size[1], x : x + size[0]] = scaled
+    out[:TITLE_BAND] = out[:TITLE_BAND] // 3  # darkened, so the title reads on a light wall
     draw_title(out, title)
     return out
