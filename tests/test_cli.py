@@ -346,6 +346,20 @@ CASES = [
     ("nice range", ["features", "--nice", "30"], "--nice: Expected `int` <= 19"),
     ("realtime range", ["points", "--realtime", "0"], "--realtime: Expected `int` >= 1"),
     ("router realtime range", ["router", "--realtime", "200"], "--realtime 200: must be within"),
+    ("bench robot frames", ["bench", "robot", "--frames", "0"], "--frames must be at least 1"),
+    ("bench robot profile", ["bench", "robot", "--profile", "robo9"], "--profile robo9: no profile"),
+    ("bench robot head", ["bench", "robot", "--head", "robo9"], "unknown head 'robo9'"),
+    (
+        "bench robot video",
+        ["bench", "robot", "{garbage.mp4}", "--head", "simhead16", "--frames", "2"],
+        "cannot open",
+    ),
+    ("render robot head", ["render", "--robot-head", "robo9", "--out", "x.mp4"], "'robo9'"),
+    (
+        "render robot bars",
+        ["render", "--robot-head", "simhead16", "--bars", "paper16", "--out", "x.mp4"],
+        "--bars takes only none",
+    ),
 ]
 
 

@@ -17,6 +17,7 @@ from facesynth.app.bench.robot import (
     run_profile,
     track_performer,
 )
+from facesynth.app.bench.robot_report import format_robot
 from facesynth.app.data import sample_video
 from facesynth.runtime.profiles import load_profile
 from services.points.tracker.offline import iter_video_frames
@@ -114,6 +115,9 @@ def test_the_bench_marks_what_a_still_head_cannot_reach(
     for run in head.profiles:
         assert run.summary.moved > 0 and run.summary.reachable == 0
         assert math.isnan(run.summary.mean_rho) and run.summary.mean_rho_all == 0.0
+    text = format_robot(result)
+    assert "head still: 36 frames" in text and "mean rho, features it can reach" in text
+    assert "paper16" in text and "head16" in text and " no " in text  # nothing reached
     with pytest.raises(RobotError, match="robo9"):
         bench_robot(performance, ["still"], ["robo9"], open_head)
 
@@ -121,3 +125,48 @@ def test_the_bench_marks_what_a_still_head_cannot_reach(
 def test_frames_must_be_positive() -> None:
     with pytest.raises(RobotError, match="--frames must be at least 1"):
         track_performer(str(sample_video()), frames=0)
+
+
+def test_a_simulated_head_follows_the_performer_through_a_profile(
+    performance: Performance,
+) -> None:
+    from facesynth.app.simhead import SimHead, load_head
+
+    head = SimHead(load_head("simhead16"))
+    images: list[np.ndarray] = []
+    robot = run_profile(
+        performance, load_profile("head16"), head, on_frame=lambda i, image, f: images.append(image)
+    )
+    assert len(images) == FRAMES and images[0].shape == (320, 320, 3)
+    assert np.isfinite(robot.values).all(axis=1).any()  # the tracker sees the head's face
+    # the performer frowns and squints in these frames: the head's brows and lids move
+    moved = {
+        name
+        for name in robot.names
+        if np.nanmax(robot.column(name)) - np.nanmin(robot.column(name)) > 0.01
+    }
+    assert {"brow_lower_left", "brow_lower_right"} <= moved
+    assert head.pulses()[0] != load_profile("head16").servos[0].neutral_us
+
+
+def test_the_command_prints_json(capsys: pytest.CaptureFixture[str]) -> None:
+    import json
+
+    from facesynth.app.cli import main
+
+    argv = ["bench", "robot", "--frames", "30", "--head", "simhead16", "--profile", "paper16"]
+    assert main([*argv, "--json"]) == 0
+    result = json.loads(capsys.readouterr().out)
+    assert result["frames"] == 30 and result["moved_span"]["inter-ocular distance"] == 0.02
+    (head,) = result["heads"]
+    (run,) = head["profiles"]
+    assert head["head"] == "simhead16" and run["profile"] == "paper16"
+    assert set(run["summary"]) == {
+        "moved",
+        "reachable",
+        "mean_rho",
+        "mean_rho_all_moved",
+        "median_ratio",
+        "in_band",
+    }
+    assert {"feature", "rho", "ratio", "reachable", "moved"} <= set(run["features"][0])

@@ -98,13 +98,17 @@ def render_graph(
                 "with --robot-head the bars show what the robot's profile sent it: "
                 "--bars takes only none"
             )
-        robot = RobotPanel(
-            robot_head,
-            build_profile(base.profile, base.mirror),
-            fps=source.info.fps,
-            calibration=calibration,
-            open_head=open_head,
-        )
+        try:
+            robot = RobotPanel(
+                robot_head,
+                build_profile(base.profile, base.mirror),
+                fps=source.info.fps,
+                calibration=calibration,
+                open_head=open_head,
+            )
+        except BaseException:
+            source.close()
+            raise
     chain = RenderChain(
         backend=build_backend(backend_config),
         processor=build_processor(features, neutral_s),
