@@ -347,7 +347,7 @@ CASES = [
     ("realtime range", ["points", "--realtime", "0"], "--realtime: Expected `int` >= 1"),
     ("router realtime range", ["router", "--realtime", "200"], "--realtime 200: must be within"),
     ("bench robot frames", ["bench", "robot", "--frames", "0"], "--frames must be at least 1"),
-    ("bench robot profile", ["bench", "robot", "--profile", "robo9"], "--profile robo9: no profile"),
+    ("bench robot profile", ["bench", "robot", "--profile", "robo9"], "robo9: no profile"),
     ("bench robot head", ["bench", "robot", "--head", "robo9"], "unknown head 'robo9'"),
     (
         "bench robot video",
