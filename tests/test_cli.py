@@ -354,6 +354,18 @@ CASES = [
         ["bench", "robot", "{garbage.mp4}", "--head", "simhead16", "--frames", "2"],
         "cannot open",
     ),
+    ("bench robot live camera", ["bench", "robot", "--driver", "maestro"], "both --driver and"),
+    ("bench robot live port", ["bench", "robot", "--port", "/dev/x"], "--port goes with --driver"),
+    (
+        "bench robot live head",
+        ["bench", "robot", "--driver", "maestro", "--camera", "0", "--head", "simhead16"],
+        "--head names a simulated head",
+    ),
+    (
+        "bench robot live driver",
+        ["bench", "robot", "--driver", "teleporter", "--camera", "0"],
+        "teleporter",
+    ),
     ("render robot head", ["render", "--robot-head", "robo9", "--out", "x.mp4"], "'robo9'"),
     (
         "render robot bars",

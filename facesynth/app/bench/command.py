@@ -113,6 +113,20 @@ def add_bench_arguments(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument("--json", action="store_true", help="robot: print the result as JSON")
     p.add_argument(
+        "--driver",
+        metavar="NAME",
+        help="robot: drive a head outside this process in real time through this servo "
+        "driver (maestro, arduino, ssc32; e.g. facesynth simhead's serial port) instead of "
+        "the simulated heads in process; needs --camera",
+    )
+    p.add_argument("--port", metavar="PORT", help="robot: the --driver's serial port")
+    p.add_argument(
+        "--camera",
+        metavar="CAMERA",
+        help="robot: the camera watching the --driver's head: a device index, a /dev/video* "
+        "path or a stream URL (e.g. http://127.0.0.1:8080/camera.mjpg)",
+    )
+    p.add_argument(
         "--track", help="smoothing: a facesynth track file to measure tracking noise from"
     )
     p.add_argument(

@@ -57,6 +57,7 @@ __all__ = [
     "RobotError",
     "RobotLoop",
     "bench_robot",
+    "measure",
     "robot_features",
     "track_performer",
 ]
@@ -298,7 +299,25 @@ def bench_robot(
     *,
     progress: Callable[[str], None] | None = None,
 ) -> RobotBench:
-    """Every profile on every head (``open_head(name)`` builds a fresh head per run)."""
+    """Every profile on every simulated head, in process (``open_head(name)`` builds a fresh
+    head per run)."""
+
+    def run(head: str, profile: Profile) -> FeatureStream:
+        return run_profile(performance, profile, open_head(head))
+
+    return measure(performance, heads, profiles, run, progress=progress)
+
+
+def measure(
+    performance: Performance,
+    heads: Iterable[str],
+    profiles: Sequence[str],
+    run: Callable[[str, Profile], FeatureStream],
+    *,
+    progress: Callable[[str], None] | None = None,
+) -> RobotBench:
+    """Every profile on every head, each run by ``run(head, profile)`` (the robot's stream),
+    compared with the performer's; reach marked per head."""
     loaded = [_load(name) for name in profiles]
     result = RobotBench(
         video=performance.video,
@@ -315,7 +334,7 @@ def bench_robot(
             if progress is not None:
                 progress(f"{head_name} / {profile.name}")
             started = time.monotonic()
-            robot = run_profile(performance, profile, open_head(head_name))
+            robot = run(head_name, profile)
             runs.append(compare(performance.stream, robot))
             lags.append(best_lag(performance.stream, robot))
             seconds.append(time.monotonic() - started)

@@ -3,13 +3,26 @@
 from __future__ import annotations
 
 import argparse
+import asyncio
 import json
 import sys
 from collections.abc import Callable
 
-from facesynth.app.wiring import OptionError
+import msgspec
 
-from .robot import DEFAULT_PROFILES, Head, RobotError, bench_robot, track_performer
+from facesynth.app.wiring import OptionError
+from facesynth.runtime.profiles import Profile
+
+from .robot import (
+    DEFAULT_PROFILES,
+    Head,
+    RobotBench,
+    RobotError,
+    bench_robot,
+    measure,
+    track_performer,
+)
+from .robot_compare import FeatureStream
 from .robot_report import format_robot, robot_json
 
 
@@ -31,7 +44,8 @@ def profiles_of(args: argparse.Namespace) -> list[str]:
 
 
 def bench_robot_command(args: argparse.Namespace) -> int:
-    """Every profile on every simulated head, in process; a table (or ``--json``) on stdout."""
+    """Every profile on every simulated head in process, or (``--driver``, ``--camera``) on a
+    head outside it in real time; a table (or ``--json``) on stdout."""
     from facesynth.app.data import sample_video
     from facesynth.runtime.profiles import load_profile
 
@@ -43,16 +57,75 @@ def bench_robot_command(args: argparse.Namespace) -> int:
             load_profile(name)  # before any tracking
         except ValueError as exc:
             raise RobotError(f"--profile {name}: {exc}") from None
-    heads, open_head = simulated_heads(args.head)
+    live = args.driver is not None or args.camera is not None
 
     def progress(what: str) -> None:
         print(f"bench robot: {what}", file=sys.stderr, flush=True)
 
-    progress("tracking the performer")
-    performance = track_performer(args.video or str(sample_video()), frames=args.frames)
-    result = bench_robot(performance, heads, profiles, open_head, progress=progress)
+    if live:
+        result = _live(args, profiles, progress)
+    else:
+        if args.port is not None:
+            raise OptionError("--port goes with --driver (a head outside this process)")
+        heads, open_head = simulated_heads(args.head)
+        progress("tracking the performer")
+        performance = track_performer(args.video or str(sample_video()), frames=args.frames)
+        result = bench_robot(performance, heads, profiles, open_head, progress=progress)
     if args.json:
         print(json.dumps(robot_json(result), indent=2))
     else:
         print(format_robot(result))
     return 0
+
+
+def driver_config(name: str, port: str | None) -> msgspec.Struct:
+    """``--driver NAME [--port PORT]`` as a checked driver config."""
+    from services.control.drivers.registry import DRIVERS
+
+    data = {"driver": name} if port is None else {"driver": name, "port": port}
+    return DRIVERS.parse(data, "--driver")
+
+
+def camera_config(value: str) -> msgspec.Struct:
+    """``--camera VALUE`` as a checked config of the camera source (its ``--camera`` field)."""
+    from services.sensor.sources.registry import SOURCES
+
+    plugin = SOURCES.get("camera")
+    for field in plugin.fields():
+        meta = field.type
+        if isinstance(meta, msgspec.inspect.Metadata) and (meta.extra or {}).get("flag") == (
+            "--camera"
+        ):
+            return SOURCES.parse({"source": "camera", field.name: value}, "--camera")
+    raise OptionError("--camera: the camera source has no --camera field")  # pragma: no cover
+
+
+def _live(
+    args: argparse.Namespace, profiles: list[str], progress: Callable[[str], None]
+) -> RobotBench:
+    """Every profile on the head behind ``--driver``, watched through ``--camera``."""
+    from facesynth.app.data import sample_video
+    from services.control.drivers.registry import DRIVERS
+    from services.sensor.sources.registry import SOURCES
+
+    from .robot_live import CameraFeed, live_profile
+
+    if args.driver is None or args.camera is None:
+        raise OptionError("a head outside this process needs both --driver and --camera")
+    if args.head:
+        raise OptionError("--head names a simulated head in process; with --driver, omit it")
+    driver = driver_config(args.driver, args.port)
+    camera = camera_config(args.camera)
+    feed = CameraFeed(SOURCES.build(camera))  # a camera that cannot open: before any tracking
+    try:
+        progress("tracking the performer")
+        performance = track_performer(args.video or str(sample_video()), frames=args.frames)
+        name = f"{args.driver} {args.port or ''} | camera {args.camera}".replace("  ", " ")
+
+        def run(head: str, profile: Profile) -> FeatureStream:
+            output = DRIVERS.build(driver, profile)
+            return asyncio.run(live_profile(performance, profile, output, feed))
+
+        return measure(performance, [name], profiles, run, progress=progress)
+    finally:
+        feed.close()
