@@ -28,6 +28,7 @@ COMMANDS = [
     "render",
     "certs",
     "health",
+    "simhead",
 ]
 
 
@@ -371,6 +372,24 @@ CASES = [
         "render robot bars",
         ["render", "--robot-head", "simhead16", "--bars", "paper16", "--out", "x.mp4"],
         "--bars takes only none",
+    ),
+    (
+        "simhead unknown head",
+        ["simhead", "nohead", "--serial-link", "tty"],
+        "unknown head 'nohead'",
+    ),
+    ("simhead bad head file", ["simhead", "{bad.toml}", "--serial-link", "tty"], "not valid TOML"),
+    ("simhead address", ["simhead", "--serial-link", "tty", "--http", "8090"], "is not HOST:PORT"),
+    (
+        "simhead link over a file",
+        ["simhead", "--serial-link", "{bad.toml}", "--http", "127.0.0.1:0"],
+        "exists and is not a symlink",
+    ),
+    ("simhead fps", ["simhead", "--serial-link", "tty", "--fps", "0"], "--fps 0 is not within"),
+    (
+        "simhead device number",
+        ["simhead", "--serial-link", "tty", "--device-number", "300"],
+        "device number 300 is not in 0..127",
     ),
 ]
 

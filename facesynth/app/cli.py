@@ -377,6 +377,9 @@ def build_parser() -> argparse.ArgumentParser:
     from facesynth.app.recording.cli import add_recording_parsers
 
     add_recording_parsers(sub, _zenoh_arguments)
+    from facesynth.app.simhead.command import add_simhead_parser
+
+    add_simhead_parser(sub)
     return parser
 
 

@@ -4,12 +4,20 @@
 ``render``), :mod:`.config` reads head files (:func:`load_head`), :mod:`.effects` and
 :mod:`.renderer` move the bundled photo (:mod:`.photo`), :mod:`.maestro` is the Pololu Maestro
 protocol the head speaks and :mod:`.server` the pseudo-terminal and the MJPEG camera of
-``facesynth simhead``.
+``facesynth simhead`` (:mod:`.command`).
+
+The names below are imported on first use, so ``facesynth --help`` does not load OpenCV.
 """
 
-from .config import Actuator, HeadConfig, HeadError, head_names, load_head, parse_head
-from .effects import EFFECTS
-from .head import SimHead, response
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from .config import Actuator, HeadConfig, HeadError, head_names, load_head, parse_head
+    from .effects import EFFECTS
+    from .head import SimHead, response
 
 __all__ = [
     "EFFECTS",
@@ -22,3 +30,21 @@ __all__ = [
     "parse_head",
     "response",
 ]
+
+_WHERE = {
+    "EFFECTS": "effects",
+    "Actuator": "config",
+    "HeadConfig": "config",
+    "HeadError": "config",
+    "head_names": "config",
+    "load_head": "config",
+    "parse_head": "config",
+    "SimHead": "head",
+    "response": "head",
+}
+
+
+def __getattr__(name: str) -> Any:
+    if name not in _WHERE:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    return getattr(importlib.import_module(f".{_WHERE[name]}", __name__), name)

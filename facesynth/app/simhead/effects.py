@@ -45,7 +45,13 @@ GAZE: Final = {
     "gaze_left_y": (1, 1),
 }
 #: Effects whose positive direction opens the mouth (painted dark between the inner lips).
-MOUTH_OPENING: Final = ("jaw", "lower_lip_right", "lower_lip_left")
+MOUTH_OPENING: Final = (
+    "jaw",
+    "lower_lip_right",
+    "lower_lip_left",
+    "upper_lip_right",
+    "upper_lip_left",
+)
 #: Iris travel at a gaze activation of ±1, in eye widths (x, y).
 GAZE_RANGE: Final = (0.2, 0.11)
 
@@ -111,26 +117,35 @@ def _brow_inner(face: Face) -> tuple[np.ndarray, np.ndarray]:
 def _lids(face: Face, side: int) -> tuple[np.ndarray, np.ndarray]:
     width = float(np.linalg.norm(face.points[133, :2] - face.points[33, :2])) / face.iod
     wide, closing = np.zeros((478, 2)), np.zeros((478, 2))
-    wide[list(UPPER_LIDS[side]), 1] = 0.07 * width
+    wide[list(UPPER_LIDS[side]), 1] = 0.13 * width
     wide[list(LOWER_LIDS[side]), 1] = -0.025 * width
     closing[list(UPPER_LIDS[side]), 1] = -0.13 * width
     closing[list(LOWER_LIDS[side]), 1] = 0.05 * width
     return wide, closing
 
 
-def _cheek(face: Face, side: int) -> tuple[np.ndarray, np.ndarray]:
+def _cheek(face: Face, side: int) -> tuple[np.ndarray, None]:
+    """Raised: the infraorbital cheek up, pushing the lower lid up (a squint from below) and
+    lifting the lip corner a little (a cheek cannot be pulled below its rest)."""
     local = face.local()
-    raised = _shift(local, list(CHEEKS[side]), 0.0, 0.06, 0.1)
+    raised = _shift(local, list(CHEEKS[side]), 0.0, 0.1, 0.12)
     raised[list(EYES[side]), :] = 0.0
-    raised[list(LOWER_LIDS[side]), 1] = 0.02  # the cheek pushes the lower lid up
-    lowered = _still_eyes(_shift(local, list(CHEEKS[side]), 0.0, -0.03, 0.1))
-    return raised, lowered
+    raised[list(range(468, 478)), :] = 0.0
+    width = float(np.linalg.norm(face.points[133, :2] - face.points[33, :2])) / face.iod
+    raised[list(LOWER_LIDS[side]), 1] = 0.2 * width
+    raised[LIP_CORNERS[side], 1] = max(raised[LIP_CORNERS[side], 1], 0.02)
+    return raised, None
 
 
 def _upper_lip(face: Face, side: int) -> tuple[np.ndarray, None]:
+    """Raised: the upper lip's half lifted off the lower lip (the mouth opens a little)."""
     local = face.local()
-    raised = _still_eyes(_shift(local, list(UPPER_LIP[side]), 0.0, 0.05, 0.06))
-    return raised, None
+    half = _half(local, side)[:, None]
+    raised = _shift(local, list(UPPER_LIP[side]), 0.0, 0.06, 0.07) * half
+    raised[list(UPPER_INNER_LIP), 1] = 0.06 * half[list(UPPER_INNER_LIP), 0]
+    raised[list(LOWER_INNER_LIP), :] = 0.0
+    raised[list(LIP_CORNERS), :] *= 0.3
+    return _still_eyes(raised), None
 
 
 def _hinge(face: Face, drop: float) -> np.ndarray:
@@ -161,15 +176,14 @@ def _lip_corner(face: Face, side: int) -> tuple[np.ndarray, np.ndarray]:
     return pull, depress
 
 
-def _lower_lip(face: Face, side: int) -> tuple[np.ndarray, np.ndarray]:
+def _lower_lip(face: Face, side: int) -> tuple[np.ndarray, None]:
+    """Lowered: the lower lip's half pulled down off the upper lip (the mouth opens)."""
     local = face.local()
     lip = list(LOWER_LIP[side])
     down = _shift(local, lip, 0.0, -0.09, 0.07) * _half(local, side)[:, None]
     down[list(UPPER_INNER_LIP), :] = 0.0
     down[list(LIP_CORNERS), :] *= 0.3
-    up = _shift(local, lip, 0.0, 0.015, 0.06) * _half(local, side)[:, None]
-    up[list(UPPER_INNER_LIP), :] = 0.0
-    return _still_eyes(down), _still_eyes(up)
+    return _still_eyes(down), None
 
 
 def _pucker(face: Face) -> tuple[np.ndarray, np.ndarray]:
@@ -223,15 +237,15 @@ MEANING: Final = {
     "gaze_right_y": "right iris up / down",
     "gaze_left_x": "left iris toward the performer's left / right",
     "gaze_left_y": "left iris up / down",
-    "cheek_right": "right cheek raised / lowered",
-    "cheek_left": "left cheek raised / lowered",
+    "cheek_right": "right cheek raised / nothing",
+    "cheek_left": "left cheek raised / nothing",
     "upper_lip_right": "right upper lip raised / nothing",
     "upper_lip_left": "left upper lip raised / nothing",
     "jaw": "jaw dropped / clenched",
     "lip_corner_right": "right lip corner pulled up and out / pulled down",
     "lip_corner_left": "left lip corner pulled up and out / pulled down",
-    "lower_lip_right": "right half of the lower lip down / up",
-    "lower_lip_left": "left half of the lower lip down / up",
+    "lower_lip_right": "right half of the lower lip down / nothing",
+    "lower_lip_left": "left half of the lower lip down / nothing",
     "lip_pucker": "mouth narrowed / stretched",
 }
 

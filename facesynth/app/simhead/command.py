@@ -1,0 +1,106 @@
+"""``facesynth simhead``: run a simulated head as a device (Maestro on a pty, MJPEG camera).
+
+:func:`add_simhead_parser` adds the sub-command to the ``facesynth`` parser. It prints the
+serial port and the camera URL, then runs until Ctrl-C (or SIGTERM), removing its link.
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import signal
+import sys
+from pathlib import Path
+from typing import Any
+
+__all__ = ["add_simhead_parser", "cmd_simhead", "parse_address"]
+
+HELP = (
+    "a simulated robot head: a face photo moved by messy actuators, speaking the Pololu "
+    "Maestro protocol on a pseudo-terminal and serving its camera as an MJPEG URL"
+)
+
+
+def parse_address(text: str) -> tuple[str, int]:
+    """``HOST:PORT`` (port 0 = any free port) as (host, port)."""
+    from .server import SimHeadServerError
+
+    host, sep, port = text.rpartition(":")
+    if not sep or not host or not port.isdigit() or int(port) > 65535:
+        raise SimHeadServerError(f"--http {text!r} is not HOST:PORT (e.g. 127.0.0.1:8090)")
+    return host.strip("[]"), int(port)
+
+
+def add_simhead_parser(sub: Any) -> None:
+    """Add ``facesynth simhead``."""
+    p: argparse.ArgumentParser = sub.add_parser("simhead", help=HELP, description=HELP)
+    p.set_defaults(handler=cmd_simhead)
+    p.add_argument(
+        "head",
+        nargs="?",
+        default="simhead16",
+        help="a bundled head (simhead16, simhead16_reversed, simhead16_stiff) or a head file "
+        "(TOML); default simhead16",
+    )
+    p.add_argument(
+        "--serial-link",
+        required=True,
+        metavar="PATH",
+        help="symlink to create to the head's serial port (a pty), e.g. /tmp/simhead-tty: "
+        "give it to a driver as --port",
+    )
+    p.add_argument(
+        "--http",
+        default="127.0.0.1:8090",
+        metavar="HOST:PORT",
+        help="where the camera is served (default 127.0.0.1:8090; port 0 = any free port)",
+    )
+    p.add_argument("--fps", type=float, default=30.0, help="camera frame rate (default 30)")
+    p.add_argument(
+        "--channels",
+        type=int,
+        choices=(6, 12, 18, 24),
+        default=24,
+        help="the Maestro model's channel count (default 24: a Mini Maestro 24)",
+    )
+    p.add_argument(
+        "--device-number",
+        type=int,
+        default=12,
+        help="the Maestro's device number for the Pololu protocol (default 12)",
+    )
+
+
+def cmd_simhead(args: argparse.Namespace) -> int:
+    """Run the simulated head until Ctrl-C."""
+    from .config import load_head
+    from .head import SimHead
+    from .maestro import Maestro
+    from .server import SimHeadServer
+
+    config = load_head(args.head)
+    host, port = parse_address(args.http)
+    maestro = Maestro(channels=args.channels, device_number=args.device_number)
+    server = SimHeadServer(SimHead(config), maestro, Path(args.serial_link), host, port, args.fps)
+    return asyncio.run(_serve(server, config.name, len(config.actuators)))
+
+
+async def _serve(server: Any, name: str, actuators: int) -> int:
+    stop = asyncio.Event()
+    loop = asyncio.get_running_loop()
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        loop.add_signal_handler(sig, stop.set)
+    await server.start()
+    try:
+        print(f"simhead: head {name} ({actuators} actuators)")
+        print(
+            f"serial port: {server.link} -> {server.device} "
+            f"(Pololu Maestro, {server.maestro.channels} channels)"
+        )
+        print(f"camera: {server.url} (snapshot {server.snapshot_url})")
+        print("Ctrl-C to stop", flush=True)
+        sys.stdout.flush()
+        await stop.wait()
+    finally:
+        await server.stop()
+    return 0
