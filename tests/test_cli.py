@@ -355,6 +355,7 @@ CASES = [
         ["bench", "robot", "{garbage.mp4}", "--head", "simhead16", "--frames", "2"],
         "cannot open",
     ),
+    ("bench robot json", ["bench", "robot", "--json", "."], "JSON . is a directory"),
     ("bench robot live camera", ["bench", "robot", "--driver", "maestro"], "both --driver and"),
     ("bench robot live port", ["bench", "robot", "--port", "/dev/x"], "--port goes with --driver"),
     (

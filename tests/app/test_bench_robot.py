@@ -5,6 +5,7 @@ from __future__ import annotations
 import itertools
 import math
 from collections import defaultdict
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -149,14 +150,19 @@ def test_a_simulated_head_follows_the_performer_through_a_profile(
     assert head.pulses()[0] != load_profile("head16").servos[0].neutral_us
 
 
-def test_the_command_prints_json(capsys: pytest.CaptureFixture[str]) -> None:
+def test_the_command_prints_a_table_and_writes_json(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     import json
 
     from facesynth.app.cli import main
 
+    out = tmp_path / "deep" / "robot.json"
     argv = ["bench", "robot", "--frames", "30", "--head", "simhead16", "--profile", "paper16"]
-    assert main([*argv, "--json"]) == 0
-    result = json.loads(capsys.readouterr().out)
+    assert main([*argv, "--json", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "head simhead16: 30 frames" in text and "mean rho, features it can reach" in text
+    result = json.loads(out.read_text())
     assert result["frames"] == 30 and result["moved_span"]["inter-ocular distance"] == 0.02
     (head,) = result["heads"]
     (run,) = head["profiles"]
@@ -170,3 +176,4 @@ def test_the_command_prints_json(capsys: pytest.CaptureFixture[str]) -> None:
         "in_band",
     }
     assert {"feature", "rho", "ratio", "reachable", "moved"} <= set(run["features"][0])
+    assert isinstance(run["best_lag_frames"], int)

@@ -111,7 +111,14 @@ def add_bench_arguments(p: argparse.ArgumentParser) -> None:
         help="robot: a simulated head to drive, repeatable, a bundled name or a head file "
         "(default: every bundled head)",
     )
-    p.add_argument("--json", action="store_true", help="robot: print the result as JSON")
+    p.add_argument(
+        "--json",
+        nargs="?",
+        const="-",
+        metavar="FILE",
+        help="robot: print the result as JSON instead of the table, or write it to FILE as "
+        "well as printing the table",
+    )
     p.add_argument(
         "--driver",
         metavar="NAME",

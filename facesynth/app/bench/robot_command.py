@@ -7,10 +7,13 @@ import asyncio
 import json
 import sys
 from collections.abc import Callable
+from pathlib import Path
 
 import msgspec
 
 from facesynth.app.wiring import OptionError
+from facesynth.runtime.atomic import write_atomic
+from facesynth.runtime.outputs import check_output
 from facesynth.runtime.profiles import Profile
 
 from .robot import (
@@ -51,6 +54,8 @@ def bench_robot_command(args: argparse.Namespace) -> int:
 
     if args.frames is not None and args.frames < 1:
         raise OptionError("--frames must be at least 1")
+    if args.json not in (None, "-"):
+        check_output(Path(args.json), "JSON")  # before any tracking
     profiles = profiles_of(args)
     for name in profiles:
         try:
@@ -71,10 +76,13 @@ def bench_robot_command(args: argparse.Namespace) -> int:
         progress("tracking the performer")
         performance = track_performer(args.video or str(sample_video()), frames=args.frames)
         result = bench_robot(performance, heads, profiles, open_head, progress=progress)
+    text = json.dumps(robot_json(result), indent=2)
+    if args.json == "-":
+        print(text)
+        return 0
     if args.json:
-        print(json.dumps(robot_json(result), indent=2))
-    else:
-        print(format_robot(result))
+        write_atomic(args.json, text + "\n", mode=0o644)
+    print(format_robot(result))
     return 0
 
 
