@@ -392,6 +392,9 @@ CASES = [
         ["simhead", "--serial-link", "tty", "--device-number", "300"],
         "device number 300 is not in 0..127",
     ),
+    ("camera name", ["sensor", "--camera", "front"], "--camera 'front': expected a device index"),
+    ("camera file", ["sensor", "--camera", "{garbage.mp4}"], "a file, not a camera (use --video"),
+    ("camera scheme", ["sensor", "--camera", "ftp://cam/x"], "--camera ftp://cam/x: cannot stream"),
 ]
 
 

@@ -74,8 +74,11 @@ class Renderer:
         hi = np.ceil(anchors.max(axis=0) + 4 * sigma).astype(int).clip(0, [w - 1, h - 1])
         self._box = (int(lo[1]), int(hi[1]) + 1, int(lo[0]), int(hi[0]) + 1)  # y0, y1, x0, x1
         self._fields = self._dense_fields(anchors, sigma)
-        xs, ys = np.meshgrid(np.arange(w, dtype=np.float32), np.arange(h, dtype=np.float32))
-        self._grid = np.stack([xs, ys], axis=2)
+        y0, y1, x0, x1 = self._box
+        xs, ys = np.meshgrid(
+            np.arange(x0, x1, dtype=np.float32), np.arange(y0, y1, dtype=np.float32)
+        )
+        self._box_grid = np.stack([xs, ys], axis=2)  # pixel coordinates over the box
         self._gaze = {name: GAZE[name] for name in self.names if name in GAZE}
         self._irises = [self._iris(eye) for eye in range(2)]
 
@@ -120,20 +123,26 @@ class Renderer:
     def render(self, activations: Mapping[str, float]) -> np.ndarray:
         """The face under ``activations`` (BGR, a new array)."""
         weights = self.coefficients(activations)
-        active = np.flatnonzero(weights)
-        if len(active) == 0:
-            image = self._base.copy()
-        else:
+        image = self._base.copy()
+        if weights.any():
             y0, y1, x0, x1 = self._box
-            field = np.zeros_like(self._grid)
-            box = (weights[active].astype(np.float32) @ self._fields[active]).reshape(
-                y1 - y0, x1 - x0, 2
+            # a weighted sum of the active fields, element-wise (a BLAS product may wait on
+            # threads of a busy machine: measured 0.2 ms idle, 12-15 ms under load)
+            flat = np.zeros(self._fields.shape[1], np.float32)
+            for k in np.flatnonzero(weights):
+                flat += np.float32(weights[k]) * self._fields[k]
+            field = flat.reshape(y1 - y0, x1 - x0, 2)
+            # the forward field at p - f(p), sampled in the box (zero outside it)
+            first = self._box_grid - field
+            back = cv2.remap(
+                field,
+                first[..., 0] - x0,
+                first[..., 1] - y0,
+                cv2.INTER_LINEAR,
+                borderMode=cv2.BORDER_CONSTANT,
             )
-            field[y0:y1, x0:x1] = box
-            first = self._grid - field
-            back = cv2.remap(field, first[..., 0], first[..., 1], cv2.INTER_LINEAR)
-            source = self._grid - back
-            image = cv2.remap(
+            source = self._box_grid - back
+            image[y0:y1, x0:x1] = cv2.remap(
                 self._base,
                 source[..., 0],
                 source[..., 1],

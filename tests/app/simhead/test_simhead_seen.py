@@ -9,8 +9,9 @@ of the feature's default range on that side (``facesynth.runtime.feature_names``
 from __future__ import annotations
 
 import msgspec
+import numpy as np
 
-from facesynth.app.simhead import EFFECTS
+from facesynth.app.simhead import EFFECTS, SimHead, head_names, load_head
 from facesynth.app.simhead.renderer import default_renderer
 from facesynth.runtime.feature_names import BY_NAME
 from facesynth.runtime.frames import encode_frame
@@ -107,3 +108,17 @@ def test_the_tracker_sees_each_effect_move_its_feature_the_right_way() -> None:
             if share < need:
                 failures.append(f"{effect} {direction:+d}: {name} {value:+.4f} ({share:+.2f})")
     assert not failures, failures
+
+
+def test_the_face_stays_trackable_in_random_poses() -> None:
+    """Babbling sends random poses within paper16's limits: the tracker must keep the face."""
+    backend = TrackerBackend(TrackerConfig(model="full", blendshapes=False))
+    rng = np.random.default_rng(17)
+    for name in head_names():
+        head = SimHead(load_head(name))
+        for pose in range(8):
+            for channel in range(16):
+                head.command(channel, float(rng.uniform(1000, 2000)))
+            head.step((pose + 1) * 2_000_000_000)
+            points = _track(backend, head.render(), frames=3)
+            assert points.face and points.confidence > 0.5, (name, pose)
