@@ -3,15 +3,22 @@
 from __future__ import annotations
 
 import asyncio
+import json
+import re
+import signal
+import subprocess
+import sys
 import threading
 import time
 from collections.abc import Iterator, Mapping
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from facesynth.app.bench.robot import Performance, RobotError, track_performer
 from facesynth.app.bench.robot_live import CameraFeed, live_profile
+from facesynth.app.cli import main
 from facesynth.app.data import sample_video
 from facesynth.app.simhead import SimHead, load_head
 from facesynth.runtime.profiles import Profile, load_profile
@@ -135,3 +142,50 @@ def test_a_camera_that_stops_is_an_error(performance: Performance) -> None:
             )
     finally:
         camera.close()
+
+
+@pytest.mark.slow
+def test_the_command_drives_the_simhead_process_through_maestro_and_its_camera_url(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``facesynth simhead`` as a process; ``bench robot --driver maestro --port LINK
+    --camera URL`` drives it over its pty and watches its MJPEG camera."""
+    link = tmp_path / "simhead-tty"
+    process = subprocess.Popen(
+        [
+            *(sys.executable, "-m", "facesynth", "simhead", "simhead16_stiff"),
+            *("--serial-link", str(link), "--http", "127.0.0.1:0"),
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        assert process.stdout is not None
+        text = "".join(process.stdout.readline() for _ in range(4))
+        url = re.search(r"camera: (http://\S+/camera\.mjpg)", text)
+        assert url is not None, text
+        out = tmp_path / "live.json"
+        argv = [
+            *("bench", "robot", "--frames", "48", "--profile", "head16"),
+            *("--driver", "maestro", "--port", str(link), "--camera", url.group(1)),
+            *("--json", str(out)),
+        ]
+        assert main(argv) == 0
+        assert "head16" in capsys.readouterr().out
+        result = json.loads(out.read_text())
+        (head,) = result["heads"]
+        assert head["head"] == f"maestro {link} | camera {url.group(1)}"
+        (run,) = head["profiles"]
+        rows = {row["feature"]: row for row in run["features"]}
+        # every frame after the performer's neutral (its first second: 24 frames) is compared
+        assert rows["brow_lower_left"]["frames"] == 24
+        assert run["summary"]["reachable"] > 0
+    finally:
+        process.send_signal(signal.SIGINT)
+        try:
+            process.wait(timeout=10)
+        finally:
+            if process.poll() is None:
+                process.kill()
+                process.wait()

@@ -162,8 +162,8 @@ class _Live:
         points = self.backend.process(encoded)
         return self.processor.process(points) if learn else None
 
-    async def neutral(self, period_ns: int, settle_ns: int, timeout_ns: int) -> None:
-        """Hold the head at neutral until F knows the robot's neutral."""
+    async def neutral(self, period_ns: int, settle_ns: int, timeout_ns: int) -> Mapping[str, float]:
+        """Hold the head at neutral until F knows the robot's neutral; its raw features then."""
         start = self.clock()
         await self.send(self.control.start(start))
         limit = start + settle_ns + timeout_ns
@@ -171,18 +171,21 @@ class _Live:
             await self.until(self.clock() + period_ns)
             settled = self.clock() - start >= settle_ns
             features = self.look(learn=settled)
-            if features is not None and robot_features(features) is not None:
-                return
+            raw = robot_features(features) if features is not None else None
+            if raw is not None:
+                return raw
         raise RobotError(
             f"the camera showed no face (or no neutral) with the head held at "
             f"{self.profile.name}'s neutral within {(limit - start) / 1e9:.0f} s"
         )
 
-    async def play(self, performance: Performance) -> list[Mapping[str, float] | None]:
-        """Every performer frame at its instant; the robot's raw features per frame."""
+    async def play(
+        self, performance: Performance, last: Mapping[str, float] | None
+    ) -> list[Mapping[str, float] | None]:
+        """Every performer frame at its instant; the robot's raw features per frame (while the
+        camera shows nothing new, the last ones: at first ``last``, the neutral's)."""
         start = self.clock()
         out: list[Mapping[str, float] | None] = []
-        last: Mapping[str, float] | None = None
         for performer in performance.features:
             await self.until(start + performer.t_media_ns)
             now = self.clock()
@@ -223,8 +226,8 @@ async def live_profile(
     run = _Live(profile, driver, camera, backend if backend is not None else tracker(), clock)
     async with driver:
         try:
-            await run.neutral(period_ns, round(settle_s * 1e9), round(timeout_s * 1e9))
-            frames = await run.play(performance)
+            at_neutral = await run.neutral(period_ns, round(settle_s * 1e9), round(timeout_s * 1e9))
+            frames = await run.play(performance, at_neutral)
         finally:
             await run.stop()
     return FeatureStream.from_frames(frames, names=performance.stream.names)
