@@ -180,7 +180,7 @@ def add_bench_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
-    """``facesynth bench chain|tracker|smoothing|recording|face|fidelity|drivers``."""
+    """``facesynth bench chain|tracker|smoothing|recording|face|fidelity|drivers|robot``."""
     if args.what == "fidelity":
         return _bench_fidelity(args)
     if args.what == "robot":
