@@ -95,6 +95,7 @@ def performance() -> Performance:
     return track_performer(str(sample_video()), frames=FRAMES)
 
 
+@pytest.mark.slow
 def test_a_head_is_driven_and_watched_in_real_time(performance: Performance) -> None:
     rig = Rig()
     profile = load_profile("head16")
@@ -189,3 +190,49 @@ def test_the_command_drives_the_simhead_process_through_maestro_and_its_camera_u
             if process.poll() is None:
                 process.kill()
                 process.wait()
+
+
+class StallingCamera(HeadCamera):
+    """Shows the head until asked to freeze, then sends nothing new (a stalled stream)."""
+
+    def __init__(self, rig: Rig) -> None:
+        super().__init__(rig)
+        self.frozen = threading.Event()
+
+    def frames(self) -> Iterator[tuple[np.ndarray | None, int]]:
+        for item in super().frames():
+            while self.frozen.is_set() and not self.closed:
+                time.sleep(0.05)
+            yield item
+
+
+@pytest.mark.slow
+def test_a_camera_that_stalls_while_the_head_plays_is_an_error() -> None:
+    rig = Rig()
+    profile = load_profile("head16")
+    source = StallingCamera(rig)
+    camera = CameraFeed(source)
+    performance = track_performer(str(sample_video()), frames=72)
+    clock_origin = time.monotonic_ns()
+
+    def clock() -> int:  # the camera freezes 1.5 s into the run (after the neutral)
+        now = time.monotonic_ns()
+        if now - clock_origin > 1_500_000_000:
+            source.frozen.set()
+        return now
+
+    try:
+        with pytest.raises(RobotError, match="camera has shown nothing new for 2 s"):
+            asyncio.run(
+                live_profile(
+                    performance,
+                    profile,
+                    HeadDriver(rig, profile),
+                    camera,
+                    settle_s=0.2,
+                    clock=clock,
+                )
+            )
+    finally:
+        source.frozen.clear()
+        camera.close()

@@ -34,7 +34,7 @@ import numpy as np
 from facesynth.runtime.frames import encode_frame
 from facesynth.runtime.profiles import Profile
 from schemas.messages import Features
-from services.control.core import Arrival, ControlCore, Move
+from services.control.core import MAX_STEP_S, Arrival, ControlCore, Move
 from services.control.drivers.base import ServoDriver
 from services.features.core import FeatureProcessor
 from services.points.backends.base import PointsBackend
@@ -53,6 +53,10 @@ from .robot import (
 from .robot_compare import FeatureStream
 
 __all__ = ["CameraFeed", "CameraFrame", "live_profile"]
+
+MAX_STEP_NS = round(MAX_STEP_S * 1e9)
+#: A camera that shows nothing new for this long while the head plays is an error.
+CAMERA_STALL_NS = 2_000_000_000
 
 
 @dataclass(frozen=True)
@@ -142,7 +146,10 @@ class _Live:
                 await asyncio.sleep(wait / 1e9)
             if due >= t_ns:
                 return
-            await self.send(self.control.tick(self.clock()))
+            move = self.control.tick(self.clock())
+            if move is None:  # nothing was due after all: wait a step rather than spin
+                await asyncio.sleep(min(t_ns - self.clock(), MAX_STEP_NS) / 1e9)
+            await self.send(move)
 
     def look(self, learn: bool = True) -> Features | None:
         """The camera's latest frame through the tracker (and F); ``None`` when it has not
@@ -184,7 +191,7 @@ class _Live:
     ) -> list[Mapping[str, float] | None]:
         """Every performer frame at its instant; the robot's raw features per frame (while the
         camera shows nothing new, the last ones: at first ``last``, the neutral's)."""
-        start = self.clock()
+        start = fresh = self.clock()
         out: list[Mapping[str, float] | None] = []
         for performer in performance.features:
             await self.until(start + performer.t_media_ns)
@@ -193,8 +200,12 @@ class _Live:
             move, _ = self.control.command(commands, Arrival(time.time_ns(), now))
             await self.send(move)
             features = self.look()
-            if features is not None:  # else the camera has shown nothing new: as before
-                last = robot_features(features)
+            if features is not None:
+                last, fresh = robot_features(features), now
+            elif now - fresh > CAMERA_STALL_NS:  # else nothing new yet: as before
+                raise RobotError(
+                    f"the camera has shown nothing new for {CAMERA_STALL_NS / 1e9:.0f} s"
+                )
             out.append(last)
         return out
 
