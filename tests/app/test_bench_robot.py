@@ -123,6 +123,14 @@ def test_the_bench_marks_what_a_still_head_cannot_reach(
         bench_robot(performance, ["still"], ["robo9"], open_head)
 
 
+def test_a_profile_with_channels_the_head_lacks_is_an_error() -> None:
+    from facesynth.app.simhead import SimHead, load_head
+
+    loop = RobotLoop(load_profile("arkit52"), SimHead(load_head("simhead16")), fps=30)
+    with pytest.raises(RobotError, match=r"profile arkit52, servo \w+: channel 24 is not within"):
+        loop.start()
+
+
 def test_frames_must_be_positive() -> None:
     with pytest.raises(RobotError, match="--frames must be at least 1"):
         track_performer(str(sample_video()), frames=0)

@@ -224,7 +224,10 @@ class RobotLoop:
     def _send(self, move: Move) -> None:
         self.head.step(move.t_ns)
         for name, pulse in move.positions.items():
-            self.head.command(self.channels[name], pulse)
+            try:
+                self.head.command(self.channels[name], pulse)
+            except ValueError as exc:  # e.g. a channel the head does not have
+                raise RobotError(f"profile {self.profile.name}, servo {name}: {exc}") from None
 
     def _points(self, image: np.ndarray) -> Points:
         frame = encode_frame(
