@@ -15,7 +15,8 @@ are played at the video's rate on the monotonic clock:
 * at each performer frame's instant: T → C → the driver, then the camera's latest frame →
   the tracker → F gives the robot's frame (a frame late at least: the camera shows what the
   head did before this command; :func:`.robot_compare.best_lag` measures how late);
-* at the end C returns the head to neutral within its limits before the driver closes.
+* at the end (or on an error, a camera that shows nothing new for 2 s among them) C returns
+  the head to neutral within its limits before the driver closes.
 
 A machine too slow to track each frame in its period plays the frames late rather than
 skipping them; the run time says so.
