@@ -387,6 +387,9 @@ CASES = [
         "exists and is not a symlink",
     ),
     ("simhead fps", ["simhead", "--serial-link", "tty", "--fps", "0"], "--fps 0 is not within"),
+    ("simhead noise", ["simhead", "--serial-link", "tty", "--noise", "-1"], "--noise -1 is not"),
+    ("simhead without a link", ["simhead"], "simhead needs --serial-link PATH"),
+    ("simhead bench", ["simhead", "--bench", "-1"], "--bench -1: give at least 1 frame"),
     (
         "simhead device number",
         ["simhead", "--serial-link", "tty", "--device-number", "300"],

@@ -44,7 +44,6 @@ def add_simhead_parser(sub: Any) -> None:
     )
     p.add_argument(
         "--serial-link",
-        required=True,
         metavar="PATH",
         help="symlink to create to the head's serial port (a pty), e.g. /tmp/simhead-tty: "
         "give it to a driver as --port",
@@ -57,11 +56,26 @@ def add_simhead_parser(sub: Any) -> None:
     )
     p.add_argument("--fps", type=float, default=30.0, help="camera frame rate (default 30)")
     p.add_argument(
+        "--noise",
+        type=float,
+        default=1.5,
+        help="camera grain, grey levels (default 1.5; 0 = none): the tracker jitters a little, "
+        "as with a real camera",
+    )
+    p.add_argument(
         "--channels",
         type=int,
         choices=(6, 12, 18, 24),
         default=24,
         help="the Maestro model's channel count (default 24: a Mini Maestro 24)",
+    )
+    p.add_argument("--list", action="store_true", help="list the bundled heads and exit")
+    p.add_argument(
+        "--bench",
+        type=int,
+        default=0,
+        metavar="FRAMES",
+        help="render FRAMES random poses of the head, print the time a frame takes, and exit",
     )
     p.add_argument(
         "--device-number",
@@ -73,16 +87,60 @@ def add_simhead_parser(sub: Any) -> None:
 
 def cmd_simhead(args: argparse.Namespace) -> int:
     """Run the simulated head until Ctrl-C."""
-    from .config import load_head
+    from .config import head_names, load_head
     from .head import SimHead
     from .maestro import Maestro
-    from .server import SimHeadServer
+    from .server import SimHeadServer, SimHeadServerError
 
+    if args.list:
+        for name in head_names():
+            print(f"{name}: {load_head(name).description}")
+        return 0
     config = load_head(args.head)
+    if args.bench:
+        return _bench(config, args.bench)
+    if not args.serial_link:
+        raise SimHeadServerError("simhead needs --serial-link PATH (e.g. /tmp/simhead-tty)")
     host, port = parse_address(args.http)
     maestro = Maestro(channels=args.channels, device_number=args.device_number)
-    server = SimHeadServer(SimHead(config), maestro, Path(args.serial_link), host, port, args.fps)
+    server = SimHeadServer(
+        SimHead(config), maestro, Path(args.serial_link), host, port, args.fps, noise=args.noise
+    )
     return asyncio.run(_serve(server, config.name, len(config.actuators)))
+
+
+def _bench(config: Any, frames: int) -> int:
+    """Render ``frames`` random poses (pulses 1000-2000 µs, 0.1 s apart); print ms a frame."""
+    import time
+
+    import numpy as np
+
+    from .head import SimHead
+    from .renderer import default_renderer
+
+    if frames < 1:
+        raise ValueError(f"--bench {frames}: give at least 1 frame")
+    start = time.perf_counter()
+    renderer = default_renderer()
+    built = time.perf_counter() - start
+    head = SimHead(config, renderer)
+    rng = np.random.default_rng(0)
+    times = []
+    for i in range(frames):
+        for actuator in config.actuators:
+            head.command(actuator.channel, float(rng.uniform(1000, 2000)))
+        head.step((i + 1) * 100_000_000)
+        start = time.perf_counter()
+        head.render()
+        times.append(time.perf_counter() - start)
+    ms = np.array(times) * 1000
+    print(
+        f"simhead {config.name}: {frames} frames of {renderer.face.image.shape[1]}x"
+        f"{renderer.face.image.shape[0]}: mean {ms.mean():.2f} ms, median {np.median(ms):.2f} ms, "
+        f"p95 {np.percentile(ms, 95):.2f} ms, max {ms.max():.2f} ms a frame "
+        f"(start-up: {built:.2f} s)"
+    )
+    return 0
 
 
 async def _serve(server: Any, name: str, actuators: int) -> int:

@@ -100,7 +100,7 @@ def _brow(face: Face, side: int) -> tuple[np.ndarray, np.ndarray]:
     local = face.local()
     brow = list(BROWS[side])
     up = _still_eyes(_shift(local, brow, 0.0, 0.075, 0.09))
-    down = _still_eyes(_shift(local, brow, 0.0, -0.045, 0.08))
+    down = _still_eyes(_shift(local, brow, 0.0, -0.06, 0.08))
     return up, down
 
 
@@ -108,16 +108,16 @@ def _brow_inner(face: Face) -> tuple[np.ndarray, np.ndarray]:
     local = face.local()
     inner = [i for group in INNER_BROW for i in group]
     up = _still_eyes(_shift(local, inner, 0.0, 0.07, 0.07))
-    frown = _still_eyes(_shift(local, list(RIGHT_BROW) + list(LEFT_BROW), 0.0, -0.04, 0.08))
+    frown = _still_eyes(_shift(local, list(RIGHT_BROW) + list(LEFT_BROW), 0.0, -0.055, 0.08))
     for side, group in enumerate(INNER_BROW):
-        frown[:, 0] += -OUTWARD[side] * 0.035 * falloff(local, local[list(group)], 0.07)
+        frown[:, 0] += -OUTWARD[side] * 0.045 * falloff(local, local[list(group)], 0.07)
     return up, frown
 
 
 def _lids(face: Face, side: int) -> tuple[np.ndarray, np.ndarray]:
     width = float(np.linalg.norm(face.points[133, :2] - face.points[33, :2])) / face.iod
     wide, closing = np.zeros((478, 2)), np.zeros((478, 2))
-    wide[list(UPPER_LIDS[side]), 1] = 0.13 * width
+    wide[list(UPPER_LIDS[side]), 1] = 0.2 * width
     wide[list(LOWER_LIDS[side]), 1] = -0.025 * width
     closing[list(UPPER_LIDS[side]), 1] = -0.13 * width
     closing[list(LOWER_LIDS[side]), 1] = 0.05 * width
@@ -128,7 +128,7 @@ def _cheek(face: Face, side: int) -> tuple[np.ndarray, None]:
     """Raised: the infraorbital cheek up, pushing the lower lid up (a squint from below) and
     lifting the lip corner a little (a cheek cannot be pulled below its rest)."""
     local = face.local()
-    raised = _shift(local, list(CHEEKS[side]), 0.0, 0.1, 0.12)
+    raised = _shift(local, list(CHEEKS[side]), 0.0, 0.12, 0.12)
     raised[list(EYES[side]), :] = 0.0
     raised[list(range(468, 478)), :] = 0.0
     width = float(np.linalg.norm(face.points[133, :2] - face.points[33, :2])) / face.iod
@@ -171,8 +171,8 @@ def _jaw(face: Face) -> tuple[np.ndarray, np.ndarray]:
 def _lip_corner(face: Face, side: int) -> tuple[np.ndarray, np.ndarray]:
     local = face.local()
     corner = [LIP_CORNERS[side]]
-    pull = _still_eyes(_shift(local, corner, OUTWARD[side] * 0.07, 0.065, 0.12))
-    depress = _still_eyes(_shift(local, corner, OUTWARD[side] * 0.015, -0.06, 0.1))
+    pull = _still_eyes(_shift(local, corner, OUTWARD[side] * 0.11, 0.1, 0.12))
+    depress = _still_eyes(_shift(local, corner, OUTWARD[side] * 0.02, -0.09, 0.1))
     return pull, depress
 
 

@@ -4,7 +4,8 @@ The thin asyncio shell around the pure cores: :class:`~.maestro.Maestro` answers
 servo driver writes to the pty behind ``link`` (a symlink the user names, e.g.
 ``/tmp/simhead-tty``, pointing at the pty's ``/dev/pts/N``), its output pulses drive the
 :class:`~.head.SimHead`, whose dynamics step every :data:`DYNAMICS_S` on the monotonic clock,
-and its rendering is served at ``fps`` by aiohttp:
+and its rendering, with a little camera grain (``noise``, grey levels; the tracker then
+jitters as on a real camera), is served at ``fps`` by aiohttp:
 
 * ``/camera.mjpg``: ``multipart/x-mixed-replace`` JPEG frames (what OpenCV, browsers and IP
   camera viewers open);
@@ -26,6 +27,7 @@ from pathlib import Path
 from typing import Final
 
 import cv2
+import numpy as np
 from aiohttp import web
 
 from .head import SimHead
@@ -40,6 +42,14 @@ PAGE: Final = (
     "<!doctype html><title>facesynth simhead</title>"
     '<body style="margin:0;background:#111"><img src="camera.mjpg" alt="camera"></body>'
 )
+
+
+def _noise_bank(sigma: float, shape: tuple[int, ...], frames: int = 8) -> list[np.ndarray]:
+    """A few frames of camera grain (Gaussian, ``sigma`` grey levels; none for 0)."""
+    if sigma <= 0:
+        return []
+    rng = np.random.default_rng(0)
+    return [rng.normal(0.0, sigma, shape).astype(np.float32) for _ in range(frames)]
 
 
 class SimHeadServerError(ValueError):
@@ -73,7 +83,12 @@ class PtyPort:
         tty.setraw(self._slave)  # no echo, no line editing: bytes pass as they are
         os.set_blocking(self._master, False)
         self.device = os.ttyname(self._slave)
-        point_link(link, self.device)
+        try:
+            point_link(link, self.device)
+        except OSError as exc:
+            for fd in (self._master, self._slave):
+                os.close(fd)
+            raise SimHeadServerError(f"cannot make the link {link} ({exc.strerror})") from None
         self._loop: asyncio.AbstractEventLoop | None = None
 
     def attach(self, loop: asyncio.AbstractEventLoop) -> None:
@@ -129,10 +144,13 @@ class SimHeadServer:
         port: int = 0,
         fps: float = 30.0,
         quality: int = 85,
+        noise: float = 1.5,
         clock: Callable[[], int] = time.monotonic_ns,
     ) -> None:
         if not 0 < fps <= 120:
             raise SimHeadServerError(f"--fps {fps:g} is not within (0, 120]")
+        if not 0 <= noise <= 20:
+            raise SimHeadServerError(f"--noise {noise:g} is not within [0, 20]")
         self.head = head
         self.maestro = maestro
         self.link = link
@@ -140,6 +158,8 @@ class SimHeadServer:
         self.port = port
         self.fps = fps
         self.quality = quality
+        self._noise_sigma = noise
+        self._noise: list[np.ndarray] = []
         self._clock = clock
         self._t0 = clock()
         self._port: PtyPort | None = None
@@ -237,6 +257,11 @@ class SimHeadServer:
 
     def _render(self) -> None:
         image = self.head.render()
+        if self._noise_sigma and not self._noise:
+            self._noise = _noise_bank(self._noise_sigma, image.shape)
+        if self._noise:
+            grain = self._noise[self._frame_seq % len(self._noise)]
+            image = np.clip(image + grain, 0, 255).astype(np.uint8)
         ok, jpeg = cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, self.quality])
         if ok:
             self._frame = jpeg.tobytes()

@@ -37,7 +37,7 @@ class CameraConfig(
     index: Annotated[
         Annotated[int, msgspec.Meta(ge=0)] | str,
         msgspec.Meta(
-            description=f"camera: {WHAT}",
+            description=WHAT,
             extra={"flag": "--camera", "selects": True},
         ),
     ] = 0

@@ -106,6 +106,10 @@ async def test_bad_links_and_addresses(tmp_path: Path) -> None:
     assert not (tmp_path / "tty").exists()
     with pytest.raises(SimHeadServerError, match="--fps 0 is not within"):
         SimHeadServer(head, Maestro(), tmp_path / "tty", fps=0)
+    with pytest.raises(SimHeadServerError, match="--noise -1 is not within"):
+        SimHeadServer(head, Maestro(), tmp_path / "tty", noise=-1)
+    with pytest.raises(SimHeadServerError, match="cannot make the link /proc/tty-here"):
+        await SimHeadServer(head, Maestro(), Path("/proc/tty-here")).start()
     for bad in ("8090", "host:", ":80", "host:99999", "host:http"):
         with pytest.raises(SimHeadServerError, match="is not HOST:PORT"):
             parse_address(bad)
@@ -153,3 +157,38 @@ async def test_the_simhead_command_end_to_end(tmp_path: Path) -> None:
         if process.poll() is None:
             process.kill()
             process.wait()
+
+
+async def test_a_driver_may_close_the_port_and_come_back(tmp_path: Path) -> None:
+    link = tmp_path / "tty"
+    server = SimHeadServer(SimHead(load_head("simhead16")), Maestro(), link)
+    await server.start()
+    profile = load_profile("paper16")
+    try:
+        for pulse in (1200.0, 1800.0):
+            driver = MaestroDriver(MaestroConfig(port=str(link), model="mini24"), profile)
+            await driver.connect()
+            try:
+                neutral = {s.name: s.neutral_us for s in profile.servos}
+                await driver.send({**neutral, "right_eyebrow": pulse}, INFO)
+                deadline = time.monotonic() + 5
+                while server.maestro.targets()[0] != pulse and time.monotonic() < deadline:
+                    await asyncio.sleep(0.02)
+                assert server.maestro.targets()[0] == pulse
+            finally:
+                await driver.close()
+        assert server.maestro.error_events == 0
+    finally:
+        await server.stop()
+
+
+def test_list_and_bench(capsys: pytest.CaptureFixture[str]) -> None:
+    from facesynth.app.cli import main
+
+    assert main(["simhead", "--list"]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith("simhead16: The default simulated head")
+    assert "simhead16_reversed: " in out and "simhead16_stiff: " in out
+    assert main(["simhead", "simhead16_stiff", "--bench", "5"]) == 0
+    out = capsys.readouterr().out
+    assert re.match(r"simhead simhead16_stiff: 5 frames of 320x320: mean \d+\.\d\d ms", out)
