@@ -185,3 +185,16 @@ def test_the_command_prints_a_table_and_writes_json(
     }
     assert {"feature", "rho", "ratio", "reachable", "moved"} <= set(run["features"][0])
     assert isinstance(run["best_lag_frames"], int)
+
+
+def test_the_table_keeps_long_profile_names_apart() -> None:
+    from facesynth.app.bench.robot import HeadRun, ProfileRun, RobotBench
+    from facesynth.app.bench.robot_compare import FeatureRow, summarize
+
+    rows = [FeatureRow("jaw_open", "inter-ocular distance", 100, 0.2, 0.1, 0.5, 0.5, True)]
+    names = ("paper16", "simhead16_reversed_learned", "x.learned")
+    runs = [ProfileRun(name, rows, summarize(rows), 1.0, 2, 0.5) for name in names]
+    text = format_robot(RobotBench("v", 100, 24.0, "full", 1.0, [HeadRun("h", runs)]))
+    header = next(line for line in text.splitlines() if "paper16" in line)
+    assert "paper16 " in header and "simhead16_reversed_learned  x.learned" in header
+    assert "best lag, frames (mean rho there)" in text and "2 (0.50)" in text

@@ -23,6 +23,11 @@ NAME_WIDTH = 26
 CELL = 15
 
 
+def _cell(head: HeadRun) -> int:
+    """A profile column's width: :data:`CELL`, or the longest profile name and a gap."""
+    return max([CELL, *(len(run.profile) + 2 for run in head.profiles)])
+
+
 def _number(value: float, digits: int = 2) -> str:
     return "-" if not math.isfinite(value) else f"{value:.{digits}f}"
 
@@ -45,12 +50,14 @@ def _legend() -> str:
 
 
 def _summary_lines(head: HeadRun) -> list[str]:
+    width = _cell(head)
+
     def row(label: str, cell: Any) -> str:
-        cells = "".join(f"{cell(run.summary):<{CELL}}" for run in head.profiles)
+        cells = "".join(f"{cell(run.summary):<{width}}" for run in head.profiles)
         return f"  {label:<{NAME_WIDTH + 16}}{cells}"
 
     lagged = "".join(
-        f"{f'{run.lag_frames} ({_number(run.lag_rho)})':<{CELL}}" for run in head.profiles
+        f"{f'{run.lag_frames} ({_number(run.lag_rho)})':<{width}}" for run in head.profiles
     )
 
     def share(summary: Summary) -> str:
@@ -77,20 +84,21 @@ def format_head(head: HeadRun, frames: int) -> str:
     first = head.profiles[0].rows
     moved = _order([row for row in first if row.moved])
     table = {run.profile: {row.name: row for row in run.rows} for run in head.profiles}
+    width = _cell(head)
     lines = [f"head {head.head}: {frames} frames"]
     lines.append(
         f"  {'':<{NAME_WIDTH}}{'performer':<10}{'':6}"
-        + "".join(f"{run.profile:<{CELL}}" for run in head.profiles)
+        + "".join(f"{run.profile:<{width}}" for run in head.profiles)
     )
     lines.append(
         f"  {'feature':<{NAME_WIDTH}}{'span':<10}{'reach':6}"
-        + "".join(f"{'rho':>5} {'ratio':<{CELL - 6}}" for _ in head.profiles)
+        + "".join(f"{'rho':>5} {'ratio':<{width - 6}}" for _ in head.profiles)
     )
     for row in moved:
         cells = ""
         for run in head.profiles:
             theirs = table[run.profile][row.name]
-            cells += f"{_number(theirs.rho):>5} {_number(theirs.ratio):<{CELL - 6}}"
+            cells += f"{_number(theirs.rho):>5} {_number(theirs.ratio):<{width - 6}}"
         reach = "yes" if row.reachable else "no"
         lines.append(f"  {row.name:<{NAME_WIDTH}}{_span(row.performer_span):<10}{reach:6}{cells}")
     still = sum(not row.moved for row in first)
