@@ -429,6 +429,33 @@ CASES = [
         ["translator", "--profile", "/nonexistent/robot.learned"],
         "profile file /nonexistent/robot.learned does not exist",
     ),
+    ("bench robot frames", ["bench", "robot", "--frames", "0"], "--frames must be at least 1"),
+    ("bench robot profile", ["bench", "robot", "--profile", "robo9"], "robo9: no profile"),
+    ("bench robot head", ["bench", "robot", "--head", "robo9"], "unknown head 'robo9'"),
+    (
+        "bench robot video",
+        ["bench", "robot", "{garbage.mp4}", "--head", "simhead16", "--frames", "2"],
+        "cannot open",
+    ),
+    ("bench robot json", ["bench", "robot", "--json", "."], "JSON . is a directory"),
+    ("bench robot live camera", ["bench", "robot", "--driver", "maestro"], "both --driver and"),
+    ("bench robot live port", ["bench", "robot", "--port", "/dev/x"], "--port goes with --driver"),
+    (
+        "bench robot live head",
+        ["bench", "robot", "--driver", "maestro", "--camera", "0", "--head", "simhead16"],
+        "--head names a simulated head",
+    ),
+    (
+        "bench robot live driver",
+        ["bench", "robot", "--driver", "teleporter", "--camera", "0"],
+        "teleporter",
+    ),
+    ("render robot head", ["render", "--robot-head", "robo9", "--out", "x.mp4"], "'robo9'"),
+    (
+        "render robot bars",
+        ["render", "--robot-head", "simhead16", "--bars", "paper16", "--out", "x.mp4"],
+        "--bars takes only none",
+    ),
     (
         "simhead unknown head",
         ["simhead", "nohead", "--serial-link", "tty"],

@@ -188,6 +188,13 @@ def build_parser() -> argparse.ArgumentParser:
         help="scale each side-by-side frame into the input's own size (default: the "
         "performer keeps its size and the panels are added beside it)",
     )
+    p.add_argument(
+        "--robot-head",
+        metavar="HEAD",
+        help="show a simulated head (a bundled name such as simhead16, or a head file) "
+        "driven by the translator's profile (--profile) instead of the virtual face: "
+        "performer | robot's camera | bars of what it was sent",
+    )
     add_stage_arguments(p, ["sensor", "points", "features", "translator"])
     p.add_argument("--log-level", default="WARNING", choices=("DEBUG", "INFO", "WARNING", "ERROR"))
 

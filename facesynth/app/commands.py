@@ -203,7 +203,14 @@ def cmd_render(args: argparse.Namespace) -> int:
             del graph.nodes[name]
             continue
         graph.nodes[name], configs[name] = apply_arguments(name, node, args)
-    summary = render_graph(graph, configs, args.out, bars=args.bars, same_size=args.same_size)
+    summary = render_graph(
+        graph,
+        configs,
+        args.out,
+        bars=args.bars,
+        same_size=args.same_size,
+        robot_head=args.robot_head,
+    )
     print(json.dumps(summary))
     return 0
 

@@ -128,7 +128,7 @@ def test_the_face_moves_exactly_as_a_bus_run_commands_it(
 
     def spy(self, image, seq, t_media_ns, fps):  # type: ignore[no-untyped-def]
         result = original(self, image, seq, t_media_ns, fps)
-        controls.append(result[1])
+        controls.append(result.face)
         return result
 
     video_module.RenderChain.step = spy  # type: ignore[method-assign]
@@ -223,3 +223,32 @@ def test_the_progress_bar_shows_on_a_terminal_only() -> None:
 
 def test_render_errors_are_value_errors() -> None:
     assert issubclass(RenderError, ValueError)
+
+
+def test_the_robot_panel_shows_the_simulated_head(
+    short_video: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """performer | the simulated head's camera | the bars of what C sent it."""
+    out = tmp_path / "robot.avi"
+    argv = ["render", "--video", str(short_video), "--out", str(out)]
+    assert main([*argv, "--robot-head", "simhead16", "--profile", "head16"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    count, _, width, height, frames = _video(out)
+    _, _, in_width, in_height, inputs = _video(short_video)
+    assert count == summary["frames"] == FRAMES and height == in_height
+    side = in_height // 2 * 2
+    assert width == in_width + side + round(in_height * 0.8) // 2 * 2  # robot square, bars
+    robot = [frame[30:, in_width : in_width + side].astype(int) for frame in frames]
+    # the head's photo fills the square panel below its title: a face, not the background
+    from facesynth.app.render.draw import BACKGROUND
+
+    assert np.abs(robot[0] - np.array(BACKGROUND)).mean() > 40
+    # it moves: the head follows the performer's frown over these frames
+    assert np.abs(robot[-1] - robot[0]).mean() > 1.0
+    # the left panel is still the performer
+    difference = np.abs(frames[10][:, :in_width].astype(int) - inputs[10].astype(int))
+    assert np.median(difference) < 6
+    # without bars: performer | robot only
+    assert main([*argv, "--robot-head", "simhead16", "--bars", "none", "--max-frames", "3"]) == 0
+    capsys.readouterr()
+    assert _video(out)[2] == in_width + side

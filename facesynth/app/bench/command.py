@@ -21,6 +21,7 @@ def add_bench_arguments(p: argparse.ArgumentParser) -> None:
             "face",
             "fidelity",
             "drivers",
+            "robot",
         ),
     )
     p.add_argument("video", nargs="?", help="video (default: the bundled performer video)")
@@ -41,7 +42,9 @@ def add_bench_arguments(p: argparse.ArgumentParser) -> None:
         "--openface-csv", metavar="PATH", help="chain: replay these landmarks instead of tracking"
     )
     p.add_argument(
-        "--frames", type=int, help="tracker: frames to measure (default: the whole video)"
+        "--frames",
+        type=int,
+        help="tracker: frames to measure; robot: the video's first N frames (default: all)",
     )
     p.add_argument(
         "--encoding",
@@ -93,7 +96,43 @@ def add_bench_arguments(p: argparse.ArgumentParser) -> None:
         help="chain: also time each hop and show which hops grow in the slowest frames "
         "(the observer then receives every stage's messages, which costs some CPU)",
     )
-    p.add_argument("--profile", default="paper16", help="smoothing, drivers: profile to measure")
+    p.add_argument(
+        "--profile",
+        action="append",
+        metavar="NAME|PATH",
+        help="smoothing, drivers: profile to measure (default paper16); robot: a profile to "
+        "drive the heads with, repeatable, a name or a file (e.g. X.learned; default paper16, "
+        "head16, head16_bs)",
+    )
+    p.add_argument(
+        "--head",
+        action="append",
+        metavar="NAME|PATH",
+        help="robot: a simulated head to drive, repeatable, a bundled name or a head file "
+        "(default: every bundled head)",
+    )
+    p.add_argument(
+        "--json",
+        nargs="?",
+        const="-",
+        metavar="FILE",
+        help="robot: print the result as JSON instead of the table, or write it to FILE as "
+        "well as printing the table",
+    )
+    p.add_argument(
+        "--driver",
+        metavar="NAME",
+        help="robot: drive a head outside this process in real time through this servo "
+        "driver (maestro, arduino, ssc32; e.g. facesynth simhead's serial port) instead of "
+        "the simulated heads in process; needs --camera",
+    )
+    p.add_argument("--port", metavar="PORT", help="robot: the --driver's serial port")
+    p.add_argument(
+        "--camera",
+        metavar="CAMERA",
+        help="robot: the camera watching the --driver's head: a device index, a /dev/video* "
+        "path or a stream URL (e.g. http://127.0.0.1:8080/camera.mjpg)",
+    )
     p.add_argument(
         "--track", help="smoothing: a facesynth track file to measure tracking noise from"
     )
@@ -141,18 +180,22 @@ def add_bench_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
-    """``facesynth bench chain|tracker|smoothing|recording|face|fidelity|drivers``."""
+    """``facesynth bench chain|tracker|smoothing|recording|face|fidelity|drivers|robot``."""
     if args.what == "fidelity":
         return _bench_fidelity(args)
+    if args.what == "robot":
+        from facesynth.app.bench.robot_command import bench_robot_command
+
+        return bench_robot_command(args)
     if args.what == "drivers":
         from facesynth.app.bench.drivers import bench_drivers, format_drivers
 
-        print(format_drivers(*bench_drivers(args.profile)))
+        print(format_drivers(*bench_drivers(_one_profile(args))))
         return 0
     if args.what == "smoothing":
         from facesynth.app.bench.smoothing import bench_smoothing, format_smoothing
 
-        print(format_smoothing(bench_smoothing(args.profile, track=args.track)))
+        print(format_smoothing(bench_smoothing(_one_profile(args), track=args.track)))
         return 0
     if args.what == "recording":
         from facesynth.app.bench.recording import bench_recording, format_recording_bench
@@ -189,6 +232,11 @@ def cmd_bench(args: argparse.Namespace) -> int:
     )
     print(format_bench(result))
     return 0
+
+
+def _one_profile(args: argparse.Namespace) -> str:
+    """The profile a one-profile benchmark measures: the last ``--profile`` (or paper16)."""
+    return str(args.profile[-1]) if args.profile else "paper16"
 
 
 def _choices(value: str, flag: str, allowed: tuple[str, ...]) -> list[str]:

@@ -4,17 +4,24 @@
 node's video, the points node's backend, the features node's options, the translator's
 calibration and mirroring. The face is always the ``virtual`` profile's; the bars show another
 profile (``bars``, else the graph's translator profile when it is not ``virtual``).
+
+With ``robot_head`` (``facesynth render --robot-head simhead16 [--profile X]``), a simulated
+head driven by the translator's profile takes the virtual face's place: performer | the
+robot's camera | the bars of what C sent it (:mod:`facesynth.app.render.robot`).
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import msgspec
 
+from facesynth.app.bench.robot import Head
 from facesynth.app.graph import Graph, plugin_config
 from facesynth.app.nodes import FeaturesNode, SensorNode, TranslatorNode
+from facesynth.app.render.robot import RobotPanel, open_simulated_head
 from facesynth.app.render.video import (
     Progress,
     RenderChain,
@@ -53,8 +60,11 @@ def render_graph(
     max_frames: int | None = None,
     same_size: bool = False,
     progress: Progress | None = None,
+    robot_head: str | None = None,
+    open_head: Callable[[str], Head] = open_simulated_head,
 ) -> dict[str, Any]:
-    """Render the graph's input video side by side with the virtual face (and bars)."""
+    """Render the graph's input video side by side with the virtual face (and bars), or with
+    the camera of the simulated head ``robot_head`` (opened by ``open_head``)."""
     check_render_out(out)
     sensor_name, sensor = _one(graph, "sensor")
     assert isinstance(sensor, SensorNode)
@@ -79,21 +89,43 @@ def render_graph(
         bars_profile = next((t.profile for t in translators if t.profile != FACE_PROFILE), None)
     # F's neutral window as in a bus run of the graph: the (first) translator profile's.
     neutral_s = build_profile(base.profile, False).neutral_seconds
+    source = build_source(source_config)
+    robot = None
+    if robot_head is not None:
+        if bars not in (None, "none"):
+            source.close()
+            raise RenderError(
+                "with --robot-head the bars show what the robot's profile sent it: "
+                "--bars takes only none"
+            )
+        try:
+            robot = RobotPanel(
+                robot_head,
+                build_profile(base.profile, base.mirror),
+                fps=source.info.fps,
+                calibration=calibration,
+                open_head=open_head,
+            )
+        except BaseException:
+            source.close()
+            raise
     chain = RenderChain(
         backend=build_backend(backend_config),
         processor=build_processor(features, neutral_s),
-        face=Translator(face_profile, calibration),
+        face=Translator(face_profile, calibration) if robot is None else None,
         bars=(
             Translator(build_profile(bars_profile, base.mirror), calibration)
-            if bars_profile and bars_profile != "none"
+            if bars_profile and bars_profile != "none" and robot is None
             else None
         ),
         encoding=sensor.encoding,
         quality=sensor.quality,
+        robot=robot,
+        robot_bars=bars != "none",
     )
     limit = max_frames if max_frames is not None else sensor.max_frames
     return render_video(
-        build_source(source_config),
+        source,
         chain,
         out,
         max_frames=limit,

@@ -35,8 +35,10 @@ from facesynth.app.render.draw import (
     draw_title,
     panel,
 )
+from facesynth.app.render.robot import RobotPanel
 from facesynth.runtime.frames import encode_frame
 from facesynth.runtime.outputs import OutputError, check_output
+from facesynth.runtime.profiles import Profile
 from schemas.messages import Points
 from services.control.core import Arrival, ControlCore
 from services.control.drivers.virtual.geometry import FACE_HEIGHT, FACE_WIDTH, face_geometry
@@ -66,27 +68,50 @@ def check_render_out(out: str | Path) -> Path:
 
 
 @dataclass
+class Rendered:
+    """What one frame gives: the performer's points, the virtual face's controls (``None``
+    with a robot), the bars' positions (``None``: no bars) and the robot's panel."""
+
+    points: Points
+    face: dict[str, float] | None
+    bars: dict[str, float] | None
+    robot: np.ndarray | None = None
+
+
+@dataclass
 class RenderChain:
     """The stages a frame goes through: points backend, F, T (+ C's checks, clamping and speed
-    limits, on media time as a ``--fast`` run to a virtual face or a file) per profile."""
+    limits, on media time as a ``--fast`` run to a virtual face or a file) per profile; or,
+    with ``robot``, T and C onto a simulated head whose camera image is shown instead of the
+    virtual face (the bars then show what C sent the head, unless ``robot_bars`` is off)."""
 
     backend: PointsBackend
     processor: FeatureProcessor
-    face: Translator
+    face: Translator | None
     bars: Translator | None = None
     encoding: str = "jpeg"
     quality: int = 90
+    robot: RobotPanel | None = None
+    robot_bars: bool = True
 
     def __post_init__(self) -> None:
-        self._face_control = ControlCore(self.face.profile, motion_time="media")
+        self._face_control = (
+            ControlCore(self.face.profile, motion_time="media") if self.face is not None else None
+        )
         self._bars_control = (
             ControlCore(self.bars.profile, motion_time="media") if self.bars is not None else None
         )
 
-    def step(
-        self, image: np.ndarray, seq: int, t_media_ns: int, fps: float
-    ) -> tuple[Points, dict[str, float], dict[str, float] | None]:
-        """Points, the face's controls and the bars' positions for one frame."""
+    @property
+    def bars_profile(self) -> Profile | None:
+        """The profile the bars show (``None``: no bars)."""
+        if self.robot is not None:
+            return self.robot.loop.profile if self.robot_bars else None
+        return self.bars.profile if self.bars is not None else None
+
+    def step(self, image: np.ndarray, seq: int, t_media_ns: int, fps: float) -> Rendered:
+        """Points, the face's controls, the bars' positions and the robot's image for one
+        frame."""
         frame = encode_frame(
             image,
             seq=seq,
@@ -98,13 +123,21 @@ class RenderChain:
         )
         points = self.backend.process(frame)
         features = self.processor.process(points)
+        if self.robot is not None:
+            camera, _ = self.robot.step(features)
+            bars = self.robot.positions if self.robot_bars else None
+            side = image.shape[0] // 2 * 2
+            return Rendered(points, None, bars, self.robot.picture(camera, image.shape[0], side))
         arrival = Arrival(t_media_ns, t_media_ns)  # unstamped commands: not aged
-        move, _ = self._face_control.command(self.face.translate(features), arrival)
+        face = None
+        if self.face is not None and self._face_control is not None:
+            move, _ = self._face_control.command(self.face.translate(features), arrival)
+            face = move.positions
         bars = None
         if self.bars is not None and self._bars_control is not None:
             bars_move, _ = self._bars_control.command(self.bars.translate(features), arrival)
             bars = bars_move.positions
-        return points, move.positions, bars
+        return Rendered(points, face, bars)
 
 
 @dataclass
@@ -117,11 +150,12 @@ class Layout:
     bars_width: int
 
     @classmethod
-    def beside(cls, height: int, width: int, bars: bool) -> Layout:
-        """The performer at its own size, the face and the bars beside it, as high."""
-        face_width = round(height * FACE_WIDTH / FACE_HEIGHT) // 2 * 2
+    def beside(cls, height: int, width: int, bars: bool, robot: bool = False) -> Layout:
+        """The performer at its own size, the face (or the robot's square camera) and the bars
+        beside it, as high."""
+        face_width = height if robot else round(height * FACE_WIDTH / FACE_HEIGHT) // 2 * 2
         bars_width = round(height * 0.8) // 2 * 2 if bars else 0
-        return cls(height, width, face_width, bars_width)
+        return cls(height, width, face_width // 2 * 2, bars_width)
 
     @property
     def total_width(self) -> int:
@@ -131,20 +165,23 @@ class Layout:
 def compose(
     image: np.ndarray,
     points: Points,
-    face: dict[str, float],
+    face: dict[str, float] | np.ndarray,
     bars: tuple[str, list[BarSpec], dict[str, float]] | None,
     layout: Layout,
 ) -> np.ndarray:
-    """One output frame."""
+    """One output frame: ``face`` is the virtual face's controls, or the robot's panel."""
     performer = image.copy()
     landmarks = None
     if points.face:
         with contextlib.suppress(FeatureError):
             landmarks = ibug_points(points)
     draw_landmarks(performer, landmarks)
-    face_panel = panel(layout.height, layout.face_width)
-    draw_shapes(face_panel, face_geometry(face))
-    draw_title(face_panel, "virtual")
+    if isinstance(face, np.ndarray):
+        face_panel = face
+    else:
+        face_panel = panel(layout.height, layout.face_width)
+        draw_shapes(face_panel, face_geometry(face))
+        draw_title(face_panel, "virtual")
     parts = [performer, face_panel]
     if bars is not None:
         bars_panel = panel(layout.height, layout.bars_width)
@@ -225,20 +262,17 @@ def render_video(
     os.close(fd)
     tmp = Path(tmp_name)
     writer: cv2.VideoWriter | None = None
-    bars = (
-        (f"{chain.bars.profile.name}", bar_specs(chain.bars.profile))
-        if chain.bars is not None
-        else None
-    )
+    shown = chain.bars_profile
+    bars = (shown.name, bar_specs(shown)) if shown is not None else None
     frames = faces = 0
     size = (0, 0)
     started = time.monotonic()
     try:
         for seq, (image, t_media_ns) in enumerate(_frames(source, max_frames)):
-            points, face, bar_values = chain.step(image, seq, t_media_ns, fps)
+            rendered = chain.step(image, seq, t_media_ns, fps)
             if writer is None:
                 height, width = image.shape[:2]
-                layout = Layout.beside(height, width, bars is not None)
+                layout = Layout.beside(height, width, bars is not None, chain.robot is not None)
                 size = (width, height) if same_size else (layout.total_width, height)
                 writer = cv2.VideoWriter(str(tmp), cv2.VideoWriter.fourcc(*codec), fps, size)
                 if not writer.isOpened():
@@ -248,13 +282,14 @@ def render_video(
                     f"frame {seq} is {image.shape[1]}x{image.shape[0]}, not "
                     f"{layout.width}x{layout.height} like the first"
                 )
-            extra = (bars[0], bars[1], bar_values or {}) if bars is not None else None
-            picture = compose(image, points, face, extra, layout)
+            extra = (bars[0], bars[1], rendered.bars or {}) if bars is not None else None
+            shown_face = rendered.robot if rendered.robot is not None else rendered.face or {}
+            picture = compose(image, rendered.points, shown_face, extra, layout)
             if same_size:
                 picture = _letterbox(picture, size)
             writer.write(picture)
             frames += 1
-            faces += points.face
+            faces += rendered.points.face
             progress.update(frames)
         if writer is None:
             raise RenderError("the input has no frames")

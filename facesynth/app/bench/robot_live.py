@@ -1,0 +1,245 @@
+"""``facesynth bench robot --driver … --camera …``: a head measured in real time.
+
+The same measurement as the in-process bench (:mod:`.robot`), on a head that lives outside
+this process (a real one, or ``facesynth simhead``): each profile drives it through a servo
+driver of the control service (``--driver maestro --port …``, ``arduino``, ``ssc32``), and a
+camera source (``--camera``: a device index, a ``/dev/video*`` path or a stream URL) watches
+it. The performer's features are the cached ones (tracked in process from the video); they
+are played at the video's rate on the monotonic clock:
+
+* C (:class:`services.control.core.ControlCore`, real time) starts the head at neutral and
+  makes its own catch-up steps between commands, as the control service does, each sent
+  through the driver;
+* the head is held at neutral for :data:`.robot.SETTLE_S`, then F learns the robot's neutral
+  from the camera;
+* at each performer frame's instant: T → C → the driver, then the camera's latest frame →
+  the tracker → F gives the robot's frame (a frame late at least: the camera shows what the
+  head did before this command; :func:`.robot_compare.best_lag` measures how late);
+* at the end (or on an error, a camera that shows nothing new for 2 s among them) C returns
+  the head to neutral within its limits before the driver closes.
+
+A machine too slow to track each frame in its period plays the frames late rather than
+skipping them; the run time says so.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import threading
+import time
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+
+import numpy as np
+
+from facesynth.runtime.frames import encode_frame
+from facesynth.runtime.profiles import Profile
+from schemas.messages import Features
+from services.control.core import MAX_STEP_S, Arrival, ControlCore, Move
+from services.control.drivers.base import ServoDriver
+from services.features.core import FeatureProcessor
+from services.points.backends.base import PointsBackend
+from services.sensor.sources.base import FrameSource, SourceError
+from services.translator.core import Translator
+
+from .robot import (
+    NEUTRAL_S,
+    NEUTRAL_TIMEOUT_S,
+    SETTLE_S,
+    Performance,
+    RobotError,
+    robot_features,
+    tracker,
+)
+from .robot_compare import FeatureStream
+
+__all__ = ["CameraFeed", "CameraFrame", "live_profile"]
+
+MAX_STEP_NS = round(MAX_STEP_S * 1e9)
+#: A camera that shows nothing new for this long while the head plays is an error.
+CAMERA_STALL_NS = 2_000_000_000
+
+
+@dataclass(frozen=True)
+class CameraFrame:
+    """The camera's latest image, its number (from 1) and when it arrived (monotonic ns)."""
+
+    image: np.ndarray
+    number: int
+    t_ns: int
+
+
+class CameraFeed:
+    """A live source read on a thread of its own, keeping only its latest frame."""
+
+    def __init__(self, source: FrameSource, clock: Callable[[], int] = time.monotonic_ns):
+        self.source = source
+        self._clock = clock
+        self._lock = threading.Lock()
+        self._latest: CameraFrame | None = None
+        self._error: BaseException | None = None
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._read, name="bench-robot-camera", daemon=True)
+        self._thread.start()
+
+    def _read(self) -> None:
+        number = 0
+        try:
+            for image, _ in self.source.frames():
+                if self._stop.is_set():
+                    return
+                if image is None:
+                    continue
+                number += 1
+                with self._lock:
+                    self._latest = CameraFrame(image, number, self._clock())
+            raise SourceError(f"{self.source.info.name}: the camera stopped delivering frames")
+        except BaseException as exc:  # handed to the reader of the frames
+            with self._lock:
+                self._error = exc
+
+    def latest(self) -> CameraFrame | None:
+        """The latest frame (``None`` before the first); the camera's error if it failed."""
+        with self._lock:
+            if self._error is not None and not self._stop.is_set():
+                raise self._error
+            return self._latest
+
+    def close(self) -> None:
+        """Stop reading and release the source."""
+        self._stop.set()
+        self._thread.join(timeout=2.0)
+        self.source.close()
+
+
+class _Live:
+    """One profile's real-time run: C's moves to the driver, the camera to F."""
+
+    def __init__(
+        self,
+        profile: Profile,
+        driver: ServoDriver,
+        camera: CameraFeed,
+        backend: PointsBackend,
+        clock: Callable[[], int],
+    ) -> None:
+        self.profile = profile
+        self.driver = driver
+        self.camera = camera
+        self.backend = backend
+        self.clock = clock
+        self.control = ControlCore(profile)
+        self.translator = Translator(profile)
+        self.processor = FeatureProcessor(neutral_seconds=NEUTRAL_S)
+        self.seq = 0
+        self.seen = 0
+
+    async def send(self, move: Move | None) -> None:
+        if move is not None and move.send:
+            await self.driver.send(move.positions, move.info)
+
+    async def until(self, t_ns: int) -> None:
+        """C's own moves (catch-up, return) until ``t_ns``, sent as they fall due."""
+        while True:
+            due = min(self.control.due_ns(), t_ns)
+            wait = due - self.clock()
+            if wait > 0:
+                await asyncio.sleep(wait / 1e9)
+            if due >= t_ns:
+                return
+            move = self.control.tick(self.clock())
+            if move is None:  # nothing was due after all: wait a step rather than spin
+                await asyncio.sleep(min(t_ns - self.clock(), MAX_STEP_NS) / 1e9)
+            await self.send(move)
+
+    def look(self, learn: bool = True) -> Features | None:
+        """The camera's latest frame through the tracker (and F); ``None`` when it has not
+        delivered a new frame since the last look."""
+        frame = self.camera.latest()
+        if frame is None or frame.number == self.seen:
+            return None
+        self.seen = frame.number
+        encoded = encode_frame(
+            frame.image,
+            seq=self.seq,
+            t_capture_ns=frame.t_ns,
+            t_media_ns=frame.t_ns,
+            encoding="raw",
+        )
+        self.seq += 1
+        points = self.backend.process(encoded)
+        return self.processor.process(points) if learn else None
+
+    async def neutral(self, period_ns: int, settle_ns: int, timeout_ns: int) -> Mapping[str, float]:
+        """Hold the head at neutral until F knows the robot's neutral; its raw features then."""
+        start = self.clock()
+        await self.send(self.control.start(start))
+        limit = start + settle_ns + timeout_ns
+        while self.clock() <= limit:
+            await self.until(self.clock() + period_ns)
+            settled = self.clock() - start >= settle_ns
+            features = self.look(learn=settled)
+            raw = robot_features(features) if features is not None else None
+            if raw is not None:
+                return raw
+        raise RobotError(
+            f"the camera showed no face (or no neutral) with the head held at "
+            f"{self.profile.name}'s neutral within {(limit - start) / 1e9:.0f} s"
+        )
+
+    async def play(
+        self, performance: Performance, last: Mapping[str, float] | None
+    ) -> list[Mapping[str, float] | None]:
+        """Every performer frame at its instant; the robot's raw features per frame (while the
+        camera shows nothing new, the last ones: at first ``last``, the neutral's)."""
+        start = fresh = self.clock()
+        out: list[Mapping[str, float] | None] = []
+        for performer in performance.features:
+            await self.until(start + performer.t_media_ns)
+            now = self.clock()
+            commands = self.translator.translate(performer)
+            move, _ = self.control.command(commands, Arrival(time.time_ns(), now))
+            await self.send(move)
+            features = self.look()
+            if features is not None:
+                last, fresh = robot_features(features), now
+            elif now - fresh > CAMERA_STALL_NS:  # else nothing new yet: as before
+                raise RobotError(
+                    f"the camera has shown nothing new for {CAMERA_STALL_NS / 1e9:.0f} s"
+                )
+            out.append(last)
+        return out
+
+    async def stop(self) -> None:
+        """C's return to neutral, sent, before the driver closes."""
+        self.control.stop(self.clock())
+        limit = self.clock() + round(self.control.stop_budget_s() * 1e9)
+        while not self.control.stopped and self.clock() <= limit:
+            await self.until(self.control.due_ns())
+            await self.send(self.control.tick(self.clock()))
+
+
+async def live_profile(
+    performance: Performance,
+    profile: Profile,
+    driver: ServoDriver,
+    camera: CameraFeed,
+    *,
+    settle_s: float = SETTLE_S,
+    timeout_s: float = NEUTRAL_TIMEOUT_S,
+    backend: PointsBackend | None = None,
+    clock: Callable[[], int] = time.monotonic_ns,
+) -> FeatureStream:
+    """One profile driving a head through ``driver``, watched through ``camera``, in real
+    time (see the module doc): the robot's raw features per performer frame (a
+    :class:`.robot.RobotError` when no face with a neutral is seen within ``timeout_s`` after
+    ``settle_s`` at neutral)."""
+    period_ns = round(1e9 / performance.fps)
+    run = _Live(profile, driver, camera, backend if backend is not None else tracker(), clock)
+    async with driver:
+        try:
+            at_neutral = await run.neutral(period_ns, round(settle_s * 1e9), round(timeout_s * 1e9))
+            frames = await run.play(performance, at_neutral)
+        finally:
+            await run.stop()
+    return FeatureStream.from_frames(frames, names=performance.stream.names)

@@ -1,0 +1,184 @@
+"""``facesynth bench robot``'s output: a table per head with the profiles side by side, or JSON."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from facesynth.runtime.feature_names import NAMES
+
+from .robot import HeadRun, RobotBench
+from .robot_compare import (
+    MOVED_SPAN,
+    RATIO_BAND,
+    REACH_FLOOR,
+    REACH_RATIO,
+    FeatureRow,
+    Summary,
+)
+
+__all__ = ["format_robot", "robot_json"]
+
+NAME_WIDTH = 26
+CELL = 15
+
+
+def _cell(head: HeadRun) -> int:
+    """A profile column's width: :data:`CELL`, or the longest profile name and a gap."""
+    return max([CELL, *(len(run.profile) + 2 for run in head.profiles)])
+
+
+def _number(value: float, digits: int = 2) -> str:
+    return "-" if not math.isfinite(value) else f"{value:.{digits}f}"
+
+
+def _span(value: float) -> str:
+    if not math.isfinite(value):
+        return "-"
+    return f"{value:.1f}" if abs(value) >= 1 else f"{value:.3f}"
+
+
+def _legend() -> str:
+    thresholds = ", ".join(f"{value:g} {unit}" for unit, value in MOVED_SPAN.items())
+    return (
+        f"features the performer moves: span (p95 - p5) >= {thresholds}\n"
+        f"rho: Pearson per frame; ratio: robot span / performer span (goal "
+        f"{RATIO_BAND[0]}-{RATIO_BAND[1]}); reach 'no': under every profile on that head the "
+        f"robot's span stays below {REACH_RATIO} of the performer's or {REACH_FLOOR} of the "
+        f"unit's threshold"
+    )
+
+
+def _summary_lines(head: HeadRun) -> list[str]:
+    width = _cell(head)
+
+    def row(label: str, cell: Any) -> str:
+        cells = "".join(f"{cell(run.summary):<{width}}" for run in head.profiles)
+        return f"  {label:<{NAME_WIDTH + 16}}{cells}"
+
+    lagged = "".join(
+        f"{f'{run.lag_frames} ({_number(run.lag_rho)})':<{width}}" for run in head.profiles
+    )
+
+    def share(summary: Summary) -> str:
+        return "-" if not math.isfinite(summary.in_band) else f"{summary.in_band:.0%}"
+
+    return [
+        row("moved features (head can reach)", lambda s: f"{s.moved} ({s.reachable})"),
+        row("mean rho, features it can reach", lambda s: _number(s.mean_rho)),
+        row("mean rho, every moved feature", lambda s: _number(s.mean_rho_all)),
+        row("median ratio, features it can reach", lambda s: _number(s.median_ratio)),
+        row(f"ratio within {RATIO_BAND[0]}-{RATIO_BAND[1]}", share),
+        f"  {'best lag, frames (mean rho there)':<{NAME_WIDTH + 16}}{lagged}",
+    ]
+
+
+def _order(rows: list[FeatureRow]) -> list[FeatureRow]:
+    rank = {name: i for i, name in enumerate(NAMES)}
+    return sorted(rows, key=lambda r: (not r.reachable, rank.get(r.name, len(rank))))
+
+
+def format_head(head: HeadRun, frames: int) -> str:
+    """One head's table: per moved feature the performer's span and, per profile, ρ and the
+    amplitude ratio; then each profile's summary."""
+    first = head.profiles[0].rows
+    moved = _order([row for row in first if row.moved])
+    table = {run.profile: {row.name: row for row in run.rows} for run in head.profiles}
+    width = _cell(head)
+    lines = [f"head {head.head}: {frames} frames"]
+    lines.append(
+        f"  {'':<{NAME_WIDTH}}{'performer':<10}{'':6}"
+        + "".join(f"{run.profile:<{width}}" for run in head.profiles)
+    )
+    lines.append(
+        f"  {'feature':<{NAME_WIDTH}}{'span':<10}{'reach':6}"
+        + "".join(f"{'rho':>5} {'ratio':<{width - 6}}" for _ in head.profiles)
+    )
+    for row in moved:
+        cells = ""
+        for run in head.profiles:
+            theirs = table[run.profile][row.name]
+            cells += f"{_number(theirs.rho):>5} {_number(theirs.ratio):<{width - 6}}"
+        reach = "yes" if row.reachable else "no"
+        lines.append(f"  {row.name:<{NAME_WIDTH}}{_span(row.performer_span):<10}{reach:6}{cells}")
+    still = sum(not row.moved for row in first)
+    lines.append(f"  ({still} features the performer does not move are left out)")
+    lines.append("  summary")
+    lines.extend(_summary_lines(head))
+    return "\n".join(lines)
+
+
+def format_robot(result: RobotBench) -> str:
+    """The benchmark as text: a legend, then one table per head."""
+    lines = [
+        f"performer: {result.video} ({result.frames} frames at {result.fps:.2f} fps, tracker "
+        f"{result.model}, tracked in {result.performer_seconds:.1f} s)",
+        _legend(),
+    ]
+    for head in result.heads:
+        lines.append("")
+        lines.append(format_head(head, result.frames))
+        took = ", ".join(f"{run.profile} {run.seconds:.1f} s" for run in head.profiles)
+        lines.append(f"  run time: {took}")
+    return "\n".join(lines)
+
+
+def _finite(value: float) -> float | None:
+    return round(value, 4) if math.isfinite(value) else None
+
+
+def _summary_json(summary: Summary) -> dict[str, Any]:
+    return {
+        "moved": summary.moved,
+        "reachable": summary.reachable,
+        "mean_rho": _finite(summary.mean_rho),
+        "mean_rho_all_moved": _finite(summary.mean_rho_all),
+        "median_ratio": _finite(summary.median_ratio),
+        "in_band": _finite(summary.in_band),
+    }
+
+
+def _row_json(row: FeatureRow) -> dict[str, Any]:
+    return {
+        "feature": row.name,
+        "unit": row.unit,
+        "frames": row.frames,
+        "moved": row.moved,
+        "reachable": row.reachable,
+        "performer_span": _finite(row.performer_span),
+        "robot_span": _finite(row.robot_span),
+        "rho": _finite(row.rho),
+        "ratio": _finite(row.ratio),
+    }
+
+
+def robot_json(result: RobotBench) -> dict[str, Any]:
+    """The benchmark as plain data (``--json``; NaN as ``null``)."""
+    return {
+        "video": result.video,
+        "frames": result.frames,
+        "fps": round(result.fps, 4),
+        "model": result.model,
+        "moved_span": dict(MOVED_SPAN),
+        "ratio_band": list(RATIO_BAND),
+        "reach_ratio": REACH_RATIO,
+        "reach_floor": REACH_FLOOR,
+        "performer_seconds": result.performer_seconds,
+        "heads": [
+            {
+                "head": head.head,
+                "profiles": [
+                    {
+                        "profile": run.profile,
+                        "seconds": run.seconds,
+                        "best_lag_frames": run.lag_frames,
+                        "best_lag_mean_rho": _finite(run.lag_rho),
+                        "summary": _summary_json(run.summary),
+                        "features": [_row_json(row) for row in run.rows],
+                    }
+                    for run in head.profiles
+                ],
+            }
+            for head in result.heads
+        ],
+    }

@@ -1,0 +1,238 @@
+"""facesynth.app.bench.robot_live: a head outside the bench, driven and watched in real time."""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import re
+import signal
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Iterator, Mapping
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from facesynth.app.bench.robot import Performance, RobotError, track_performer
+from facesynth.app.bench.robot_live import CameraFeed, live_profile
+from facesynth.app.cli import main
+from facesynth.app.data import sample_video
+from facesynth.app.simhead import SimHead, load_head
+from facesynth.runtime.profiles import Profile, load_profile
+from services.control.core import CommandInfo
+from services.control.drivers.base import ServoDriver
+from services.sensor.sources.base import FrameSource, SourceError, SourceInfo
+
+FRAMES = 36
+
+
+class Rig:
+    """A simulated head shared by a driver and a camera, on the monotonic clock."""
+
+    def __init__(self) -> None:
+        self.head = SimHead(load_head("simhead16"))
+        self.lock = threading.Lock()
+        self.origin = time.monotonic_ns()
+        self.sent: list[dict[str, float]] = []
+
+    def now(self) -> int:
+        return time.monotonic_ns() - self.origin
+
+
+class HeadDriver(ServoDriver):
+    moves_hardware = False
+
+    def __init__(self, rig: Rig, profile: Profile) -> None:
+        self.rig = rig
+        self.channels = {spec.name: spec.channel for spec in profile.servos}
+        self.open = False
+
+    async def connect(self) -> None:
+        self.open = True
+
+    async def send(self, positions: Mapping[str, float], info: CommandInfo) -> None:
+        assert self.open
+        self.rig.sent.append(dict(positions))
+        with self.rig.lock:
+            self.rig.head.step(self.rig.now())
+            for name, pulse in positions.items():
+                self.rig.head.command(self.channels[name], pulse)
+
+    async def close(self) -> None:
+        self.open = False
+
+
+class HeadCamera(FrameSource):
+    def __init__(self, rig: Rig | None, fps: float = 30.0, frames: int | None = None) -> None:
+        self.rig = rig
+        self.period = 1.0 / fps
+        self.count = frames
+        self.info = SourceInfo("head camera", fps, None, live=True)
+        self.closed = False
+
+    def frames(self) -> Iterator[tuple[np.ndarray | None, int]]:
+        n = 0
+        while not self.closed and (self.count is None or n < self.count):
+            time.sleep(self.period)
+            if self.rig is None:
+                yield np.zeros((320, 320, 3), np.uint8), 0
+            else:
+                with self.rig.lock:
+                    self.rig.head.step(self.rig.now())
+                    image = self.rig.head.render()
+                yield image, self.rig.now()
+            n += 1
+
+    def close(self) -> None:
+        self.closed = True
+
+
+@pytest.fixture(scope="module")
+def performance() -> Performance:
+    return track_performer(str(sample_video()), frames=FRAMES)
+
+
+@pytest.mark.slow
+def test_a_head_is_driven_and_watched_in_real_time(performance: Performance) -> None:
+    rig = Rig()
+    profile = load_profile("head16")
+    camera = CameraFeed(HeadCamera(rig))
+    driver = HeadDriver(rig, profile)
+    started = time.monotonic()
+    try:
+        robot = asyncio.run(live_profile(performance, profile, driver, camera, settle_s=0.3))
+    finally:
+        camera.close()
+    took = time.monotonic() - started
+    assert took >= FRAMES / performance.fps  # played at the video's rate, not faster
+    assert len(robot) == FRAMES and robot.names == performance.stream.names
+    assert np.isfinite(robot.column("brow_lower_left")).all()
+    brow = robot.column("brow_lower_left")
+    assert brow.max() - brow.min() > 0.01  # the performer frowns: so does the head
+    neutral = profile.neutral_positions()
+    assert rig.sent[0] == neutral and rig.sent[-1] == pytest.approx(neutral)  # back at neutral
+    assert not driver.open
+
+
+def test_a_camera_without_a_face_is_an_error(performance: Performance) -> None:
+    rig = Rig()
+    profile = load_profile("paper16")
+    camera = CameraFeed(HeadCamera(None))
+    driver = HeadDriver(rig, profile)
+    try:
+        with pytest.raises(RobotError, match=r"camera showed no face .* paper16's neutral"):
+            asyncio.run(
+                live_profile(performance, profile, driver, camera, settle_s=0.0, timeout_s=0.5)
+            )
+    finally:
+        camera.close()
+    assert rig.sent[-1] == pytest.approx(profile.neutral_positions()) and not driver.open
+
+
+def test_a_camera_that_stops_is_an_error(performance: Performance) -> None:
+    rig = Rig()
+    profile = load_profile("paper16")
+    camera = CameraFeed(HeadCamera(rig, frames=3))
+    try:
+        with pytest.raises(SourceError, match="head camera: the camera stopped delivering"):
+            asyncio.run(
+                live_profile(performance, profile, HeadDriver(rig, profile), camera, settle_s=0.5)
+            )
+    finally:
+        camera.close()
+
+
+@pytest.mark.slow
+def test_the_command_drives_the_simhead_process_through_maestro_and_its_camera_url(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``facesynth simhead`` as a process; ``bench robot --driver maestro --port LINK
+    --camera URL`` drives it over its pty and watches its MJPEG camera."""
+    link = tmp_path / "simhead-tty"
+    process = subprocess.Popen(
+        [
+            *(sys.executable, "-m", "facesynth", "simhead", "simhead16_stiff"),
+            *("--serial-link", str(link), "--http", "127.0.0.1:0"),
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        assert process.stdout is not None
+        text = "".join(process.stdout.readline() for _ in range(4))
+        url = re.search(r"camera: (http://\S+/camera\.mjpg)", text)
+        assert url is not None, text
+        out = tmp_path / "live.json"
+        argv = [
+            *("bench", "robot", "--frames", "48", "--profile", "head16"),
+            *("--driver", "maestro", "--port", str(link), "--camera", url.group(1)),
+            *("--json", str(out)),
+        ]
+        assert main(argv) == 0
+        assert "head16" in capsys.readouterr().out
+        result = json.loads(out.read_text())
+        (head,) = result["heads"]
+        assert head["head"] == f"maestro {link} | camera {url.group(1)}"
+        (run,) = head["profiles"]
+        rows = {row["feature"]: row for row in run["features"]}
+        # every frame after the performer's neutral (its first second: 24 frames) is compared
+        assert rows["brow_lower_left"]["frames"] == 24
+        assert run["summary"]["reachable"] > 0
+    finally:
+        process.send_signal(signal.SIGINT)
+        try:
+            process.wait(timeout=10)
+        finally:
+            if process.poll() is None:
+                process.kill()
+                process.wait()
+
+
+class StallingCamera(HeadCamera):
+    """Shows the head until asked to freeze, then sends nothing new (a stalled stream)."""
+
+    def __init__(self, rig: Rig) -> None:
+        super().__init__(rig)
+        self.frozen = threading.Event()
+
+    def frames(self) -> Iterator[tuple[np.ndarray | None, int]]:
+        for item in super().frames():
+            while self.frozen.is_set() and not self.closed:
+                time.sleep(0.05)
+            yield item
+
+
+@pytest.mark.slow
+def test_a_camera_that_stalls_while_the_head_plays_is_an_error() -> None:
+    rig = Rig()
+    profile = load_profile("head16")
+    source = StallingCamera(rig)
+    camera = CameraFeed(source)
+    performance = track_performer(str(sample_video()), frames=72)
+    clock_origin = time.monotonic_ns()
+
+    def clock() -> int:  # the camera freezes 1.5 s into the run (after the neutral)
+        now = time.monotonic_ns()
+        if now - clock_origin > 1_500_000_000:
+            source.frozen.set()
+        return now
+
+    try:
+        with pytest.raises(RobotError, match="camera has shown nothing new for 2 s"):
+            asyncio.run(
+                live_profile(
+                    performance,
+                    profile,
+                    HeadDriver(rig, profile),
+                    camera,
+                    settle_s=0.2,
+                    clock=clock,
+                )
+            )
+    finally:
+        source.frozen.clear()
+        camera.close()
