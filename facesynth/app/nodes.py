@@ -115,6 +115,13 @@ class FeaturesNode(_Node, tag="features"):
         ]
         | None
     ) = None
+    neutral_held: Annotated[
+        bool,
+        Meta(
+            description="the face is held at its neutral over the first seconds (a robot's "
+            "camera, as facesynth learn does): take that neutral as it is, brows included"
+        ),
+    ] = False
     queue: Annotated[int, Meta(ge=1, description="input queue length; 1 = latest only")] = 8
     performer: Annotated[
         str,

@@ -157,7 +157,9 @@ def build_processor(node: FeaturesNode, default_neutral_s: float = 1.0) -> Featu
         return FeatureProcessor.from_calibration(
             calibration, neutral_seconds=seconds, auto_range=node.auto_range
         )
-    return FeatureProcessor(neutral_seconds=seconds, auto_range=node.auto_range)
+    return FeatureProcessor(
+        neutral_seconds=seconds, auto_range=node.auto_range, neutral_held=node.neutral_held
+    )
 
 
 def state_keeping(node: FeaturesNode, standalone: bool) -> StateKeeping | None:

@@ -175,6 +175,7 @@ class FeatureProcessor:
         *,
         calibration: Calibration | None = None,
         auto_range: bool = False,
+        neutral_held: bool = False,
     ) -> None:
         """Args:
         neutral: the neutral's 68 nose-tip distances (else the calibration's, else measured).
@@ -182,6 +183,9 @@ class FeatureProcessor:
         calibration: a performer's calibration: neutral distances, named neutral and ranges,
             neutral mesh (each used if present).
         auto_range: adapt the neutral (rolling median) and the ranges to the stream.
+        neutral_held: the face is known to be held at its neutral over the first
+            ``neutral_seconds`` (a robot's camera while the head is held at neutral): the
+            measured neutral is taken as it is, brows included (no ``brow_rest`` search).
         """
         self.estimator = NeutralEstimator(neutral_seconds)
         if calibration is not None and neutral is None:
@@ -213,8 +217,11 @@ class FeatureProcessor:
         self.auto_range = auto_range
         self.auto: AutoNeutral | None = None
         #: Whether the brows' part of a neutral F measures may be taken again (``brow_rest``):
-        #: never for a calibration's or a given neutral, nor with auto range (it adapts anyway).
-        self._brows_may_move = calibration is None and neutral is None and not auto_range
+        #: never for a calibration's or a given neutral, nor with auto range (it adapts anyway),
+        #: nor for a face known to be held at its neutral (a robot's).
+        self._brows_may_move = (
+            calibration is None and neutral is None and not auto_range and not neutral_held
+        )
         #: The search for the brows' neutral while the measured one's brows were not at rest.
         self.brows: BrowRest | None = None
 

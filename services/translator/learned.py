@@ -12,8 +12,10 @@ Per frame, for each of the mapping's inputs ``i`` (a key of ``Features.raw``):
    ``[reach_low, reach_high]``. An input without ``n`` is taken as ``r``, clipped; an input
    missing from the frame (or NaN) as 0, the robot's neutral; a frame with none of the inputs
    holds every servo (as a missing source does).
-2. **Inverse model.** ``u = inverse((t - input_mean) / input_scale)``, each output servo's
-   normalized command, clipped to [-1, 1].
+2. **Inverse model, then the self-model.** ``u = inverse((t - input_mean) / input_scale)``,
+   each output servo's normalized command, clipped to [-1, 1]; with ``plan_steps``, that guess
+   is refined through the forward model toward the reachable face nearest the target
+   (:mod:`services.translator.self_model`).
 3. **Smoothing.** Each output's ``u`` goes through a One Euro filter with the profile's
    (per-servo) smoothing parameters, in range units (the filters belong to the translator, so
    :meth:`~services.translator.core.Translator.reset` and ``resume`` restart them).
@@ -32,8 +34,9 @@ from collections.abc import Callable, Mapping
 import numpy as np
 
 from facesynth.runtime.profiles import Profile, Smoothing, has_source
-from facesynth.runtime.profiles.learned import predictor, unpack
+from facesynth.runtime.profiles.learned import PolyRidge, predictor, unpack
 from services.translator.filters import OneEuroFilter
+from services.translator.self_model import SelfModelPlanner
 
 
 class LearnedTargets:
@@ -48,6 +51,11 @@ class LearnedTargets:
         self.low, self.high = unpack(learned.reach_low), unpack(learned.reach_high)
         self.mean, self.scale = unpack(learned.input_mean), unpack(learned.input_scale)
         self.predict = predictor(learned.inverse)
+        self.planner = (
+            SelfModelPlanner(learned.forward, learned.plan_steps, learned.plan_prior)
+            if learned.plan_steps and isinstance(learned.forward, PolyRidge)
+            else None
+        )
         self.names = [spec.name for spec in profile.servos]
         self.outputs = list(learned.outputs)
         self.filters = [filters.get(name) for name in self.outputs]
@@ -75,8 +83,10 @@ class LearnedTargets:
 
     def commands(self, t: np.ndarray) -> np.ndarray:
         """Each output's normalized command ``u`` in [-1, 1] for the robot's inputs ``t``."""
-        x = ((t - self.mean) / self.scale)[None, :]
-        out: np.ndarray = np.clip(self.predict(x)[0], -1.0, 1.0)
+        x = (t - self.mean) / self.scale
+        out: np.ndarray = np.clip(self.predict(x[None, :])[0], -1.0, 1.0)
+        if self.planner is not None:
+            out = self.planner.plan(x, out)
         return out
 
     def positions(self, u: np.ndarray) -> np.ndarray:

@@ -167,7 +167,7 @@ class RobotLoop:
         self.control = ControlCore(profile)
         self.channels = {spec.name: spec.channel for spec in profile.servos}
         self.backend = backend if backend is not None else tracker()
-        self.processor = FeatureProcessor(neutral_seconds=NEUTRAL_S)
+        self.processor = FeatureProcessor(neutral_seconds=NEUTRAL_S, neutral_held=True)
         self.period_ns = round(1e9 / fps)
         self.settle_ns = round(settle_s * 1e9)
         self.now_ns = 0

@@ -130,7 +130,7 @@ class _Live:
         self.clock = clock
         self.control = ControlCore(profile)
         self.translator = Translator(profile)
-        self.processor = FeatureProcessor(neutral_seconds=NEUTRAL_S)
+        self.processor = FeatureProcessor(neutral_seconds=NEUTRAL_S, neutral_held=True)
         self.seq = 0
         self.seen = 0
 

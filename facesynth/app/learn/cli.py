@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import argparse
 import asyncio
-import importlib
 import json
 import logging
 import sys
@@ -30,6 +29,7 @@ from facesynth.app.chain import freeze_startup_objects, open_embedded
 from facesynth.app.graph import Graph
 from facesynth.app.learn.core import BabbleOptions, Babbler, Budget
 from facesynth.app.learn.dataset import BabbleSet
+from facesynth.app.learn.fit import fit_learned_profile, format_report
 from facesynth.app.learn.plan import Plan, PlanOptions
 from facesynth.app.learn.progress import Progress
 from facesynth.app.learn.session import (
@@ -49,7 +49,7 @@ from facesynth.app.wiring import StageParts, build_node, zenoh_options
 from facesynth.runtime import keys
 from facesynth.runtime.bus.zenoh_bus import ZenohBus, endpoints
 from facesynth.runtime.outputs import check_output
-from facesynth.runtime.profiles import Profile, load_profile
+from facesynth.runtime.profiles import Profile, load_profile, save_learned_profile
 from facesynth.runtime.service import run_async
 from services.control.drivers.registry import DRIVERS
 
@@ -228,17 +228,12 @@ def fit(babble: BabbleSet, profile: Profile, out: Path) -> str:
     """Fit the self-model on ``babble``, write the learned profile to ``out`` (atomically) and
     return the held-out report to print: the one call into the fitting
     (:mod:`facesynth.app.learn.fit`, which needs the ``learn`` extra)."""
-    try:
-        fitting: Any = importlib.import_module("facesynth.app.learn.fit")
-        save = importlib.import_module("facesynth.runtime.profiles").save_learned_profile
-    except (ImportError, AttributeError):
-        raise LearnError(
-            f"fitting is not available here ({len(babble)} poses of {profile.name} kept): "
-            "record with --no-fit and fit later with --fit-only"
-        ) from None
-    learned = fitting.fit_learned_profile(babble, profile)
-    written = save(learned, out)
-    return f"{fitting.format_report(learned)}\nwrote {written}"
+    learned = fit_learned_profile(babble, profile)
+    # The learned profile is named after its file (robot.learned: robot), not the hardware's.
+    name = out.name.removesuffix(".learned") or profile.name
+    learned = msgspec.structs.replace(learned, name=name)
+    written = save_learned_profile(learned, out)
+    return f"{format_report(learned)}\nwrote {written}"
 
 
 def _existing(path: str) -> Path:
@@ -296,7 +291,9 @@ def _build_parts(
     nodes: dict[str, Any] = {
         "sensor": SensorNode(source=msgspec.to_builtins(source)),
         "points": PointsNode(backend=msgspec.to_builtins(backend), queue=1),
-        "features": FeaturesNode(neutral_seconds=profile.neutral_seconds, keep_state=False),
+        "features": FeaturesNode(
+            neutral_seconds=profile.neutral_seconds, keep_state=False, neutral_held=True
+        ),
         "control": ControlNode(profile=args.profile, driver=msgspec.to_builtins(driver)),
     }
     graph = Graph(rig=rig, nodes=nodes)

@@ -34,6 +34,9 @@ import numpy as np
 
 from facesynth.runtime.feature_names import NAMES
 
+#: The most planning steps a file may ask of T per frame (each costs about 30 µs).
+MAX_PLAN_STEPS = 20
+
 #: The dtypes an array may have in a file.
 DTYPES = ("<f4", "<f8")
 
@@ -114,6 +117,11 @@ class Learned(msgspec.Struct, forbid_unknown_fields=True, kw_only=True):
     dead: list[str]
     inverse: Model
     forward: Model | None = None
+    #: Gauss-Newton steps through the forward model after the inverse model's guess (0: the
+    #: inverse model alone; needs a ``poly_ridge`` forward model), and how strongly the plan
+    #: stays near that guess (``services.translator.self_model``).
+    plan_steps: int = 0
+    plan_prior: float = 0.02
     report: Report
 
 
@@ -255,6 +263,12 @@ def learned_problems(learned: Learned, servos: list[str]) -> list[str]:
     problems.extend(model_problems("inverse", learned.inverse, n_in, len(learned.outputs)))
     if learned.forward is not None:
         problems.extend(model_problems("forward", learned.forward, len(learned.outputs), n_in))
+    if not 0 <= learned.plan_steps <= MAX_PLAN_STEPS:
+        problems.append(f"plan_steps must be from 0 to {MAX_PLAN_STEPS}")
+    if not (math.isfinite(learned.plan_prior) and learned.plan_prior >= 0):
+        problems.append("plan_prior must be a finite number >= 0")
+    if learned.plan_steps and not isinstance(learned.forward, PolyRidge):
+        problems.append("plan_steps needs a poly_ridge forward model")
     return problems
 
 

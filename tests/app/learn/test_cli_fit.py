@@ -1,15 +1,15 @@
 """The one call from ``facesynth learn`` into the fitting: a session's poses in, the learned
-profile written, the report out (the fitting itself is tested with it, in test_fit*.py)."""
+profile written (named after its file), the report out. The fitting itself is tested in
+test_fit*.py; here it runs for real on a small synthetic babbling set."""
 
 from __future__ import annotations
 
-import sys
-import types
+import math
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import pytest
+from synthetic_babble import hardware, synthetic_babble
 
 from facesynth.app.cli import main
 from facesynth.app.learn import cli
@@ -17,81 +17,63 @@ from facesynth.app.learn.dataset import BabbleSet
 from facesynth.app.learn.session import metadata
 from facesynth.app.recording.layout import Layout
 from facesynth.app.recording.writer import SessionWriter
-from facesynth.runtime import codec, profiles
-from facesynth.runtime.profiles import Profile, load_profile
+from facesynth.runtime import codec
+from facesynth.runtime.profiles import load_profile
 from schemas.messages import BabbleSample
 
-
-def _babble(profile: Profile) -> BabbleSet:
-    servos = tuple(spec.name for spec in profile.servos)
-    commands = np.array([list(profile.neutral_positions().values())] * 2)
-    return BabbleSet(servos, commands, ("a",), np.zeros((2, 1)), ("neutral", "random"))
+POSES = 240
 
 
-def test_the_fitting_is_called_and_its_profile_saved(
-    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
-) -> None:
-    calls: list[Any] = []
-    fake = types.ModuleType("facesynth.app.learn.fit")
-    fake.fit_learned_profile = lambda babble, profile: calls.append(len(babble)) or profile  # type: ignore[attr-defined]
-    fake.format_report = lambda profile: f"report of {profile.name}"  # type: ignore[attr-defined]
-    monkeypatch.setitem(sys.modules, "facesynth.app.learn.fit", fake)
-    monkeypatch.setattr(
-        profiles, "save_learned_profile", lambda p, path: calls.append(path) or path, raising=False
-    )
-    profile = load_profile("paper16")
+def test_the_fitting_is_called_and_its_profile_saved(tmp_path: Path) -> None:
+    babble = synthetic_babble(POSES)
     out = tmp_path / "head.learned"
-    assert cli.fit(_babble(profile), profile, out) == f"report of paper16\nwrote {out}"
-    assert calls == [2, out]
+    report = cli.fit(babble, hardware(), out)
+    assert report.endswith(f"wrote {out}") and "held-out command error" in report
+    learned = load_profile(str(out))
+    assert learned.name == "head"  # named after its file, not after the hardware profile
+    assert learned.learned is not None and learned.learned.plan_steps > 0
+    assert [s.name for s in learned.servos] == [s.name for s in hardware().servos]
 
 
-def test_without_the_fitting_the_poses_are_kept_for_later(monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setitem(sys.modules, "facesynth.app.learn.fit", None)
-    profile = load_profile("paper16")
-    with pytest.raises(cli.LearnError, match=r"2 poses of paper16 kept.*--fit-only"):
-        cli.fit(_babble(profile), profile, Path("x.learned"))
-
-
-def _session(path: Path, poses: int) -> None:
-    profile = load_profile("paper16")
+def _session(path: Path, babble: BabbleSet) -> None:
+    profile = hardware()
     writer = SessionWriter(path, metadata=metadata("self", profile, 0, ["babble"]))
-    for seq in range(poses):
+    for seq, (row, face, kind) in enumerate(
+        zip(babble.commands, babble.faces, babble.kinds, strict=True)
+    ):
         sample = BabbleSample(
             seq=seq,
             t_capture_ns=seq,
             t_media_ns=seq,
-            profile="paper16",
-            kind="random",
-            commanded=profile.neutral_positions(),
-            features={"a": 0.1 * seq},
+            profile=profile.name,
+            kind=kind,
+            commanded=dict(zip(babble.servos, row.tolist(), strict=True)),
+            features={
+                name: value
+                for name, value in zip(babble.inputs, face.tolist(), strict=True)
+                if math.isfinite(value)
+            },
         )
         for entry in Layout().entries("facesynth/self/babble", codec.encode(sample), seq, seq):
             writer.write(entry)
     writer.close()
 
 
-def _fake_fitting(monkeypatch: pytest.MonkeyPatch, seen: list[int]) -> None:
-    fake = types.ModuleType("facesynth.app.learn.fit")
-    fake.fit_learned_profile = lambda babble, profile: seen.append(len(babble)) or profile  # type: ignore[attr-defined]
-    fake.format_report = lambda profile: "held-out report"  # type: ignore[attr-defined]
-    monkeypatch.setitem(sys.modules, "facesynth.app.learn.fit", fake)
-    monkeypatch.setattr(profiles, "save_learned_profile", lambda p, path: path, raising=False)
-
-
 def test_a_complete_session_is_fitted_without_babbling(
-    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    seen: list[int] = []
-    _fake_fitting(monkeypatch, seen)
     path = tmp_path / "s.mcap"
-    _session(path, 3)
-    argv = ["learn", "--profile", "paper16", "--out", str(path), "--poses", "2", "--video", "x"]
-    assert main(argv) == 0
+    _session(path, synthetic_babble(POSES))
+    argv = ["learn", "--profile", "head16_hardware", "--out", str(path), "--poses", "2"]
+    assert main([*argv, "--video", "x"]) == 0
     out = capsys.readouterr().out
-    assert f"{path} already holds 3 poses (--poses 2): nothing to babble" in out
-    assert "held-out report" in out and f"wrote {tmp_path / 's.learned'}" in out
+    assert f"{path} already holds {POSES} poses (--poses 2): nothing to babble" in out
+    assert "held-out command error" in out and f"wrote {tmp_path / 's.learned'}" in out
     # --fit-only takes the session's own profile
     target = tmp_path / "head.learned"
     assert main(["learn", "--fit-only", str(path), "--out-profile", str(target)]) == 0
     assert f"wrote {target}" in capsys.readouterr().out
-    assert seen == [3, 3]
+    first, second = load_profile(str(tmp_path / "s.learned")), load_profile(str(target))
+    assert first.learned is not None and second.learned is not None
+    assert first.learned.inputs == second.learned.inputs
+    assert np.array_equal(first.learned.reach_high.data, second.learned.reach_high.data)

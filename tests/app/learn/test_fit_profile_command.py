@@ -59,7 +59,8 @@ def test_list_check_and_show_a_learned_profile(
     assert main(["profile", "show", str(path)]) == 0
     lines = capsys.readouterr().out.splitlines()
     assert lines[0].startswith("learned: poly_ridge")
-    assert lines[1].split() == [
+    assert lines[1].split() == ["ch", "servo", "min_us", "neutral", "max_us", "reversed", "source"]
+    assert lines[2].split() == [
         "0",
         "right_eyebrow",
         "1000",
@@ -72,8 +73,8 @@ def test_list_check_and_show_a_learned_profile(
         "of",
         "range",
     ]
-    assert lines[2].endswith("learned: held-out error 0.000 of range")
-    assert lines[3].endswith("learned: dead, kept at neutral")
+    assert lines[3].endswith("learned: held-out error 0.000 of range")
+    assert lines[4].endswith("learned: dead, kept at neutral")
 
 
 def test_check_a_hardware_profile_and_a_broken_learned_file(

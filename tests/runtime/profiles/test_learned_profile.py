@@ -171,6 +171,11 @@ MALFORMED = [
         _bytes(_document(forward={"kind": "mlp", "activation": "swish", "layers": []})),
         "activation 'swish'",
     ),
+    ("plan steps", _bytes(_document(plan_steps=99, forward=None)), "plan_steps must be from"),
+    ("plan prior", _bytes(_document(plan_prior=-1.0)), "plan_prior must be a finite number"),
+    ("plan prior nan", _bytes(_document(plan_prior=float("nan"))), "plan_prior must be a fin"),
+    ("plan without poly", _bytes(_document(plan_steps=3)), "plan_steps needs a poly_ridge"),
+    ("plan no forward", _bytes(_document(plan_steps=3, forward=None)), "needs a poly_ridge"),
     ("knn k", _bytes(_document(inverse=_knn(k=99))), "inverse: k 99 is outside 1..30"),
     ("knn weights", _bytes(_document(inverse=_knn(weights="gauss"))), "weights 'gauss'"),
     (

@@ -1,0 +1,67 @@
+"""Planning through the robot's self-model: the command whose predicted face is nearest the
+target face (Eva 2.0's use of a self-model, Faraj et al. 2021), in plain numpy.
+
+The inverse model of a learned profile maps a face to commands; it was fitted on faces the
+robot made itself, so a performer's face it could never make (an expression its actuators
+cannot combine, features moving together in another way) lies outside what it has seen, where
+a regression says little. The forward model (commands → face, the self-model) is the better
+judge there: :class:`SelfModelPlanner` starts from the inverse model's guess ``u0`` and takes a
+few damped Gauss-Newton steps on
+
+    ‖f(u) − x‖² + prior · ‖u − u0‖²,   u ∈ [-1, 1]^S
+
+where ``f`` is the forward model (ridge on polynomial features), ``x`` the standardized target
+face, and each step is projected onto the servos' range. Where the target is reachable the
+result is the command that makes it; where it is not, the reachable face nearest to it (in the
+robot's own standardized units), rather than an extrapolation.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from facesynth.runtime.profiles.learned import PolyRidge, unpack
+
+#: Levenberg-Marquardt damping added to every step (standardized face units²).
+DAMPING = 1e-3
+
+
+class SelfModelPlanner:
+    """Commands for target faces through a :class:`PolyRidge` forward model."""
+
+    def __init__(self, forward: PolyRidge, steps: int, prior: float) -> None:
+        powers = unpack(forward.powers).astype(np.intp)
+        self.coef = unpack(forward.coef)  # (inputs, terms)
+        self.intercept = unpack(forward.intercept)
+        n_terms, self.n_servos = powers.shape
+        self.degree = max(int(powers.sum(axis=1).max(initial=0)), 1)
+        # Each term as the servos it multiplies (index n_servos: the constant 1).
+        self.factors = np.full((n_terms, self.degree), self.n_servos, dtype=np.intp)
+        for term, row in enumerate(powers):
+            chosen = np.repeat(np.arange(self.n_servos), row)
+            self.factors[term, : len(chosen)] = chosen
+        self.rows = np.arange(n_terms)
+        self.steps, self.prior = steps, prior
+        self.eye = np.eye(self.n_servos) * (prior + DAMPING)
+
+    def face(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The predicted standardized face for commands ``u`` (S,) and its Jacobian (F, S)."""
+        values = np.append(u, 1.0)[self.factors]  # (T, degree)
+        terms = values.prod(axis=1)
+        d_terms = np.zeros((len(self.factors), self.n_servos + 1))
+        for column in range(self.degree):
+            others = np.delete(values, column, axis=1).prod(axis=1)
+            np.add.at(d_terms, (self.rows, self.factors[:, column]), others)
+        face: np.ndarray = self.coef @ terms + self.intercept
+        jacobian: np.ndarray = self.coef @ d_terms[:, : self.n_servos]
+        return face, jacobian
+
+    def plan(self, x: np.ndarray, u0: np.ndarray) -> np.ndarray:
+        """Commands in [-1, 1] for the standardized target face ``x``, from the guess ``u0``."""
+        u = np.clip(u0, -1.0, 1.0)
+        for _ in range(self.steps):
+            face, jacobian = self.face(u)
+            gradient = jacobian.T @ (x - face) - self.prior * (u - u0)
+            step = np.linalg.solve(jacobian.T @ jacobian + self.eye, gradient)
+            u = np.clip(u + step, -1.0, 1.0)
+        return u
