@@ -33,6 +33,7 @@ from facesynth.app.wiring import OptionError, build_node, replay_frames_of
 from facesynth.runtime.atomic import write_atomic
 from facesynth.runtime.bus.zenoh_bus import ZenohBus, endpoints, open_session, router_locators
 from facesynth.runtime.outputs import check_output
+from facesynth.runtime.profiles.learned import Learned, command_range
 from facesynth.runtime.service import default_instance, run_async, until_signalled
 from services.control.drivers.registry import DRIVERS
 
@@ -348,16 +349,28 @@ def cmd_profile(args: argparse.Namespace) -> int:
         elif spec.name in learned.dead:
             source = "learned: dead, kept at neutral"
         else:
-            error = learned.report.servo_error.get(spec.name)
-            source = "learned" + (
-                f": held-out error {error:.3f} of range" if error is not None else ""
-            )
+            source = _learned_source(learned, spec.name)
         reversed_ = "reversed" if spec.reversed and learned is None else ""
         print(
             f"{spec.channel:>3} {spec.name:<20} {spec.min_us:>7g} {spec.neutral_us:>7g} "
             f"{spec.max_us:>7g} {reversed_:<8} {source}"
         )
     return 0
+
+
+def _learned_source(learned: Learned, name: str) -> str:
+    """A live learned servo's source column: its held-out errors, raw and effective (the
+    goal's), and its responsive range when narrower than its travel."""
+    error = learned.report.servo_error.get(name)
+    effective = learned.report.effective_error.get(name)
+    source = "learned" + (f": held-out error {error:.3f} of range" if error is not None else "")
+    if effective is not None:
+        source += f" (effective {effective:.3f})"
+    low, high = command_range(learned)
+    index = learned.outputs.index(name)
+    if low[index] > -1.0 or high[index] < 1.0:
+        source += f", responsive {low[index] + 0.0:+.2f} .. {high[index] + 0.0:+.2f}"
+    return source
 
 
 def cmd_calibrate(args: argparse.Namespace) -> int:

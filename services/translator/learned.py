@@ -13,9 +13,11 @@ Per frame, for each of the mapping's inputs ``i`` (a key of ``Features.raw``):
    missing from the frame (or NaN) as 0, the robot's neutral; a frame with none of the inputs
    holds every servo (as a missing source does).
 2. **Inverse model, then the self-model.** ``u = inverse((t - input_mean) / input_scale)``,
-   each output servo's normalized command, clipped to [-1, 1]; with ``plan_steps``, that guess
-   is refined through the forward model toward the reachable face nearest the target
-   (:mod:`services.translator.self_model`).
+   each output servo's normalized command, clipped to its responsive range (``command_low``
+   .. ``command_high``, [-1, 1] when the file has none: a learned profile never drives a
+   servo into travel that moves nothing, so there is no slack to take up and less wear); with
+   ``plan_steps``, that guess is refined through the forward model toward the reachable face
+   nearest the target, within the same bounds (:mod:`services.translator.self_model`).
 3. **Smoothing.** Each output's ``u`` goes through a One Euro filter with the profile's
    (per-servo) smoothing parameters, in range units (the filters belong to the translator, so
    :meth:`~services.translator.core.Translator.reset` and ``resume`` restart them).
@@ -34,7 +36,7 @@ from collections.abc import Callable, Mapping
 import numpy as np
 
 from facesynth.runtime.profiles import Profile, Smoothing, has_source
-from facesynth.runtime.profiles.learned import PolyRidge, predictor, unpack
+from facesynth.runtime.profiles.learned import PolyRidge, command_range, predictor, unpack
 from services.translator.filters import OneEuroFilter
 from services.translator.self_model import SelfModelPlanner
 
@@ -51,8 +53,15 @@ class LearnedTargets:
         self.low, self.high = unpack(learned.reach_low), unpack(learned.reach_high)
         self.mean, self.scale = unpack(learned.input_mean), unpack(learned.input_scale)
         self.predict = predictor(learned.inverse)
+        self.u_low, self.u_high = command_range(learned)
         self.planner = (
-            SelfModelPlanner(learned.forward, learned.plan_steps, learned.plan_prior)
+            SelfModelPlanner(
+                learned.forward,
+                learned.plan_steps,
+                learned.plan_prior,
+                low=self.u_low,
+                high=self.u_high,
+            )
             if learned.plan_steps and isinstance(learned.forward, PolyRidge)
             else None
         )
@@ -82,9 +91,10 @@ class LearnedTargets:
         return out
 
     def commands(self, t: np.ndarray) -> np.ndarray:
-        """Each output's normalized command ``u`` in [-1, 1] for the robot's inputs ``t``."""
+        """Each output's normalized command ``u`` for the robot's inputs ``t``, within its
+        responsive range (``command_low`` .. ``command_high``, within [-1, 1])."""
         x = (t - self.mean) / self.scale
-        out: np.ndarray = np.clip(self.predict(x[None, :])[0], -1.0, 1.0)
+        out: np.ndarray = np.clip(self.predict(x[None, :])[0], self.u_low, self.u_high)
         if self.planner is not None:
             out = self.planner.plan(x, out)
         return out

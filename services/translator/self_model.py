@@ -8,12 +8,13 @@ a regression says little. The forward model (commands → face, the self-model) 
 judge there: :class:`SelfModelPlanner` starts from the inverse model's guess ``u0`` and takes a
 few damped Gauss-Newton steps on
 
-    ‖f(u) − x‖² + prior · ‖u − u0‖²,   u ∈ [-1, 1]^S
+    ‖f(u) − x‖² + prior · ‖u − u0‖²,   low ≤ u ≤ high
 
 where ``f`` is the forward model (ridge on polynomial features), ``x`` the standardized target
-face, and each step is projected onto the servos' range. Where the target is reachable the
-result is the command that makes it; where it is not, the reachable face nearest to it (in the
-robot's own standardized units), rather than an extrapolation.
+face, and each step is projected onto the servos' bounds (their responsive range, a learned
+profile's ``command_low`` .. ``command_high``; [-1, 1] by default). Where the target is
+reachable the result is the command that makes it; where it is not, the reachable face nearest
+to it (in the robot's own standardized units), rather than an extrapolation.
 """
 
 from __future__ import annotations
@@ -29,7 +30,16 @@ DAMPING = 1e-3
 class SelfModelPlanner:
     """Commands for target faces through a :class:`PolyRidge` forward model."""
 
-    def __init__(self, forward: PolyRidge, steps: int, prior: float) -> None:
+    def __init__(
+        self,
+        forward: PolyRidge,
+        steps: int,
+        prior: float,
+        low: np.ndarray | None = None,
+        high: np.ndarray | None = None,
+    ) -> None:
+        """``low`` / ``high``: each servo's bounds (normalized; default -1 / +1), e.g. its
+        responsive range."""
         powers = unpack(forward.powers).astype(np.intp)
         self.coef = unpack(forward.coef)  # (inputs, terms)
         self.intercept = unpack(forward.intercept)
@@ -43,6 +53,8 @@ class SelfModelPlanner:
         self.rows = np.arange(n_terms)
         self.steps, self.prior = steps, prior
         self.eye = np.eye(self.n_servos) * (prior + DAMPING)
+        self.low = -np.ones(self.n_servos) if low is None else np.asarray(low, dtype=np.float64)
+        self.high = np.ones(self.n_servos) if high is None else np.asarray(high, dtype=np.float64)
 
     def face(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The predicted standardized face for commands ``u`` (S,) and its Jacobian (F, S)."""
@@ -57,11 +69,11 @@ class SelfModelPlanner:
         return face, jacobian
 
     def plan(self, x: np.ndarray, u0: np.ndarray) -> np.ndarray:
-        """Commands in [-1, 1] for the standardized target face ``x``, from the guess ``u0``."""
-        u = np.clip(u0, -1.0, 1.0)
+        """Commands within the bounds for the standardized target face ``x``, from ``u0``."""
+        u = np.clip(u0, self.low, self.high)
         for _ in range(self.steps):
             face, jacobian = self.face(u)
             gradient = jacobian.T @ (x - face) - self.prior * (u - u0)
             step = np.linalg.solve(jacobian.T @ jacobian + self.eye, gradient)
-            u = np.clip(u + step, -1.0, 1.0)
+            u = np.clip(u + step, self.low, self.high)
         return u

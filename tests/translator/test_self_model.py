@@ -126,3 +126,15 @@ def test_t_plans_with_a_learned_profiles_self_model() -> None:
     miss_planned = np.linalg.norm(predict(planned.commands(t)[None, :])[0] - x)
     miss_plain = np.linalg.norm(predict(plain.commands(t)[None, :])[0] - x)
     assert miss_planned < 0.5 * miss_plain
+
+
+def test_the_plan_stays_within_the_given_bounds(forward: PolyRidge) -> None:
+    """Bounds narrower than [-1, 1] (a learned profile's responsive range) hold every step."""
+    low, high = np.array([-1.0, 0.0, -0.5, -1.0]), np.array([0.0, 1.0, 0.5, 1.0])
+    planner = SelfModelPlanner(forward, 8, 0.0, low=low, high=high)
+    target = _true_face(np.array([0.8, -0.8, 0.9, 0.3]))[0]  # outside the bounds
+    planned = planner.plan(target, np.array([0.5, -0.5, 1.0, 0.0]))
+    assert np.all(planned >= low) and np.all(planned <= high)
+    inside = _true_face(np.array([-0.4, 0.3, 0.2, -0.6]))[0]  # inside: still reached
+    reached = planner.plan(inside, np.zeros(SERVOS))
+    assert np.abs(reached - np.array([-0.4, 0.3, 0.2, -0.6])).max() < 0.05

@@ -181,3 +181,25 @@ def test_time_translator_runs_written_and_learned_profiles(name: str) -> None:
 
     assert 0 < time_translator(load_profile(name), frames=30, runs=1) < 50
     assert 0 < time_translator(learned_profile(), frames=30, runs=1) < 50
+
+
+def test_outputs_stay_in_each_servos_responsive_range() -> None:
+    """A servo slack above neutral (a cable that pulls one way) is never driven above it; one
+    that stops moving the face at half travel is never driven beyond half (or below -0.3)."""
+    profile = learned_profile()
+    assert profile.learned is not None
+    learned = msgspec.structs.replace(
+        profile.learned,
+        command_low=pack(np.array([-1.0, -0.3, -1.0])),
+        command_high=pack(np.array([0.0, 0.5, 1.0])),
+    )
+    translator = Translator(msgspec.structs.replace(profile, learned=learned))
+    up = {"brow_raise_inner_right": 0.1, "jaw_open": 0.1, "lip_corner_pull_right": 0.1}
+    high = translator.positions(ZERO, named={}, raw=up)
+    assert high["right_eyebrow"] == 1500.0  # slack above neutral: stays at neutral
+    assert high["left_eyebrow"] == pytest.approx(1750.0)  # half of 500 µs, not 2000
+    assert high["middle_eyebrow"] == pytest.approx(2000.0)  # the whole travel
+    down = {name: -0.05 for name in up}
+    low = translator.positions(ZERO, named={}, raw=down)
+    assert low["right_eyebrow"] == pytest.approx(1250.0)  # u = -0.5, within its range
+    assert low["left_eyebrow"] == pytest.approx(1350.0)  # u = -0.5 clipped to -0.3

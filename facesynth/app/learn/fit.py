@@ -25,6 +25,13 @@ hardware profile it was babbled with and returns that profile with its
    a fraction of each servo's range (``max_us - min_us``). The best is refitted on every pose.
 4. **Forward model** on the live servos (the same ridge) is kept in the file as the robot's
    self-model: ``u`` → standardized inputs.
+5. **Responsive ranges.** Each live servo's ``[command_low, command_high]``, the part of its
+   travel over which the face still changes (one-sided and saturating actuators), from the
+   sweeps and the neutral noise (:mod:`facesynth.app.learn.responsive`). Both models are fitted
+   on commands clipped into it (any command beyond gives the same face), and the report gives
+   two held-out errors: *raw* (predicted against babbled command) and *effective* (both
+   clipped into the range first). Candidates are compared, and issue 17's goal (<= 0.05 of
+   range) is measured, on the effective error.
 
 scikit-learn is imported here only (the ``learn`` extra); the board side runs the result in
 numpy (:func:`facesynth.runtime.profiles.learned.predictor`, which gives what these
@@ -44,9 +51,19 @@ import msgspec
 import numpy as np
 
 from facesynth.app.learn.dataset import BabbleSet
+from facesynth.app.learn.report import format_report
+from facesynth.app.learn.responsive import clip_commands, responsive_range
 from facesynth.runtime.feature_names import BY_NAME
 from facesynth.runtime.profiles import Learned, Profile
-from facesynth.runtime.profiles.learned import KNN, MLP, Layer, Model, PolyRidge, Report, pack
+from facesynth.runtime.profiles.learned import (
+    KNN,
+    MLP,
+    Layer,
+    Model,
+    PolyRidge,
+    Report,
+    pack,
+)
 
 #: The inverse models compared, by name.
 CANDIDATES = ("poly_ridge", "knn", "mlp")
@@ -180,6 +197,7 @@ class _Data:
     t: np.ndarray  # (n, d) relative to the robot's neutral
     u: np.ndarray  # (n, S) normalized commands
     groups: np.ndarray  # (n,) pose index
+    kinds: np.ndarray  # (n,) sample kinds
     dropped: int
     notes: list[str]
 
@@ -220,6 +238,7 @@ def _choose_inputs(babble: BabbleSet, u: np.ndarray, options: FitOptions) -> _Da
         t=values[keep] - offset,
         u=u[keep],
         groups=np.asarray(groups).reshape(-1),
+        kinds=np.asarray(babble.kinds)[keep],
         dropped=dropped,
         notes=notes,
     )
@@ -310,15 +329,21 @@ def _fit(babble: BabbleSet, profile: Profile, options: FitOptions) -> Profile:
     dead = [s for s in names if s not in live]
     if not live:
         raise FitError("no servo moved the face while babbling")
-    y = data.u[:, ~dead_mask]
+    u_low, u_high = (r[~dead_mask] for r in responsive_range(data.t, data.u, data.kinds))
+    raw_y = data.u[:, ~dead_mask]
+    y = clip_commands(raw_y, u_low, u_high)  # commands that give the same face, as one
     train, test = _split(data.groups, options)
     errors: dict[str, np.ndarray] = {}
+    raw_errors: dict[str, np.ndarray] = {}
     seconds: dict[str, float] = {}
     variants = _variants(options)
     for label, (name, variant) in variants.items():
         begun = time.perf_counter()
         fitted, _ = fit_model(name, x[train], y[train], variant)
-        errors[label] = command_error(profile, live, sklearn_predict(fitted, x[test]), y[test])
+        predicted = sklearn_predict(fitted, x[test])
+        raw_errors[label] = command_error(profile, live, predicted, raw_y[test])
+        predicted = clip_commands(predicted, u_low, u_high)
+        errors[label] = command_error(profile, live, predicted, y[test])
         seconds[label] = time.perf_counter() - begun
     best = min(errors, key=lambda label: float(errors[label].mean()))
     family, variant = variants[best]
@@ -329,8 +354,10 @@ def _fit(babble: BabbleSet, profile: Profile, options: FitOptions) -> Profile:
     notes = data.notes + [f"{name} fitted in {seconds[name]:.1f} s" for name in seconds]
     report = Report(
         model=best,
-        servo_error={s: float(e) for s, e in zip(live, errors[best], strict=True)},
-        candidates={name: float(e.mean()) for name, e in errors.items()},
+        servo_error={s: float(e) for s, e in zip(live, raw_errors[best], strict=True)},
+        candidates={name: float(e.mean()) for name, e in raw_errors.items()},
+        effective_error={s: float(e) for s, e in zip(live, errors[best], strict=True)},
+        effective_candidates={name: float(e.mean()) for name, e in errors.items()},
         samples=len(x),
         held_out=int(test.sum()),
         dropped=data.dropped,
@@ -350,29 +377,11 @@ def _fit(babble: BabbleSet, profile: Profile, options: FitOptions) -> Profile:
         forward=forward,
         plan_steps=options.plan_steps,
         plan_prior=options.plan_prior,
+        command_low=pack(u_low),
+        command_high=pack(u_high),
         report=report,
     )
     return msgspec.structs.replace(profile, learned=learned)
-
-
-def format_report(profile: Profile) -> str:
-    """The fit's report: the models compared, then each servo's held-out command error."""
-    if profile.learned is None:
-        return f"profile {profile.name} is not learned"
-    learned, report = profile.learned, profile.learned.report
-    lines = [
-        f"{profile.name}: {report.model} from {len(learned.inputs)} inputs, "
-        f"{report.samples} samples ({report.held_out} held out, {report.dropped} dropped), "
-        f"fitted in {report.fit_seconds:.1f} s",
-        "held-out command error (fraction of range): "
-        + ", ".join(f"{name} {error:.3f}" for name, error in report.candidates.items()),
-    ]
-    for name in learned.outputs:
-        lines.append(f"  {name:<20} {report.servo_error[name]:.3f}")
-    for name in learned.dead:
-        lines.append(f"  {name:<20} dead (kept at neutral)")
-    lines.extend(f"note: {note}" for note in report.notes)
-    return "\n".join(lines)
 
 
 def main(argv: list[str] | None = None) -> int:

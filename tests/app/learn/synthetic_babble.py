@@ -1,5 +1,6 @@
 """A synthetic robot face for fitting tests: 16 commands → 40 features, nonlinear, coupled,
-offset and noisy, two dead channels, plus features the head never moves and missing values."""
+offset and noisy, two dead channels, plus features the head never moves and missing values;
+optionally one-sided (slack on one side) and saturating servos."""
 
 from __future__ import annotations
 
@@ -24,7 +25,17 @@ def hardware() -> Profile:
 class SyntheticHead:
     """The face's features (relative to its neutral) for normalized commands, with noise."""
 
-    def __init__(self, seed: int = 1, noise: float = 0.01, moved: tuple[str, ...] = MOVED) -> None:
+    def __init__(
+        self,
+        seed: int = 1,
+        noise: float = 0.01,
+        moved: tuple[str, ...] = MOVED,
+        one_sided: dict[int, int] | None = None,
+        saturation: dict[int, float] | None = None,
+    ) -> None:
+        """``one_sided``: servo → the one side (+1 or -1) on which it moves the face (a cable
+        pulling skin; the other side is slack, and its rest is at neutral); ``saturation``:
+        servo → the command (normalized, both sides) beyond which its face stops changing."""
         rng = np.random.default_rng(seed)
         self.moved = moved
         n_servos, n_features = 16, len(moved)
@@ -40,13 +51,22 @@ class SyntheticHead:
         weights[:, list(DEAD)] = 0.0
         self.weights = weights
         self.quadratic = rng.normal(0.0, 0.25, n_features)
+        self.sided = np.zeros(n_servos)
+        self.limit = np.ones(n_servos)
+        for servo, side in (one_sided or {}).items():
+            self.sided[servo], self.offset[servo] = side, 0.0
+        for servo, limit in (saturation or {}).items():
+            self.limit[servo] = limit
         self.noise = noise
         self.rng = np.random.default_rng(seed + 1000)
 
     def _actuators(self, u: np.ndarray) -> np.ndarray:
-        v = np.clip(u + self.offset, -1.0, 1.0)
+        v = np.clip(np.clip(u, -self.limit, self.limit) + self.offset, -1.0, 1.0)
         curve = np.sign(v) * np.abs(v) ** self.power
-        return np.where(v >= 0, self.gain_up * curve, self.gain_down * curve)
+        out = np.where(v >= 0, self.gain_up * curve, self.gain_down * curve)
+        out = np.where(self.sided > 0, np.maximum(out, 0.0), out)
+        result: np.ndarray = np.where(self.sided < 0, np.minimum(out, 0.0), out)
+        return result
 
     def features(self, u: np.ndarray) -> np.ndarray:
         """(n, features) raw features for (n, 16) normalized commands, relative to u = 0."""

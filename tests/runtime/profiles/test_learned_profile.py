@@ -21,7 +21,7 @@ from facesynth.runtime.profiles import (
     parse_profile,
     save_learned_profile,
 )
-from facesynth.runtime.profiles.learned import pack, predictor
+from facesynth.runtime.profiles.learned import command_range, pack, predictor
 
 
 def _document(**changes: Any) -> dict[str, Any]:
@@ -52,6 +52,30 @@ def test_round_trip_and_lookup(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) 
     assert "learned: poly_ridge from 3 inputs to 3 servos (1 dead)" in describe_learned(
         profile.learned
     )
+
+
+def test_responsive_ranges_round_trip_and_default_to_the_whole_travel(tmp_path: Path) -> None:
+    profile = learned_profile()
+    assert profile.learned.command_low is None  # a file without them is valid: [-1, 1]
+    low, high = command_range(profile.learned)
+    assert low.tolist() == [-1.0] * 3 and high.tolist() == [1.0] * 3
+    learned = msgspec.structs.replace(
+        profile.learned,
+        command_low=pack(np.array([-1.0, 0.0, -0.5])),
+        command_high=pack(np.array([0.0, 1.0, 0.5]), "<f4"),
+        report=msgspec.structs.replace(
+            profile.learned.report,
+            servo_error={"right_eyebrow": 0.2},
+            effective_error={"right_eyebrow": 0.04},
+        ),
+    )
+    profile = msgspec.structs.replace(profile, learned=learned)
+    loaded = load_profile(str(save_learned_profile(profile, tmp_path / "r.learned")))
+    assert loaded == profile
+    low, high = command_range(loaded.learned)
+    assert low.tolist() == [-1.0, 0.0, -0.5] and high.tolist() == [0.0, 1.0, 0.5]
+    text = describe_learned(loaded.learned)
+    assert "held-out error 0.200" in text and "effective 0.040" in text
 
 
 def test_knn_and_float32_arrays_round_trip(tmp_path: Path) -> None:
@@ -176,6 +200,13 @@ MALFORMED = [
     ("plan prior nan", _bytes(_document(plan_prior=float("nan"))), "plan_prior must be a fin"),
     ("plan without poly", _bytes(_document(plan_steps=3)), "plan_steps needs a poly_ridge"),
     ("plan no forward", _bytes(_document(plan_steps=3, forward=None)), "needs a poly_ridge"),
+    ("low shape", _bytes(_document(command_low=_array([-1, -1]))), "command_low: shape [2] is not"),
+    ("high nan", _bytes(_document(command_high=NAN)), "command_high: holds values that are not"),
+    ("low above 0", _bytes(_document(command_low=_array([-1, 0.2, 0]))), "-1 <= command_low <= 0"),
+    ("high below 0", _bytes(_document(command_high=_array([1, -0.1, 1]))), "<= command_high <= 1"),
+    ("high above 1", _bytes(_document(command_high=_array([1, 1.5, 1]))), "<= command_high <= 1"),
+    ("low below -1", _bytes(_document(command_low=_array([-2, 0, 0]))), "-1 <= command_low"),
+    ("low dtype", _bytes(_document(command_low=_array([-1, 0, 0], "<i4"))), "command_low: dtype"),
     ("knn k", _bytes(_document(inverse=_knn(k=99))), "inverse: k 99 is outside 1..30"),
     ("knn weights", _bytes(_document(inverse=_knn(weights="gauss"))), "weights 'gauss'"),
     (
