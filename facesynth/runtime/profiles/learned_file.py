@@ -2,8 +2,10 @@
 
 ``{format: "facesynth.learned_profile", version: 1, profile: <the hardware profile, as its
 TOML's fields>, inputs, reach_low, reach_high, input_mean, input_scale, outputs, dead,
-inverse, forward, report}``: the fields of :class:`~.learned.Learned` at the top level, arrays
-as ``{dtype, shape, data: bytes}``. :func:`encode_learned_profile` writes it;
+inverse, forward, plan_steps, plan_prior, command_low, command_high, report}``: the fields of
+:class:`~.learned.Learned` at the top level, arrays as ``{dtype, shape, data: bytes}``
+(``command_low`` / ``command_high`` may be absent or None: the whole travel).
+:func:`encode_learned_profile` writes it;
 :func:`~.loading.parse_learned_profile` reads and checks it (every malformed variant is a
 :class:`~.loading.ProfileError` of one line).
 """
