@@ -57,6 +57,8 @@ def test_round_trip_and_lookup(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) 
 def test_responsive_ranges_round_trip_and_default_to_the_whole_travel(tmp_path: Path) -> None:
     profile = learned_profile()
     assert profile.learned.command_low is None  # a file without them is valid: [-1, 1]
+    older = {k: v for k, v in _document().items() if k not in ("command_low", "command_high")}
+    assert parse_learned_profile(_bytes(older), "old.learned") == profile
     low, high = command_range(profile.learned)
     assert low.tolist() == [-1.0] * 3 and high.tolist() == [1.0] * 3
     learned = msgspec.structs.replace(
