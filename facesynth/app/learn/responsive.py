@@ -30,6 +30,12 @@ This is conservative: a range is only cut where no input moved beyond four times
 noise, and never inward of a step that moved the face. Random poses are not used: a sweep
 isolates one servo, a random pose mixes sixteen. With the default three steps each way the
 bounds are 0, 1/3, 2/3 or 1.
+
+Its limit, measured: one sample per sweep step is little. On today's simhead16_reversed
+session the right outer cheek's slack side moved 0.96 of the threshold (its coupling into the
+lip corner and lids) and was cut; the bench's mean rho on that head fell 0.03 with that cut
+alone. The neutral samples' own largest movement there is 1.25, so the sweeps cannot tell
+that side from noise; more sweep steps or repeated sweeps would.
 """
 
 from __future__ import annotations
