@@ -17,7 +17,10 @@ Per frame, for each of the mapping's inputs ``i`` (a key of ``Features.raw``):
    .. ``command_high``, [-1, 1] when the file has none: a learned profile never drives a
    servo into travel that moves nothing, so there is no slack to take up and less wear); with
    ``plan_steps``, that guess is refined through the forward model toward the reachable face
-   nearest the target, within the same bounds (:mod:`services.translator.self_model`).
+   nearest the target, within the same bounds (:mod:`services.translator.self_model`). A
+   file's checks bound shapes and signs, not magnitudes: an output whose command is not finite
+   (a model whose arithmetic overflows on extreme but finite parameters) holds its servo, as a
+   missing source does.
 3. **Smoothing.** Each output's ``u`` goes through a One Euro filter with the profile's
    (per-servo) smoothing parameters, in range units (the filters belong to the translator, so
    :meth:`~services.translator.core.Translator.reset` and ``resume`` restart them).
@@ -85,17 +88,21 @@ class LearnedTargets:
         r = np.where(present, r, 0.0)
         n = np.array([named.get(name, np.nan) for name in self.inputs], dtype=np.float64)
         reach = np.where(r >= 0, self.high, -self.low)
-        scaled = np.abs(n) * reach
+        with np.errstate(all="ignore"):  # inf * 0 reach (NaN), 1e300²: taken as unscaled below
+            scaled = np.abs(n) * reach
         magnitude = np.where(np.isfinite(scaled), np.minimum(np.abs(r), scaled), np.abs(r))
         out: np.ndarray = np.clip(np.sign(r) * magnitude, self.low, self.high)
         return out
 
     def commands(self, t: np.ndarray) -> np.ndarray:
         """Each output's normalized command ``u`` for the robot's inputs ``t``, within its
-        responsive range (``command_low`` .. ``command_high``, within [-1, 1])."""
-        x = (t - self.mean) / self.scale
-        out: np.ndarray = np.clip(self.predict(x[None, :])[0], self.u_low, self.u_high)
-        if self.planner is not None:
+        responsive range (``command_low`` .. ``command_high``, within [-1, 1]), or NaN where the
+        models give no finite command (extreme parameters overflow)."""
+        with np.errstate(all="ignore"):
+            x = (t - self.mean) / self.scale
+            out: np.ndarray = np.clip(self.predict(x[None, :])[0], self.u_low, self.u_high)
+        out = np.where(np.isfinite(out), out, np.nan)
+        if self.planner is not None and np.isfinite(x).all() and np.isfinite(out).all():
             out = self.planner.plan(x, out)
         return out
 
@@ -114,15 +121,18 @@ class LearnedTargets:
         if t is None:
             return [None] * len(self.names)
         u = self.commands(t)
-        if t_ns is not None:
+        finite = np.isfinite(u)
+        if t_ns is not None:  # a servo held (no finite command) leaves its filter as it was
             u = np.array(
                 [
-                    v if f is None else f(float(v), t_ns)
-                    for f, v in zip(self.filters, u, strict=True)
+                    v if f is None or not ok else f(float(v), t_ns)
+                    for f, v, ok in zip(self.filters, u, finite, strict=True)
                 ]
             )
-        by_name: dict[str, float] = dict(self.fixed)
-        by_name.update(zip(self.outputs, self.positions(u).tolist(), strict=True))
+        pulses = self.positions(np.where(finite, u, 0.0)).tolist()
+        by_name: dict[str, float | None] = dict(self.fixed)
+        for name, pulse, ok in zip(self.outputs, pulses, finite, strict=True):
+            by_name[name] = pulse if ok else None
         return [by_name[name] for name in self.names]
 
 

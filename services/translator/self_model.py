@@ -14,7 +14,9 @@ where ``f`` is the forward model (ridge on polynomial features), ``x`` the stand
 face, and each step is projected onto the servos' bounds (their responsive range, a learned
 profile's ``command_low`` .. ``command_high``; [-1, 1] by default). Where the target is
 reachable the result is the command that makes it; where it is not, the reachable face nearest
-to it (in the robot's own standardized units), rather than an extrapolation.
+to it (in the robot's own standardized units), rather than an extrapolation. A step the
+forward model cannot compute in finite numbers (coefficients so large its arithmetic overflows)
+ends the plan there.
 """
 
 from __future__ import annotations
@@ -72,8 +74,22 @@ class SelfModelPlanner:
         """Commands within the bounds for the standardized target face ``x``, from ``u0``."""
         u = np.clip(u0, self.low, self.high)
         for _ in range(self.steps):
-            face, jacobian = self.face(u)
-            gradient = jacobian.T @ (x - face) - self.prior * (u - u0)
-            step = np.linalg.solve(jacobian.T @ jacobian + self.eye, gradient)
+            step = self._step(x, u, u0)
+            if step is None:
+                break  # the self-model overflows here (extreme coefficients): keep this plan
             u = np.clip(u + step, self.low, self.high)
         return u
+
+    def _step(self, x: np.ndarray, u: np.ndarray, u0: np.ndarray) -> np.ndarray | None:
+        """One damped Gauss-Newton step from ``u`` (None: not computable in finite numbers)."""
+        with np.errstate(all="ignore"):
+            face, jacobian = self.face(u)
+            gradient = jacobian.T @ (x - face) - self.prior * (u - u0)
+            normal = jacobian.T @ jacobian + self.eye
+            if not (np.isfinite(gradient).all() and np.isfinite(normal).all()):
+                return None
+            try:
+                step: np.ndarray = np.linalg.solve(normal, gradient)
+            except np.linalg.LinAlgError:  # the damping lost among huge numbers: singular
+                return None
+        return step if np.isfinite(step).all() else None

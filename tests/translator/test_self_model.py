@@ -10,7 +10,7 @@ import pytest
 
 from facesynth.app.learn.fit import FitOptions, fit_model
 from facesynth.runtime.profiles import Learned, Profile, load_profile
-from facesynth.runtime.profiles.learned import PolyRidge, Report, pack, predictor
+from facesynth.runtime.profiles.learned import PolyRidge, Report, pack, predictor, unpack
 from services.translator.learned import LearnedTargets
 from services.translator.self_model import SelfModelPlanner
 
@@ -83,6 +83,18 @@ def test_no_steps_is_the_guess(forward: PolyRidge) -> None:
     assert np.array_equal(
         SelfModelPlanner(forward, 0, 0.1).plan(np.zeros(FACE), guess), np.clip(guess, -1, 1)
     )
+
+
+def test_a_forward_model_that_overflows_keeps_the_last_finite_plan(forward: PolyRidge) -> None:
+    """Found by fuzzing: coefficients of 1e300 (finite, so a valid file) overflowed the
+    Gauss-Newton step to NaN, which the plan returned; it stops at the last finite plan."""
+    coef = unpack(forward.coef)
+    coef[0] *= 1e300
+    huge = msgspec.structs.replace(forward, coef=pack(coef))
+    guess = np.array([0.2, -0.4, 0.1, 0.5])
+    with np.errstate(all="raise"):  # no warning leaks out either
+        planned = SelfModelPlanner(huge, 6, 0.02).plan(np.ones(FACE), guess)
+    assert np.all(np.isfinite(planned)) and np.all(np.abs(planned) <= 1.0)
 
 
 def _learned_profile(forward: PolyRidge | None, steps: int) -> Profile:

@@ -16,7 +16,9 @@ from facesynth.runtime.profiles import (
     Profile,
     Safety,
     Smoothing,
+    encode_learned_profile,
     load_profile,
+    parse_learned_profile,
 )
 from facesynth.runtime.profiles.learned import PolyRidge, Report, pack
 from schemas.messages import Features
@@ -120,6 +122,43 @@ def test_no_input_holds_and_no_face_returns_to_neutral() -> None:
     assert held["right_eyebrow"] == 2000.0
     lost = translator.step(frame(2, {"brow_raise_inner_right": 0.1}, face=False))
     assert 1500.0 <= lost["right_eyebrow"] < 2000.0  # ramping to neutral (neutral_ramp_s)
+
+
+def test_a_model_that_overflows_holds_its_servos() -> None:
+    """Found by fuzzing: a file's checks bound shapes and signs, not magnitudes, so a valid
+    file may hold an input_scale of 5e-324 or coefficients of 1e300; the model's arithmetic
+    then overflows to NaN, which went out as a position (NaN passes ``clamp``). Such an output
+    holds its servo instead, its filter untouched, and the others still follow."""
+    profile = learned_profile(smoothing=Smoothing(min_cutoff=0.5, beta=0.0, d_cutoff=1.0))
+    assert profile.learned is not None
+    coef = np.eye(3)
+    coef[1, 1] = 1e300  # left_eyebrow: 1e300 * x, then 1e300 * x - 1e300 * x = NaN below
+    coef[1, 0] = -1e300
+    profile.learned.inverse = PolyRidge(
+        degree=1, powers=pack(np.eye(3)), coef=pack(coef), intercept=pack(np.zeros(3))
+    )
+    loaded = parse_learned_profile(encode_learned_profile(profile))  # a valid file
+    translator = Translator(loaded)
+    first = translator.step(frame(0, {"brow_raise_inner_right": 0.0, "jaw_open": 0.0}))
+    assert first["left_eyebrow"] == 1500.0  # 0 * 1e300: a finite command
+    raw = {"brow_raise_inner_right": 1e-300, "jaw_open": 1e-300}  # 1e300 * 1e-299 = 10
+    assert translator.step(frame(1, raw))["left_eyebrow"] == 1500.0  # -10 + 10 = 0, finite
+    raw = {"brow_raise_inner_right": 0.1, "jaw_open": 0.1}  # 1e300 * 1: inf - inf = NaN
+    for index in range(2, 5):
+        out = translator.step(frame(index, raw))
+        assert out["left_eyebrow"] == 1500.0  # held where it was
+        assert all(np.isfinite(list(out.values())))
+    assert out["right_eyebrow"] > 1600.0  # the others follow (smoothed)
+    back = translator.step(frame(5, {"brow_raise_inner_right": 0.0, "jaw_open": 0.0}))
+    assert back["left_eyebrow"] == 1500.0  # its filter never saw a NaN
+
+    tiny = learned_profile()
+    assert tiny.learned is not None
+    tiny.learned.input_scale = pack(np.full(3, 5e-324))  # x = t / 5e-324 = inf
+    tiny = parse_learned_profile(encode_learned_profile(tiny))
+    out = Translator(tiny).step(frame(0, {"brow_raise_inner_right": 0.1}))
+    assert out["right_eyebrow"] == 2000.0  # 1 * inf: clipped, the robot's reach
+    assert out["left_eyebrow"] == 1500.0  # 0 * inf = NaN: held (at neutral, its start)
 
 
 def test_smoothing_and_motion_limits_apply_to_learned_outputs() -> None:

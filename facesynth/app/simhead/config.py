@@ -36,6 +36,8 @@ from typing import Annotated, Literal
 
 import msgspec
 
+from facesynth.runtime.oneline import one_line
+
 from .effects import EFFECTS
 
 __all__ = ["Actuator", "HeadConfig", "HeadError", "head_names", "load_head"]
@@ -115,11 +117,11 @@ def parse_head(text: str | bytes, where: str = "head") -> HeadConfig:
     try:
         raw = tomllib.loads(text.decode("utf-8") if isinstance(text, bytes) else text)
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-        raise HeadError(f"{where}: not valid TOML ({exc})") from None
+        raise HeadError(f"{where}: not valid TOML ({one_line(str(exc))})") from None
     try:
         config = msgspec.convert(raw, HeadConfig)
-    except msgspec.ValidationError as exc:
-        raise HeadError(f"{where}: {exc}") from None
+    except msgspec.ValidationError as exc:  # quotes a key as it is: it may hold a newline
+        raise HeadError(f"{where}: {one_line(str(exc))}") from None
     return _check(config, where)
 
 

@@ -144,7 +144,7 @@ def parse_learned_profile(data: bytes, source: str = "<learned profile>") -> Pro
         header = msgspec.msgpack.decode(data, type=Header)
     except msgspec.ValidationError as exc:  # msgpack, but not a map
         raise _error(source, [f"not a learned profile ({exc})"]) from None
-    except msgspec.DecodeError as exc:
+    except (msgspec.DecodeError, UnicodeDecodeError) as exc:  # a string that is not UTF-8
         raise _error(source, [f"not a learned profile (not msgpack: {exc})"]) from None
     if header.format != FORMAT:
         raise _error(source, [f"not a learned profile (format {header.format!r}, not {FORMAT!r})"])
@@ -155,7 +155,7 @@ def parse_learned_profile(data: bytes, source: str = "<learned profile>") -> Pro
         )
     try:
         document = msgspec.msgpack.decode(data, type=LearnedFile)
-    except (msgspec.DecodeError, msgspec.ValidationError) as exc:
+    except (msgspec.DecodeError, msgspec.ValidationError, UnicodeDecodeError) as exc:
         raise _error(source, [f"malformed learned profile: {exc}"]) from None
     if document.profile.learned is not None:
         raise _error(source, ["profile.learned: the hardware profile holds no mapping"])

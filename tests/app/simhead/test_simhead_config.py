@@ -81,6 +81,8 @@ BAD = [
         "channel 3 is also 'jaw'",
     ),
     ("pulse out of range", GOOD + "max_us = 4000\n", "<= 2500"),
+    # Found by fuzzing: msgspec quotes a key as it is, and a TOML key may hold a newline.
+    ("key with a newline", GOOD + '"gain\\nup" = 1.0\n', "unknown field `gain\\nup`"),
 ]
 
 

@@ -153,6 +153,17 @@ MALFORMED = [
     ("wrong format", _bytes(_document(format="facesynth.calibration")), "format 'facesynth.calib"),
     ("no format", _bytes({"version": 1}), "format None"),
     ("wrong version", _bytes(_document(version=2)), "version 2 is not supported"),
+    # Found by fuzzing: msgspec raises UnicodeDecodeError for a string that is not UTF-8.
+    (
+        "format not utf-8",
+        _bytes(_document(format="\u00ff")).replace(b"\xc3\xbf", b"\xff\xff"),
+        "not msgpack: 'utf-8' codec can't decode byte 0xff",
+    ),
+    (
+        "servo name not utf-8",
+        _bytes(_document(dead=["right_eye_\u00ff"])).replace(b"\xc3\xbf", b"\xff\xff"),
+        "malformed learned profile: 'utf-8' codec can't decode byte 0xff",
+    ),
     ("unknown model", _bytes(_document(inverse=_inverse(kind="forest"))), "`$.inverse.kind`"),
     ("unknown field", _bytes(_document(wheels=4)), "unknown field `wheels`"),
     (
