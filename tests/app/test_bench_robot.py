@@ -148,14 +148,16 @@ def test_a_simulated_head_follows_the_performer_through_a_profile(
     )
     assert len(images) == FRAMES and images[0].shape == (320, 320, 3)
     assert np.isfinite(robot.values).all(axis=1).any()  # the tracker sees the head's face
-    # the performer frowns and squints in these frames: the head's brows and lids move
+    # the performer's mouth moves in these frames (her brows are held: her first second is not
+    # a resting brow, issue 20): so does the head's, which puckers through head16's lip corners
     moved = {
         name
         for name in robot.names
-        if np.nanmax(robot.column(name)) - np.nanmin(robot.column(name)) > 0.01
+        if np.nanmax(robot.column(name)) - np.nanmin(robot.column(name)) > 0.05
     }
-    assert {"brow_lower_left", "brow_lower_right"} <= moved
-    assert head.pulses()[0] != load_profile("head16").servos[0].neutral_us
+    assert "mouthPucker" in moved
+    corners = [spec for spec in load_profile("head16").servos if "lip_corner" in spec.name]
+    assert any(head.pulses()[spec.channel] != spec.neutral_us for spec in corners)
 
 
 def test_the_command_prints_a_table_and_writes_json(

@@ -170,6 +170,10 @@ def test_tracker_chain_in_processes_matches_run(
     assert all(line.face for line in lines)
     assert [line.servos for line in lines] == [line.servos for line in in_process]
     moving = {name for line in lines for name, value in line.servos.items() if value != 1500.0}
-    assert len(moving) >= 12, (
+    # The sample opens on raised (sad) brows: F holds the brows at neutral until they rest
+    # (issue 20; not before frame 48), so the brow servos stay; most others move.
+    brows = {"right_eyebrow", "left_eyebrow", "middle_eyebrow"}
+    assert not moving & brows, f"the brows should be held, moved {sorted(moving & brows)}"
+    assert len(moving - brows) >= 10, (
         f"the performer's face should move most servos, moved {sorted(moving)}"
     )

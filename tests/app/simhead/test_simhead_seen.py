@@ -67,7 +67,8 @@ def _track(backend: TrackerBackend, image: object, frames: int = 5) -> Points:
 
 
 def _raw(neutral: Points, points: Points) -> dict[str, float]:
-    processor = FeatureProcessor(neutral_seconds=0.1)
+    # A robot held at neutral: its neutral is taken as it is (no brow re-basing, issue 20).
+    processor = FeatureProcessor(neutral_seconds=0.1, neutral_held=True)
     for i in range(5):
         t = i * FRAME_NS
         processor.process(msgspec.structs.replace(neutral, seq=i, t_capture_ns=t, t_media_ns=t))
