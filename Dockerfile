@@ -2,8 +2,9 @@
 # facesynth services image. The base image is a build argument, so the image builds from a public
 # Python image or from a locally made one where no registry is reachable (deploy/base-image.sh):
 #   docker build --build-arg BASE_IMAGE=python:3.11-slim -t facesynth .
-# The base must provide python3 (>= 3.11) with venv. EXTRAS="all" (tracker, uvloop, face page,
-# VMC, recording, certs); EXTRAS="fast" (or "") builds the servo-board image
+# The base must provide python3 (>= 3.11) with venv. EXTRAS="chain" (tracker, uvloop, face page,
+# VMC, recording, certs: no scikit-learn, which only `facesynth learn` needs); EXTRAS="fast" (or
+# "") builds the servo-board image
 # (control, translator, features, router, status: no OpenCV, no inference runtime).
 # Behind a TLS-intercepting proxy, give pip the proxy's CA, which never enters the image: as a build
 # secret (docker build --secret id=pip_ca,src=/etc/ssl/certs/ca-certificates.crt .), or, for
@@ -11,7 +12,7 @@
 ARG BASE_IMAGE=python:3.11-slim
 
 FROM ${BASE_IMAGE} AS build
-ARG EXTRAS=all
+ARG EXTRAS=chain
 ENV PIP_NO_CACHE_DIR=1 PIP_DISABLE_PIP_VERSION_CHECK=1
 WORKDIR /src
 COPY pyproject.toml README.md LICENSE ./

@@ -71,7 +71,7 @@ version: "3.8"
 
 x-tracker: &tracker
 """
-    + _image("facesynth", "all")
+    + _image("facesynth", "chain")
     + """
   environment:
     ZENOH_CONFIG: @MOUNT@/zenoh-service.json5

@@ -123,7 +123,7 @@ def test_tracker_stages_use_the_full_image_and_the_rest_the_board_image() -> Non
         "control": "facesynth-board:latest",
     }
     extras = {s["image"]: s["build"]["args"]["EXTRAS"] for s in SERVICES.values()}
-    assert extras == {"facesynth:latest": "all", "facesynth-board:latest": "fast,face"}
+    assert extras == {"facesynth:latest": "chain", "facesynth-board:latest": "fast,face"}
     for service in SERVICES.values():
         assert service["user"] == "${FACESYNTH_UID:-10001}:${FACESYNTH_GID:-10001}"
     health = SERVICES["router"]["healthcheck"]["test"]

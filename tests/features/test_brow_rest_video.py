@@ -23,18 +23,15 @@ resting-brow frames), which is not the neutral's doing.
 
 from __future__ import annotations
 
-import cv2
 import numpy as np
 import pytest
+from sample_points import track_sample
 
-from facesynth.app.data import sample_video
 from facesynth.runtime import blendshapes
-from facesynth.runtime.frames import encode_frame
 from facesynth.runtime.profiles import Profile, load_profile
 from schemas.messages import Points
 from services.features.brow_rest import BROW_SHAPES, REST_SCORE
 from services.features.core import FeatureProcessor, blendshape_scores
-from services.points.backends.tracker import TrackerBackend, TrackerConfig
 from services.translator.core import Translator
 
 #: A brow control this close to neutral (share of its travel) is in its neutral band.
@@ -43,22 +40,7 @@ BAND = 0.25
 
 @pytest.fixture(scope="module")
 def tracked() -> list[Points]:
-    capture = cv2.VideoCapture(str(sample_video()))
-    fps = capture.get(cv2.CAP_PROP_FPS)
-    backend = TrackerBackend(TrackerConfig(model="full"))
-    points: list[Points] = []
-    while True:
-        ok, image = capture.read()
-        if not ok:
-            break
-        seq = len(points)
-        frame = encode_frame(
-            image, seq=seq, t_capture_ns=seq, t_media_ns=round(seq * 1e9 / fps), encoding="raw"
-        )
-        points.append(backend.process(frame))
-    capture.release()
-    assert len(points) == 472 and all(p.face for p in points)
-    return points
+    return track_sample("full")
 
 
 def _smiling_with_resting_brows(tracked: list[Points]) -> np.ndarray:

@@ -15,38 +15,20 @@ from __future__ import annotations
 
 import time
 
-import cv2
 import numpy as np
 import pytest
+from sample_points import track_sample
 
-from facesynth.app.data import sample_video
 from facesynth.runtime import codec
 from facesynth.runtime.feature_names import LANDMARK_NAMES
-from facesynth.runtime.frames import encode_frame
 from schemas.messages import Features, Points
 from services.features.core import FeatureProcessor, ibug_points, optional_points
 from services.features.expressions import raw_features, relative
-from services.points.backends.tracker import TrackerBackend, TrackerConfig
 
 
 @pytest.fixture(scope="module")
 def tracked() -> list[Points]:
-    capture = cv2.VideoCapture(str(sample_video()))
-    fps = capture.get(cv2.CAP_PROP_FPS)
-    backend = TrackerBackend(TrackerConfig(model="fast"))
-    points = []
-    while True:
-        ok, image = capture.read()
-        if not ok:
-            break
-        seq = len(points)
-        frame = encode_frame(
-            image, seq=seq, t_capture_ns=seq, t_media_ns=round(seq * 1e9 / fps), encoding="raw"
-        )
-        points.append(backend.process(frame))
-    capture.release()
-    assert len(points) == 472 and all(p.face for p in points)
-    return points
+    return track_sample("fast")
 
 
 @pytest.fixture(scope="module")
