@@ -379,7 +379,7 @@ def build_parser() -> argparse.ArgumentParser:
     from facesynth.app.recording.cli import add_recording_parsers
 
     add_recording_parsers(sub, _zenoh_arguments)
-    from facesynth.app.learn.cli import add_learn_parser
+    from facesynth.app.learn.arguments import add_learn_parser
 
     add_learn_parser(sub, _zenoh_arguments)
     from facesynth.app.simhead.command import add_simhead_parser

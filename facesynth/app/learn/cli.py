@@ -19,7 +19,6 @@ import json
 import logging
 import sys
 import time
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -61,77 +60,6 @@ DEFAULT_RIG = "self"
 
 class LearnError(ValueError):
     """``facesynth learn`` options that cannot be used."""
-
-
-def add_learn_parser(sub: Any, zenoh_arguments: Callable[[argparse.ArgumentParser], None]) -> None:
-    """Declare ``facesynth learn`` on the command's sub-parsers."""
-    text = (
-        "the robot learns its own face: babble the servos in front of the robot's camera, "
-        "record every settled pose (resumable), fit the self-model, write a learned profile"
-    )
-    p = sub.add_parser("learn", help=text, description=text)
-    p.set_defaults(handler=cmd_learn)
-    p.add_argument("--profile", help="the robot's hardware profile: NAME or TOML path")
-    p.add_argument(
-        "--out",
-        dest="session",
-        metavar="SESSION.mcap",
-        help="the babbling session file; an existing one is resumed",
-    )
-    p.add_argument("--poses", type=int, help="babble until the session holds N poses (default 600)")
-    p.add_argument("--minutes", type=float, help="babble at most M minutes in this run")
-    p.add_argument("--seed", type=int, help="the plan's seed (default 0; a resume keeps its own)")
-    p.add_argument(
-        "--fit-only", metavar="SESSION.mcap", help="do not babble: fit this session's poses"
-    )
-    p.add_argument("--no-fit", action="store_true", help="babble only, fit later (--fit-only)")
-    p.add_argument(
-        "--out-profile",
-        metavar="NAME.learned",
-        help="the learned profile to write (default: the session's name with .learned)",
-    )
-    group = p.add_argument_group("babbling")
-    group.add_argument(
-        "--neutral-every", type=int, default=25, help="a neutral pose every K poses (25)"
-    )
-    group.add_argument(
-        "--sweep-steps", type=int, default=3, help="steps of each servo's sweep each way (3)"
-    )
-    group.add_argument(
-        "--pace",
-        type=float,
-        default=0.8,
-        help="command speed as a fraction of each servo's max_speed (0.8)",
-    )
-    group.add_argument(
-        "--settle-frames", type=int, default=4, help="frames the face must hold still (4)"
-    )
-    group.add_argument(
-        "--settle-tolerance",
-        type=float,
-        default=0.05,
-        help="largest change of the features over those frames (0.05)",
-    )
-    group.add_argument(
-        "--min-wait",
-        type=float,
-        default=0.25,
-        help="seconds after the servos got there before the face's frames count (0.25)",
-    )
-    group.add_argument(
-        "--max-wait", type=float, default=3.0, help="longest wait for a pose to settle (3 s)"
-    )
-    group.add_argument(
-        "--frame-every",
-        type=int,
-        default=30,
-        help="record every Nth camera frame into the session (30; 0: none)",
-    )
-    seen = {"--out", "--profile"}
-    for stage in ("sensor", "points", "control"):
-        flags, _ = PLUGIN_FLAGS[stage]
-        flags.add(p, seen, {"sensor": None, "points": "tracker", "control": "record"}[stage])
-    zenoh_arguments(p)
 
 
 def cmd_learn(args: argparse.Namespace) -> int:

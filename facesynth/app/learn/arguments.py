@@ -1,0 +1,91 @@
+"""The arguments of ``facesynth learn``, declared without importing what the command runs.
+
+``facesynth`` builds every sub-command's parser at start-up, on a servo board too, where the
+recording and tracker extras that babbling needs are not installed: the command's modules
+(:mod:`facesynth.app.learn.cli`) are imported only when ``facesynth learn`` runs.
+"""
+
+from __future__ import annotations
+
+import argparse
+from collections.abc import Callable
+from typing import Any
+
+from facesynth.app.stage_args import PLUGIN_FLAGS
+
+
+def _cmd_learn(args: argparse.Namespace) -> int:
+    from facesynth.app.learn.cli import cmd_learn
+
+    return cmd_learn(args)
+
+
+def add_learn_parser(sub: Any, zenoh_arguments: Callable[[argparse.ArgumentParser], None]) -> None:
+    """Declare ``facesynth learn`` on the command's sub-parsers."""
+    text = (
+        "the robot learns its own face: babble the servos in front of the robot's camera, "
+        "record every settled pose (resumable), fit the self-model, write a learned profile"
+    )
+    p = sub.add_parser("learn", help=text, description=text)
+    p.set_defaults(handler=_cmd_learn)
+    p.add_argument("--profile", help="the robot's hardware profile: NAME or TOML path")
+    p.add_argument(
+        "--out",
+        dest="session",
+        metavar="SESSION.mcap",
+        help="the babbling session file; an existing one is resumed",
+    )
+    p.add_argument("--poses", type=int, help="babble until the session holds N poses (default 600)")
+    p.add_argument("--minutes", type=float, help="babble at most M minutes in this run")
+    p.add_argument("--seed", type=int, help="the plan's seed (default 0; a resume keeps its own)")
+    p.add_argument(
+        "--fit-only", metavar="SESSION.mcap", help="do not babble: fit this session's poses"
+    )
+    p.add_argument("--no-fit", action="store_true", help="babble only, fit later (--fit-only)")
+    p.add_argument(
+        "--out-profile",
+        metavar="NAME.learned",
+        help="the learned profile to write (default: the session's name with .learned)",
+    )
+    group = p.add_argument_group("babbling")
+    group.add_argument(
+        "--neutral-every", type=int, default=25, help="a neutral pose every K poses (25)"
+    )
+    group.add_argument(
+        "--sweep-steps", type=int, default=3, help="steps of each servo's sweep each way (3)"
+    )
+    group.add_argument(
+        "--pace",
+        type=float,
+        default=0.8,
+        help="command speed as a fraction of each servo's max_speed (0.8)",
+    )
+    group.add_argument(
+        "--settle-frames", type=int, default=4, help="frames the face must hold still (4)"
+    )
+    group.add_argument(
+        "--settle-tolerance",
+        type=float,
+        default=0.05,
+        help="largest change of the features over those frames (0.05)",
+    )
+    group.add_argument(
+        "--min-wait",
+        type=float,
+        default=0.25,
+        help="seconds after the servos got there before the face's frames count (0.25)",
+    )
+    group.add_argument(
+        "--max-wait", type=float, default=3.0, help="longest wait for a pose to settle (3 s)"
+    )
+    group.add_argument(
+        "--frame-every",
+        type=int,
+        default=30,
+        help="record every Nth camera frame into the session (30; 0: none)",
+    )
+    seen = {"--out", "--profile"}
+    for stage in ("sensor", "points", "control"):
+        flags, _ = PLUGIN_FLAGS[stage]
+        flags.add(p, seen, {"sensor": None, "points": "tracker", "control": "record"}[stage])
+    zenoh_arguments(p)
