@@ -101,7 +101,8 @@ def test_same_size_keeps_the_inputs_frame_size(short_video: Path, tmp_path: Path
 def test_the_face_moves_exactly_as_a_bus_run_commands_it(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    """The renderer's pure chain gives the virtual controls that `facesynth run --fast` sends."""
+    """The renderer's pure chain gives the face's controls that `facesynth run --fast` sends
+    (the face with the default, blendshape-giving tracker: virtual_bs)."""
     commands = tmp_path / "virtual.jsonl"
     argv = [
         "run",
@@ -109,7 +110,7 @@ def test_the_face_moves_exactly_as_a_bus_run_commands_it(
         "--max-frames",
         "45",
         "--profile",
-        "virtual",
+        "virtual_bs",
         "--out",
         str(commands),
         "--listen",
@@ -142,6 +143,28 @@ def test_the_face_moves_exactly_as_a_bus_run_commands_it(
     for frame in range(45):
         assert controls[frame] == pytest.approx(sent[frame], abs=0.002), frame
     assert any(c["jaw"] > 0 for c in controls) or any(c["brow_left"] != 500 for c in controls)
+
+
+@pytest.mark.parametrize(("model", "face"), [("full", "virtual_bs"), ("fast", "virtual")])
+def test_the_face_reads_its_brows_from_the_blendshapes_when_the_tracker_gives_them(
+    model: str, face: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Issue 20: the landmark brows read a laugh's squint as a frown; the blendshape brows do
+    not (tests/features/test_brow_rest_video.py measures both on the sample's laugh)."""
+    from facesynth.app.render import video as video_module
+
+    faces: list[str] = []
+    original = video_module.render_video
+
+    def spy(source, chain, *args, **kwargs):  # type: ignore[no-untyped-def]
+        faces.append(chain.face.profile.name)
+        return original(source, chain, *args, **kwargs)
+
+    monkeypatch.setattr("facesynth.app.render.render_video", spy)
+    graph = load_graph(str(DEFAULT_GRAPH), plugins=False)
+    graph.nodes["points"].backend["model"] = model  # type: ignore[attr-defined]
+    render_graph(graph, {}, tmp_path / "v.mp4", max_frames=2, progress=Progress(2, io.StringIO()))
+    assert faces == [face]
 
 
 def test_a_failed_render_leaves_the_old_file_and_no_temporary(

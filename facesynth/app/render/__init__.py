@@ -2,8 +2,9 @@
 
 :func:`render_graph` reads what to run from a graph, as ``facesynth run`` does: the sensor
 node's video, the points node's backend, the features node's options, the translator's
-calibration and mirroring. The face is always the ``virtual`` profile's; the bars show another
-profile (``bars``, else the graph's translator profile when it is not ``virtual``).
+calibration and mirroring. The face is the ``virtual`` profile's, with its brows read from the
+blendshapes (``virtual_bs``) when the points backend gives them; the bars show another profile
+(``bars``, else the graph's translator profile when it is not one of those).
 
 With ``robot_head`` (``facesynth render --robot-head simhead16 [--profile X]``), a simulated
 head driven by the translator's profile takes the virtual face's place: performer | the
@@ -42,6 +43,12 @@ from services.translator.core import Translator
 __all__ = ["RenderError", "render_graph"]
 
 FACE_PROFILE = "virtual"
+#: The face when the points backend gives the blendshapes (the ``full`` tracker model, the
+#: default): the same face with its brows read from them. The landmark brows read a laugh's
+#: squint as a frown (issue 20: 72-99 % of the sample's laughing frames at -0.5 of their travel
+#: or lower); the blendshape brows stay in their neutral band there (99-100 %).
+FACE_PROFILE_BLENDSHAPES = "virtual_bs"
+FACE_PROFILES = (FACE_PROFILE, FACE_PROFILE_BLENDSHAPES)
 
 
 def _one(graph: Graph, stage: str) -> tuple[str, Any]:
@@ -83,10 +90,14 @@ def render_graph(
     ]
     base = translators[0] if translators else TranslatorNode(profile=FACE_PROFILE)
     calibration = build_calibration(base.calibration)
-    face_profile = build_profile(FACE_PROFILE, base.mirror)
+    backend = build_backend(backend_config)
+    face_name = FACE_PROFILE_BLENDSHAPES if backend.gives_blendshapes() else FACE_PROFILE
+    face_profile = build_profile(face_name, base.mirror)
     bars_profile = bars
     if bars_profile is None:
-        bars_profile = next((t.profile for t in translators if t.profile != FACE_PROFILE), None)
+        bars_profile = next(
+            (t.profile for t in translators if t.profile not in FACE_PROFILES), None
+        )
     # F's neutral window as in a bus run of the graph: the (first) translator profile's.
     neutral_s = build_profile(base.profile, False).neutral_seconds
     source = build_source(source_config)
@@ -110,7 +121,7 @@ def render_graph(
             source.close()
             raise
     chain = RenderChain(
-        backend=build_backend(backend_config),
+        backend=backend,
         processor=build_processor(features, neutral_s),
         face=Translator(face_profile, calibration) if robot is None else None,
         bars=(
