@@ -39,7 +39,8 @@ from collections.abc import Callable, Mapping
 import numpy as np
 
 from facesynth.runtime.profiles import Profile, Smoothing, has_source
-from facesynth.runtime.profiles.learned import PolyRidge, command_range, predictor, unpack
+from facesynth.runtime.profiles.learned import PolyRidge, command_range, unpack
+from facesynth.runtime.profiles.learned_predict import predictor
 from services.translator.filters import OneEuroFilter
 from services.translator.self_model import SelfModelPlanner
 

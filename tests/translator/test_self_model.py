@@ -10,7 +10,8 @@ import pytest
 
 from facesynth.app.learn.fit import FitOptions, fit_model
 from facesynth.runtime.profiles import Learned, Profile, load_profile
-from facesynth.runtime.profiles.learned import PolyRidge, Report, pack, predictor, unpack
+from facesynth.runtime.profiles.learned import PolyRidge, Report, pack, unpack
+from facesynth.runtime.profiles.learned_predict import predictor
 from services.translator.learned import LearnedTargets
 from services.translator.self_model import SelfModelPlanner
 

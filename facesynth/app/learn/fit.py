@@ -34,7 +34,7 @@ hardware profile it was babbled with and returns that profile with its
    range) is measured, on the effective error.
 
 scikit-learn is imported here only (the ``learn`` extra); the board side runs the result in
-numpy (:func:`facesynth.runtime.profiles.learned.predictor`, which gives what these
+numpy (:func:`facesynth.runtime.profiles.learned_predict.predictor`, which gives what these
 scikit-learn models' ``predict`` give).
 """
 

@@ -28,7 +28,6 @@ value (the loader reports them as one :class:`~.loading.ProfileError`).
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 
 import msgspec
 import numpy as np
@@ -37,6 +36,9 @@ from facesynth.runtime.feature_names import NAMES
 
 #: The most planning steps a file may ask of T per frame (each costs about 30 µs).
 MAX_PLAN_STEPS = 20
+
+#: The activations an MLP may use (:mod:`.learned_predict` runs them).
+ACTIVATION_NAMES = ("relu", "tanh")
 
 #: The dtypes an array may have in a file.
 DTYPES = ("<f4", "<f8")
@@ -213,8 +215,8 @@ def _shape_problems(model: Model, n_in: int, n_out: int) -> list[str]:
         if model.weights not in ("uniform", "distance"):
             return [f"weights {model.weights!r} is not 'uniform' or 'distance'"]
         return []
-    if model.activation not in ACTIVATIONS:
-        return [f"activation {model.activation!r} is not one of {', '.join(ACTIVATIONS)}"]
+    if model.activation not in ACTIVATION_NAMES:
+        return [f"activation {model.activation!r} is not one of {', '.join(ACTIVATION_NAMES)}"]
     if not model.layers:
         return ["an MLP needs at least one layer"]
     width = n_in
@@ -315,96 +317,6 @@ def command_range(learned: Learned) -> tuple[np.ndarray, np.ndarray]:
     low = -np.ones(n_out) if learned.command_low is None else unpack(learned.command_low)
     high = np.ones(n_out) if learned.command_high is None else unpack(learned.command_high)
     return low, high
-
-
-# --- inference --------------------------------------------------------------------------------
-
-ACTIVATIONS: dict[str, Callable[[np.ndarray], np.ndarray]] = {
-    "relu": lambda x: np.maximum(x, 0.0),
-    "tanh": np.tanh,
-}
-
-Predict = Callable[[np.ndarray], np.ndarray]
-
-
-def _poly_ridge(model: PolyRidge) -> Predict:
-    powers = unpack(model.powers).astype(np.intp)
-    coef_t = np.ascontiguousarray(unpack(model.coef).T)
-    intercept = unpack(model.intercept)
-    # Each term as the inputs it multiplies, left to right as PolynomialFeatures does (index
-    # n_in is a constant 1.0): ((x_i * x_j) * x_k), so the products are bit-identical.
-    n_terms, n_in = powers.shape
-    degree = max(int(powers.sum(axis=1).max(initial=0)), 1)
-    factors = np.full((n_terms, degree), n_in, dtype=np.intp)
-    for term, row in enumerate(powers):
-        chosen = np.repeat(np.arange(n_in), row)
-        factors[term, : len(chosen)] = chosen
-
-    def predict(x: np.ndarray) -> np.ndarray:
-        extended = np.concatenate([x, np.ones((x.shape[0], 1))], axis=1)
-        terms = extended[:, factors]  # (n, T, degree); times the constant 1.0 is exact
-        product = terms[:, :, 0]
-        for column in range(1, degree):
-            product = product * terms[:, :, column]
-        out: np.ndarray = product @ coef_t + intercept
-        return out
-
-    return predict
-
-
-def _knn(model: KNN) -> Predict:
-    train_x, train_y = unpack(model.train_x), unpack(model.train_y)
-    k, by_distance = model.k, model.weights == "distance"
-
-    def predict(x: np.ndarray) -> np.ndarray:
-        d2 = (
-            np.sum(x * x, axis=1)[:, None]
-            - 2.0 * x @ train_x.T
-            + np.sum(train_x * train_x, axis=1)[None, :]
-        )
-        d2 = np.maximum(d2, 0.0)
-        nearest = np.argpartition(d2, k - 1, axis=1)[:, :k] if k < d2.shape[1] else None
-        if nearest is None:
-            nearest = np.broadcast_to(np.arange(d2.shape[1]), d2.shape)
-        neighbours = train_y[nearest]  # (n, k, O)
-        if not by_distance:
-            mean: np.ndarray = neighbours.mean(axis=1)
-            return mean
-        dist = np.sqrt(np.take_along_axis(d2, nearest, axis=1))
-        with np.errstate(divide="ignore"):
-            weights = 1.0 / dist
-        exact = dist == 0.0
-        rows = exact.any(axis=1)
-        weights[rows] = exact[rows].astype(np.float64)
-        out: np.ndarray = (
-            np.einsum("nk,nko->no", weights, neighbours) / weights.sum(axis=1)[:, None]
-        )
-        return out
-
-    return predict
-
-
-def _mlp(model: MLP) -> Predict:
-    layers = [(unpack(layer.weights), unpack(layer.bias)) for layer in model.layers]
-    activation = ACTIVATIONS[model.activation]
-
-    def predict(x: np.ndarray) -> np.ndarray:
-        for index, (weights, bias) in enumerate(layers):
-            x = x @ weights + bias
-            if index < len(layers) - 1:
-                x = activation(x)
-        return x
-
-    return predict
-
-
-def predictor(model: Model) -> Predict:
-    """A numpy function ``(n, inputs) -> (n, outputs)`` for a valid model."""
-    if isinstance(model, PolyRidge):
-        return _poly_ridge(model)
-    if isinstance(model, KNN):
-        return _knn(model)
-    return _mlp(model)
 
 
 def describe_learned(learned: Learned) -> str:

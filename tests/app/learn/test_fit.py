@@ -18,7 +18,8 @@ from facesynth.app.learn.fit import (
     format_report,
 )
 from facesynth.runtime.profiles import load_profile, save_learned_profile
-from facesynth.runtime.profiles.learned import predictor, unpack
+from facesynth.runtime.profiles.learned import unpack
+from facesynth.runtime.profiles.learned_predict import predictor
 from services.translator.core import Translator
 from services.translator.timing import time_translator
 

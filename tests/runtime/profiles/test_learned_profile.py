@@ -21,7 +21,8 @@ from facesynth.runtime.profiles import (
     parse_profile,
     save_learned_profile,
 )
-from facesynth.runtime.profiles.learned import command_range, pack, predictor
+from facesynth.runtime.profiles.learned import command_range, pack
+from facesynth.runtime.profiles.learned_predict import ACTIVATIONS, predictor
 
 
 def _document(**changes: Any) -> dict[str, Any]:
@@ -252,3 +253,9 @@ def test_malformed_files_are_one_profile_error(data: bytes, detail: str, tmp_pat
     assert message.startswith(f"{path}: ")
     assert "\n" not in message
     assert detail in message
+
+
+def test_every_activation_a_file_may_name_runs() -> None:
+    from facesynth.runtime.profiles.learned import ACTIVATION_NAMES
+
+    assert tuple(ACTIVATIONS) == ACTIVATION_NAMES
