@@ -20,9 +20,10 @@ own babbling (``facesynth learn``):
 Arrays travel as :class:`ArrayData` (little-endian float32/float64 bytes with a shape), never
 pickled. Models are a tagged union (``kind``): :class:`PolyRidge` (ridge regression on
 polynomial features), :class:`KNN` (k nearest neighbours), :class:`MLP` (a small perceptron).
-:func:`predictor` turns one into a numpy function that gives what scikit-learn's ``predict``
-gives for the model it was exported from; :func:`learned_problems` checks every size, shape and
-value (the loader reports them as one :class:`~.loading.ProfileError`).
+:func:`.learned_predict.predictor` turns one into a numpy function that gives what
+scikit-learn's ``predict`` gives for the model it was exported from; :func:`learned_problems`
+checks every size, shape and value (the loader reports them as one
+:class:`~.loading.ProfileError`).
 """
 
 from __future__ import annotations
