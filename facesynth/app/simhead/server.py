@@ -30,6 +30,8 @@ import cv2
 import numpy as np
 from aiohttp import web
 
+from facesynth.runtime.web_app import serve_app
+
 from .head import SimHead
 from .maestro import Maestro
 
@@ -215,21 +217,13 @@ class SimHeadServer:
         app.router.add_get("/", self._page)
         app.router.add_get("/camera.mjpg", self._mjpeg)
         app.router.add_get("/camera.jpg", self._snapshot)
-        self._runner = web.AppRunner(
-            app, handle_signals=False, access_log=None, shutdown_timeout=1.0
-        )
-        await self._runner.setup()
-        site = web.TCPSite(self._runner, self.host, self.port)
         try:
-            await site.start()
+            self._runner, self.port = await serve_app(app, self.host, self.port)
         except OSError as exc:
             await self.stop()
             raise SimHeadServerError(
                 f"cannot listen on {self.host}:{self.port} ({exc.strerror})"
             ) from None
-        sockets = getattr(site._server, "sockets", None)
-        if self.port == 0 and sockets:
-            self.port = sockets[0].getsockname()[1]
         self._tasks.append(asyncio.create_task(self._dynamics(), name="simhead-dynamics"))
         self._tasks.append(asyncio.create_task(self._camera(), name="simhead-camera"))
 

@@ -22,6 +22,7 @@ from aiohttp import WSCloseCode, WSMsgType, web
 from facesynth.runtime import codec, keys
 from facesynth.runtime.bus.base import Subscription
 from facesynth.runtime.rig_view import RigView
+from facesynth.runtime.web_app import serve_app
 from schemas.messages import Frame, Points, ServiceStats
 from services.control.drivers.virtual import wire
 from services.control.drivers.virtual.fanout import Fanout, Mailbox
@@ -91,20 +92,7 @@ class PageServer:
         app.router.add_get("/ws", self._websocket)
         app.router.add_get("/state", self._state)
         app.router.add_get("/favicon.ico", self._no_icon)
-        self._runner = web.AppRunner(
-            app, handle_signals=False, access_log=None, shutdown_timeout=1.0
-        )
-        await self._runner.setup()
-        site = web.TCPSite(self._runner, self.host, self.port)
-        try:
-            await site.start()
-        except BaseException:
-            await self._runner.cleanup()
-            self._runner = None
-            raise
-        sockets = getattr(site._server, "sockets", None)
-        if self.port == 0 and sockets:
-            self.port = sockets[0].getsockname()[1]
+        self._runner, self.port = await serve_app(app, self.host, self.port)
         if self.rig is not None:
             self._tasks.append(asyncio.create_task(self._follow_stats(), name="page-stats"))
             self._tasks.append(asyncio.create_task(self._send_stats(), name="page-status"))
