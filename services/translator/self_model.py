@@ -24,6 +24,7 @@ from __future__ import annotations
 import numpy as np
 
 from facesynth.runtime.profiles.learned import PolyRidge, unpack
+from facesynth.runtime.profiles.learned_predict import poly_factors
 
 #: Levenberg-Marquardt damping added to every step (standardized face units²).
 DAMPING = 1e-3
@@ -42,17 +43,13 @@ class SelfModelPlanner:
     ) -> None:
         """``low`` / ``high``: each servo's bounds (normalized; default -1 / +1), e.g. its
         responsive range."""
-        powers = unpack(forward.powers).astype(np.intp)
         self.coef = unpack(forward.coef)  # (inputs, terms)
         self.intercept = unpack(forward.intercept)
-        n_terms, self.n_servos = powers.shape
-        self.degree = max(int(powers.sum(axis=1).max(initial=0)), 1)
+        self.n_servos = unpack(forward.powers).shape[1]
         # Each term as the servos it multiplies (index n_servos: the constant 1).
-        self.factors = np.full((n_terms, self.degree), self.n_servos, dtype=np.intp)
-        for term, row in enumerate(powers):
-            chosen = np.repeat(np.arange(self.n_servos), row)
-            self.factors[term, : len(chosen)] = chosen
-        self.rows = np.arange(n_terms)
+        self.factors = poly_factors(forward)
+        self.degree = self.factors.shape[1]
+        self.rows = np.arange(len(self.factors))
         self.steps, self.prior = steps, prior
         self.eye = np.eye(self.n_servos) * (prior + DAMPING)
         self.low = -np.ones(self.n_servos) if low is None else np.asarray(low, dtype=np.float64)

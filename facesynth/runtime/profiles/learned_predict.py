@@ -21,18 +21,25 @@ ACTIVATIONS: dict[str, Callable[[np.ndarray], np.ndarray]] = {
 Predict = Callable[[np.ndarray], np.ndarray]
 
 
-def _poly_ridge(model: PolyRidge) -> Predict:
+def poly_factors(model: PolyRidge) -> np.ndarray:
+    """Each polynomial term as the inputs it multiplies, (terms, degree): left to right as
+    PolynomialFeatures does, so ((x_i * x_j) * x_k) is bit-identical; index ``inputs`` (one
+    past the last input) stands for a constant 1.0 where a term has fewer factors."""
     powers = unpack(model.powers).astype(np.intp)
-    coef_t = np.ascontiguousarray(unpack(model.coef).T)
-    intercept = unpack(model.intercept)
-    # Each term as the inputs it multiplies, left to right as PolynomialFeatures does (index
-    # n_in is a constant 1.0): ((x_i * x_j) * x_k), so the products are bit-identical.
     n_terms, n_in = powers.shape
     degree = max(int(powers.sum(axis=1).max(initial=0)), 1)
     factors = np.full((n_terms, degree), n_in, dtype=np.intp)
     for term, row in enumerate(powers):
         chosen = np.repeat(np.arange(n_in), row)
         factors[term, : len(chosen)] = chosen
+    return factors
+
+
+def _poly_ridge(model: PolyRidge) -> Predict:
+    coef_t = np.ascontiguousarray(unpack(model.coef).T)
+    intercept = unpack(model.intercept)
+    factors = poly_factors(model)
+    degree = factors.shape[1]
 
     def predict(x: np.ndarray) -> np.ndarray:
         extended = np.concatenate([x, np.ones((x.shape[0], 1))], axis=1)
