@@ -19,8 +19,12 @@ def braking_speed(distance: float, max_accel: float, dt_s: float) -> float:
     step = max_accel * dt_s
     if distance <= 0:
         return 0.0
+    if dt_s * step <= 0:  # an acceleration bound so small its speed change is 0: no speed
+        return 0.0
     # Covered from v = (k + f)·step, 0 <= f < 1: dt·step·((k + 1)·f + k(k + 1)/2).
     budget = distance / (dt_s * step)
+    if not math.isfinite(budget):  # (denormal steps) far below any speed that moves a servo
+        return 0.0
     k = math.floor((math.sqrt(8.0 * budget + 1.0) - 1.0) / 2.0)
     while k * (k + 1) / 2 > budget:
         k -= 1

@@ -197,7 +197,16 @@ def test_acceleration_bound_slows_the_start() -> None:
 
 
 @pytest.mark.parametrize(
-    ("distance", "accel", "dt"), [(0.0, 1000.0, 0.1), (100.0, 1000.0, 0.1), (5.0, 3e4, 1 / 30)]
+    ("distance", "accel", "dt"),
+    [
+        (0.0, 1000.0, 0.1),
+        (100.0, 1000.0, 0.1),
+        (5.0, 3e4, 1 / 30),
+        # A bound that passes validation but whose speed change underflows (found by the fuzz
+        # suite through a learned profile's hardware servos: OverflowError before).
+        (500.0, 5e-324, 1 / 30),
+        (500.0, 1e-310, 0.001),
+    ],
 )
 def test_braking_speed_stops_within_the_distance(distance: float, accel: float, dt: float) -> None:
     speed = braking_speed(distance, accel, dt)
