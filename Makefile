@@ -30,9 +30,18 @@ test: $(BIN)/.installed lint
 test-faults: $(BIN)/.installed
 	$(BIN)/python -m pytest -q -s -m faults tests/faults
 
-## Fuzz: 10,000 hypothesis cases for every decoder, loader and protocol parser.
+## Fuzz: 10,000 hypothesis cases for every decoder, loader and protocol parser, in two shards
+## of about equal time run side by side (one per core); each prints its own tally, then the other's.
+FUZZ_SHARD_A := tests/fuzz/test_fuzz_loaders.py tests/fuzz/test_fuzz_files.py \
+	tests/fuzz/test_fuzz_translator.py tests/fuzz/test_fuzz_text_inputs.py
 test-fuzz: $(BIN)/.installed
-	$(BIN)/python -m pytest -q -s -m fuzz tests/fuzz
+	@mkdir -p build; \
+	$(BIN)/python -m pytest -q -s -p no:cacheprovider -m fuzz $(FUZZ_SHARD_A) >build/fuzz-a.log 2>&1 & a=$$!; \
+	$(BIN)/python -m pytest -q -s -p no:cacheprovider -m fuzz tests/fuzz \
+		$(addprefix --ignore=,$(FUZZ_SHARD_A)) >build/fuzz-b.log 2>&1 & b=$$!; \
+	ra=0; wait $$a || ra=$$?; rb=0; wait $$b || rb=$$?; \
+	cat build/fuzz-a.log build/fuzz-b.log; \
+	echo "fuzz shards: exit $$ra and $$rb"; test $$ra -eq 0 && test $$rb -eq 0
 
 ## The live face page in a real headless Chromium (Debian's chromium and chromium-driver).
 test-browser: $(BIN)/.installed
