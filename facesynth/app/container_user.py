@@ -27,10 +27,11 @@ DEPLOY_MOUNT = Path("/etc/facesynth")
 IMAGE_USER = (10001, 10001)
 
 
-def service_user(deploy: Path = DEPLOY_MOUNT) -> tuple[int, int]:
-    """The uid and gid to run as: the owner of the mounted ``deploy`` folder, else 10001's."""
+def service_user(deploy: Path | None = None) -> tuple[int, int]:
+    """The uid and gid to run as: the owner of the mounted deploy folder (``deploy``, default
+    :data:`DEPLOY_MOUNT`), else 10001's."""
     try:
-        status = deploy.stat()
+        status = (deploy or DEPLOY_MOUNT).stat()
     except FileNotFoundError:
         return IMAGE_USER
     return status.st_uid, status.st_gid
@@ -50,16 +51,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = list(sys.argv[1:] if argv is None else argv)
     if os.geteuid() == 0:
         uid, gid = service_user()
+        whose = (
+            f"the owner of {DEPLOY_MOUNT}" if DEPLOY_MOUNT.exists() else "the image's own user"
+        )
         if uid != 0:
             step_down(uid, gid)
         if args[:1] != ["health"]:  # the health check runs every 15 s: not in every log
-            print(
-                f"facesynth container: running as {uid}:{gid}, the owner of {DEPLOY_MOUNT}"
-                if DEPLOY_MOUNT.exists()
-                else f"facesynth container: running as the image's user {uid}:{gid}",
-                file=sys.stderr,
-                flush=True,
-            )
+            print(f"facesynth container: running as {uid}:{gid}, {whose}", file=sys.stderr)
     from facesynth.app.entry import main as facesynth
 
     return facesynth(args)

@@ -152,10 +152,17 @@ def test_compose_up_on_a_fresh_clone_records_the_chain(engine: Engine, project: 
 def test_secured_compose_runs_the_chain_and_refuses_strangers(
     engine: Engine, project: Path
 ) -> None:
-    # The user makes the certificates in their clone (keys readable by them only), no chown.
-    as_clone_user(
-        sys.executable, "-m", "facesynth", "certs", "default", "--out", "certs", cwd=project
-    )
+    # The user makes the rig's certificates in their clone, keys readable by them only, and
+    # nothing is chowned. (With the image's facesynth: this host's test interpreter lives in
+    # root's home, out of the user's reach.)
+    certs = project / "certs"
+    as_clone_user("mkdir", str(certs))
+    _compose(engine, project, name=project_name())(
+        "run", "--rm", "--no-deps", "-v", f"{certs}:/certs", "sensor",
+        "certs", "default", "--out", "/certs",
+    )  # fmt: skip
+    key = (certs / "control.key").stat()
+    assert (key.st_uid, key.st_mode & 0o777) == (CLONE_USER[0], 0o600)
     recordings = project / "recordings"
     (recordings / "commands.jsonl").unlink(missing_ok=True)
     port, name = free_port(), project_name()
