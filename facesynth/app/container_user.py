@@ -51,9 +51,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = list(sys.argv[1:] if argv is None else argv)
     if os.geteuid() == 0:
         uid, gid = service_user()
-        whose = (
-            f"the owner of {DEPLOY_MOUNT}" if DEPLOY_MOUNT.exists() else "the image's own user"
-        )
+        whose = f"the owner of {DEPLOY_MOUNT}" if DEPLOY_MOUNT.exists() else "the image's own user"
         if uid != 0:
             step_down(uid, gid)
         if args[:1] != ["health"]:  # the health check runs every 15 s: not in every log

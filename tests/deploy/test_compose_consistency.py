@@ -94,7 +94,7 @@ def test_the_images_run_every_command_as_the_clones_owner() -> None:
     text = (ROOT / "Dockerfile").read_text()
     entry = '["python", "-m", "facesynth.app.container_user"'
     assert f"ENTRYPOINT {entry}]" in text
-    assert f"CMD {entry}, \"health\"]" in text
+    assert f'CMD {entry}, "health"]' in text
     assert "\nUSER " not in text, "root at start, only to step down to the clone's owner"
     assert "./recordings:/recordings" in SERVICES["control"]["volumes"]
     assert (ROOT / "recordings" / ".gitignore").is_file()
