@@ -101,7 +101,6 @@ def _default_router_port_is_free() -> None:
 
 
 def test_compose_up_on_a_fresh_clone_records_the_chain(engine: Engine, project: Path) -> None:
-    _default_router_port_is_free()
     name = project.name  # what compose names the project after: the clone's folder
     compose = _compose(engine, project)
     recordings = project / "recordings"
@@ -117,6 +116,7 @@ def test_compose_up_on_a_fresh_clone_records_the_chain(engine: Engine, project: 
     assert board < full * 0.7, "the board image leaves OpenCV and the tracker out"
     logs = lambda: compose("logs", "--tail", "30", check=False).stdout  # noqa: E731
     try:
+        _default_router_port_is_free()
         started = time.monotonic()
         compose("up", "-d")
         lines = _commands(recordings / "commands.jsonl", 90, 300, logs)
