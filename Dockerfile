@@ -30,14 +30,17 @@ RUN --mount=type=secret,id=pip_ca --mount=type=bind,source=deploy/build-ca,targe
 
 FROM ${BASE_IMAGE}
 COPY --from=build /opt/facesynth /opt/facesynth
-# An unprivileged user (numeric, so the base image needs no useradd); it owns only its home and
-# the working directory, where a recorder writes unless given a mounted folder.
-RUN mkdir -p /home/facesynth /data && chown 10001:10001 /home/facesynth /data
+# The image starts as root only to step down at once (facesynth/app/container_user.py): every
+# command runs as the owner of the mounted deploy folder (/etc/facesynth: the clone's owner, so
+# ./recordings fills with that user's files and their certificates can be read), or without that
+# mount as an unprivileged user, 10001 (numeric, so the base image needs no useradd). Home and
+# working directory (where a recorder writes unless given a mounted folder) are open to either.
+RUN mkdir -p /home/facesynth /data && chmod 1777 /home/facesynth /data
 ENV PATH=/opt/facesynth/bin:$PATH HOME=/home/facesynth PYTHONUNBUFFERED=1
-USER 10001:10001
 WORKDIR /data
 # Healthy while this container's service holds its liveliness token on the rig's router
 # (the router's own container checks that it accepts sessions instead).
-HEALTHCHECK --interval=15s --timeout=10s --start-period=60s --retries=3 CMD ["facesynth", "health"]
-ENTRYPOINT ["facesynth"]
+HEALTHCHECK --interval=15s --timeout=10s --start-period=60s --retries=3 \
+    CMD ["python", "-m", "facesynth.app.container_user", "health"]
+ENTRYPOINT ["python", "-m", "facesynth.app.container_user"]
 CMD ["--help"]

@@ -7,12 +7,16 @@ import shutil
 import socket
 import subprocess
 import uuid
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
+#: The user whose clone the tests run compose in: an ordinary first user, neither root nor the
+#: image's own 10001.
+CLONE_USER = (1000, 1000)
 
 
 def require(*tools: str) -> None:
@@ -40,10 +44,21 @@ class Engine:
     env: dict[str, str]
 
     def run(
-        self, *argv: str, cwd: Path | None = None, timeout: float = 600, check: bool = True
+        self,
+        *argv: str,
+        cwd: Path | None = None,
+        timeout: float = 600,
+        check: bool = True,
+        variables: Mapping[str, str] | None = None,
     ) -> subprocess.CompletedProcess[str]:
+        """Run ``argv`` against the engine, with ``variables`` added to the environment."""
         result = subprocess.run(
-            list(argv), cwd=cwd, env=self.env, capture_output=True, text=True, timeout=timeout
+            list(argv),
+            cwd=cwd,
+            env={**self.env, **(variables or {})},
+            capture_output=True,
+            text=True,
+            timeout=timeout,
         )
         if check and result.returncode != 0:
             raise AssertionError(
@@ -51,13 +66,6 @@ class Engine:
                 f"{result.stdout[-3000:]}\n{result.stderr[-3000:]}"
             )
         return result
-
-
-def writable_by_services(path: Path) -> Path:
-    """A folder the containers' user (10001) owns."""
-    path.mkdir(parents=True, exist_ok=True)
-    os.chown(path, 10001, 10001)
-    return path
 
 
 def project_name() -> str:

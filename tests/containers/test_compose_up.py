@@ -1,14 +1,15 @@
 """``docker-compose up`` runs the chain in containers on Podman, plain and secured.
 
-Builds the images through the compose file (from a base image made locally with debootstrap),
-starts the router and the five services, and checks that servo commands for the sample video
-come out in ./recordings; then ``down`` returns the face to neutral. Prints the build time and
-the image sizes.
+In a user's fresh clone (conftest: uid 1000, no variable, nothing chowned), builds the images
+through the compose file, starts the router and the five services, and checks that servo
+commands for the sample video come out in ./recordings, owned by that user; then ``down``
+returns the face to neutral. Prints the build time and the image sizes. A recorder that cannot
+write says so and exits non-zero, restarted by the engine, never recording nothing quietly.
 """
 
 from __future__ import annotations
 
-import os
+import socket
 import subprocess
 import sys
 import time
@@ -16,7 +17,8 @@ import urllib.request
 from pathlib import Path
 
 import zenoh
-from container_engine import Engine, free_port, project_name, writable_by_services
+from conftest import as_clone_user
+from container_engine import CLONE_USER, Engine, free_port, project_name
 
 from facesynth.runtime import codec, keys
 from facesynth.runtime.profiles import load_profile
@@ -26,16 +28,25 @@ from services.control.drivers.record import RecordLine, read_record
 SERVOS = {spec.name: spec for spec in load_profile("paper16").servos}
 
 
-def _compose(engine: Engine, project: Path, name: str, port: int, *files: str):  # type: ignore[no-untyped-def]
-    args = ["docker-compose", "-p", name]
+def _compose(  # type: ignore[no-untyped-def]
+    engine: Engine,
+    project: Path,
+    *files: str,
+    name: str | None = None,
+    variables: dict[str, str] | None = None,
+):
+    """``docker-compose [-p NAME] [-f FILE]... ARGS`` in ``project``; without a name and
+    variables, as a user types it in their clone (the project is named after its folder)."""
+    args = ["docker-compose", *(["-p", name] if name else [])]
     for file in files:
         args += ["-f", file]
-    engine.env["FACESYNTH_ROUTER_PORT"] = str(port)
 
     def run(
         *argv: str, timeout: float = 900, check: bool = True
     ) -> subprocess.CompletedProcess[str]:
-        return engine.run(*args, *argv, cwd=project, timeout=timeout, check=check)
+        return engine.run(
+            *args, *argv, cwd=project, timeout=timeout, check=check, variables=variables
+        )
 
     return run
 
@@ -78,12 +89,23 @@ def _healthy(engine: Engine, container: str, timeout: float = 60) -> None:
         time.sleep(2)
 
 
-def test_compose_up_runs_the_chain(engine: Engine, project: Path) -> None:
-    name = project_name()
-    compose = _compose(engine, project, name, free_port())
-    recordings = writable_by_services(project / "recordings")
+def _default_router_port_is_free() -> None:
+    with socket.socket() as probe:
+        try:
+            probe.bind(("0.0.0.0", 7447))
+        except OSError:
+            raise AssertionError(
+                "a user's first `docker-compose up` publishes the router on port 7447, which "
+                "something on this host holds: stop it and run again"
+            ) from None
+
+
+def test_compose_up_on_a_fresh_clone_records_the_chain(engine: Engine, project: Path) -> None:
+    name = project.name  # what compose names the project after: the clone's folder
+    compose = _compose(engine, project)
+    recordings = project / "recordings"
     started = time.monotonic()
-    compose("build")
+    compose("build")  # what the first `up` does; here also when older images are in the engine
     built = time.monotonic() - started
     full = _image_size(engine, "facesynth:latest")
     board = _image_size(engine, "facesynth-board:latest")
@@ -94,6 +116,7 @@ def test_compose_up_runs_the_chain(engine: Engine, project: Path) -> None:
     assert board < full * 0.7, "the board image leaves OpenCV and the tracker out"
     logs = lambda: compose("logs", "--tail", "30", check=False).stdout  # noqa: E731
     try:
+        _default_router_port_is_free()
         started = time.monotonic()
         compose("up", "-d")
         lines = _commands(recordings / "commands.jsonl", 90, 300, logs)
@@ -118,6 +141,8 @@ def test_compose_up_runs_the_chain(engine: Engine, project: Path) -> None:
         compose("down", "--timeout", "20", check=False)
     ps = engine.run("podman", "ps", "-a", "--filter", f"name={name}_", "--format", "{{.Names}}")
     assert ps.stdout.strip() == "", "down removes every container"
+    owner = (recordings / "commands.jsonl").stat()
+    assert (owner.st_uid, owner.st_gid) == CLONE_USER, "the recording is the clone owner's"
     last = read_record(recordings / "commands.jsonl")[-1]
     assert last.frame is None and all(
         value == SERVOS[servo].neutral_us for servo, value in last.servos.items()
@@ -127,21 +152,27 @@ def test_compose_up_runs_the_chain(engine: Engine, project: Path) -> None:
 def test_secured_compose_runs_the_chain_and_refuses_strangers(
     engine: Engine, project: Path
 ) -> None:
-    certs = writable_by_services(project / "certs")
-    subprocess.run(
-        [sys.executable, "-m", "facesynth", "certs", "default", "--out", str(certs)],
-        check=True,
-        capture_output=True,
-        timeout=60,
-    )
-    for path in certs.iterdir():
-        os.chown(path, 10001, 10001)
-    recordings = writable_by_services(project / "recordings")
+    # The user makes the rig's certificates in their clone, keys readable by them only, and
+    # nothing is chowned. (With the image's facesynth: this host's test interpreter lives in
+    # root's home, out of the user's reach.)
+    certs = project / "certs"
+    as_clone_user("mkdir", str(certs))
+    _compose(engine, project, name=project_name())(
+        "run", "--rm", "--no-deps", "-v", f"{certs}:/certs", "sensor",
+        "certs", "default", "--out", "/certs",
+    )  # fmt: skip
+    key = (certs / "control.key").stat()
+    assert (key.st_uid, key.st_mode & 0o777) == (CLONE_USER[0], 0o600)
+    recordings = project / "recordings"
     (recordings / "commands.jsonl").unlink(missing_ok=True)
-    port = free_port()
-    name = project_name()
+    port, name = free_port(), project_name()
     compose = _compose(
-        engine, project, name, port, "docker-compose.yml", "docker-compose.secure.yml"
+        engine,
+        project,
+        "docker-compose.yml",
+        "docker-compose.secure.yml",
+        name=name,
+        variables={"FACESYNTH_ROUTER_PORT": str(port)},
     )
     logs = lambda: compose("logs", "--tail", "30", check=False).stdout  # noqa: E731
     try:
@@ -165,10 +196,16 @@ def test_secured_compose_runs_the_chain_and_refuses_strangers(
 
 def test_the_controller_swaps_to_the_virtual_face(engine: Engine, project: Path) -> None:
     page_port, router_port = free_port(), free_port()
-    engine.env["FACESYNTH_PORT_8080"] = str(page_port)
-    name = project_name()
     compose = _compose(
-        engine, project, name, router_port, "docker-compose.yml", "docker-compose.virtual.yml"
+        engine,
+        project,
+        "docker-compose.yml",
+        "docker-compose.virtual.yml",
+        name=project_name(),
+        variables={
+            "FACESYNTH_ROUTER_PORT": str(router_port),
+            "FACESYNTH_PORT_8080": str(page_port),
+        },
     )
     logs = lambda: compose("logs", "--tail", "30", check=False).stdout  # noqa: E731
     applied: list[ServoCommands] = []
@@ -249,3 +286,37 @@ def test_compose_files_validate_offline(engine: Engine, project: Path, tmp_path:
         cwd=project,
     ).stdout
     assert "/etc/facesynth/controllers/replay.toml" in merged
+
+
+def test_a_recorder_that_cannot_write_fails_loudly(
+    engine: Engine, clone_without_recordings: Path
+) -> None:
+    """A clone without ./recordings (from before the folder was in the project): the engine
+    makes it at ``up``, owned by root, where the control service (the clone's owner) cannot
+    write. It says so in one line, exits 2 and is restarted (``restart: on-failure``), each time
+    with the line in its logs: never a chain that runs and records nothing."""
+    project = clone_without_recordings
+    name = project_name()
+    compose = _compose(engine, project, name=name)
+    container = f"{name}_control_1"
+    error = (
+        "facesynth control: error: cannot write record file /recordings/commands.jsonl: "
+        "/recordings is not writable (Permission denied)"
+    )
+    try:
+        compose("up", "-d", "--no-deps", "control")  # fails before it looks for its router
+        deadline = time.monotonic() + 120
+        while True:
+            state = engine.run(
+                "podman", "inspect", "--format", "{{.RestartCount}} {{.State.ExitCode}}", container
+            ).stdout.split()
+            logs = engine.run("podman", "logs", container, check=False)
+            if int(state[0]) >= 1 and (logs.stdout + logs.stderr).count(error) >= 2:
+                break
+            assert time.monotonic() < deadline, f"{state}\n{logs.stdout}{logs.stderr}"
+            time.sleep(1)
+        assert int(state[1]) in (0, 2), state  # 0 while a restart runs, else the refusal's 2
+    finally:
+        compose("down", "--timeout", "20", check=False)
+    made = (project / "recordings").stat()
+    assert made.st_uid == 0 and not any((project / "recordings").iterdir())

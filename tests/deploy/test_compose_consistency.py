@@ -87,6 +87,19 @@ def test_dockerfile_takes_base_image_as_build_argument() -> None:
     assert build_args == {"${FACESYNTH_BASE_IMAGE:-python:3.11-slim}"}
 
 
+def test_the_images_run_every_command_as_the_clones_owner() -> None:
+    """The entry point and the health check go through facesynth.app.container_user, and what
+    the control service records goes to ./recordings, a folder of the clone (not one the
+    engine would make, owned by root)."""
+    text = (ROOT / "Dockerfile").read_text()
+    entry = '["python", "-m", "facesynth.app.container_user"'
+    assert f"ENTRYPOINT {entry}]" in text
+    assert f'CMD {entry}, "health"]' in text
+    assert "\nUSER " not in text, "root at start, only to step down to the clone's owner"
+    assert "./recordings:/recordings" in SERVICES["control"]["volumes"]
+    assert (ROOT / "recordings" / ".gitignore").is_file()
+
+
 def test_secure_override_is_generated_from_the_graph() -> None:
     generated = secure_file(GRAPH, "deploy/graph.toml")
     assert (ROOT / "docker-compose.secure.yml").read_text() == generated, (
@@ -125,7 +138,7 @@ def test_tracker_stages_use_the_full_image_and_the_rest_the_board_image() -> Non
     extras = {s["image"]: s["build"]["args"]["EXTRAS"] for s in SERVICES.values()}
     assert extras == {"facesynth:latest": "chain", "facesynth-board:latest": "fast,face"}
     for service in SERVICES.values():
-        assert service["user"] == "${FACESYNTH_UID:-10001}:${FACESYNTH_GID:-10001}"
+        assert "user" not in service, "the image runs each command as the clone's owner"
     health = SERVICES["router"]["healthcheck"]["test"]
     assert health[:2] == ["CMD", "facesynth"] and build_parser().parse_args(health[2:]).router
 
