@@ -11,6 +11,13 @@ brow points' nose distances and eye-frame positions) is taken again from the fir
 ``seconds`` of media time in which every brow blendshape stays at rest, frame after frame; until
 then the brow features hold at 0 (neutral). The rest of the neutral, and a calibration's or a
 restored neutral, are never changed.
+
+The brow blendshapes only count while the eyes are open (``eyeBlink*`` at most
+:data:`OPEN_EYES_SCORE`): with the eyes squeezed shut they miss a knitted brow. The bundled video
+cries with the eyes shut from frame 25 to about 140, brows visibly drawn down and together, while
+``browDown*`` reads at most 0.16 there; a brows' neutral taken from those frames made the
+laugh's relaxed brows read as a frown on paper16 (median -1.00 of the left and middle eyebrows'
+travel). A frame with the eyes closed (a blink) neither counts toward the search nor restarts it.
 """
 
 from __future__ import annotations
@@ -34,6 +41,10 @@ BROW_SHAPES: Final = (
 #: A brow blendshape at most this strong counts as at rest (laughing brows: at most 0.2 on the
 #: bundled video; its sad opening second: browInnerUp 0.29-0.43, browOuterUp up to 0.55).
 REST_SCORE: Final = 0.2
+#: The eyes count as open (and the brow blendshapes as telling) while both ``eyeBlink*`` scores
+#: are at most this (the bundled video: 0.02-0.47 with the eyes open in the laugh, 0.57-0.91 for
+#: the right and left eye while crying with the eyes shut).
+OPEN_EYES_SCORE: Final = 0.5
 #: The iBUG 68 brow points (17-21 right, 22-26 left).
 BROW_POINTS: Final = slice(17, 27)
 #: The named features read from the brows: re-based with them, held at 0 while pending.
@@ -46,21 +57,28 @@ BROW_NAMED: Final = frozenset(
     | set(BROW_SHAPES)
 )
 _INDEX: Final = [blendshapes.INDEX[name] for name in BROW_SHAPES]
+_EYES: Final = [blendshapes.INDEX[name] for name in ("eyeBlinkLeft", "eyeBlinkRight")]
+
+
+def eyes_open(scores: np.ndarray) -> bool:
+    """Whether both eyes of one frame's 52 scores are open (its brow blendshapes telling)."""
+    return float(np.max(scores[_EYES])) <= OPEN_EYES_SCORE
 
 
 def brows_at_rest(scores: np.ndarray) -> bool:
-    """Whether every brow blendshape of one frame's 52 scores is at rest."""
+    """Whether every brow blendshape of one frame's 52 scores is at rest (eyes not looked at)."""
     return float(np.max(scores[_INDEX])) <= REST_SCORE
 
 
 def window_at_rest(samples: Sequence[Sample]) -> bool | None:
-    """Whether the brows were at rest over a neutral's frames (per-shape medians); None when
-    the frames carry no blendshapes (nothing to tell)."""
+    """Whether the brows were at rest over a neutral's frames (per-shape medians), with the eyes
+    open (median ``eyeBlink*``: else the brow blendshapes cannot tell); None when the frames
+    carry no blendshapes (nothing to tell)."""
     scores = [s.blendshapes for s in samples if s.blendshapes is not None]
     if not scores:
         return None
-    medians = np.median(np.stack(scores)[:, _INDEX], axis=0)
-    return float(np.max(medians)) <= REST_SCORE
+    medians = np.median(np.stack(scores), axis=0)
+    return brows_at_rest(medians) and eyes_open(medians)
 
 
 class BrowRest:
@@ -73,8 +91,12 @@ class BrowRest:
     def add(self, t_media_ns: int, sample: Sample) -> list[Sample] | None:
         """Add a face frame; the frames of the brows' neutral once they span ``seconds``.
 
-        A frame whose brows move (or without blendshapes) starts the search again.
+        A frame whose brows move (or without blendshapes) starts the search again; a frame with
+        the eyes closed (a blink, or eyes squeezed shut) is left out: it neither counts nor
+        starts the search again.
         """
+        if sample.blendshapes is not None and not eyes_open(sample.blendshapes):
+            return None
         if sample.blendshapes is None or not brows_at_rest(sample.blendshapes):
             self.window = NeutralWindow(self.seconds)
             return None
