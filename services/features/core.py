@@ -240,7 +240,8 @@ class FeatureProcessor:
         self._brows_may_move = (
             calibration is None and neutral is None and not auto_range and not neutral_held
         )
-        #: The search for the brows' neutral while the measured one's brows were not at rest.
+        #: The search for the brows' neutral while the measured one's brows were not at rest, or
+        #: only with the eyes shut.
         self.brows: BrowRest | None = None
 
     @classmethod
@@ -254,8 +255,9 @@ class FeatureProcessor:
         neutral = neutral_face(
             self.window.samples, self.reference, use_mesh=self.use_mesh is not False
         )
-        if self._brows_may_move and window_at_rest(self.window.samples) is False:
-            self.brows = BrowRest(self.window.window_ns / 1e9)
+        rest = window_at_rest(self.window.samples)
+        if self._brows_may_move and rest in ("moved", "shut"):
+            self.brows = BrowRest(self.window.window_ns / 1e9, provisional=rest == "shut")
         self.window.samples = []
         self.frame_neutral = neutral.frame
         self.reference = neutral.reference
@@ -293,9 +295,11 @@ class FeatureProcessor:
         if self.frame_neutral is None and self.window.add(t, sample):
             self._complete_neutral()
         elif self.brows is not None:
-            rest = self.brows.add(t, sample)
-            if rest is not None:
-                self._rebase_brows(rest)
+            found = self.brows.add(t, sample)
+            if found is not None:
+                self._rebase_brows(found.samples)
+                if found.final:
+                    self.brows = None
         distance_neutral = self.estimator.neutral if ready else None
         frame_neutral = self.frame_neutral
         named: dict[str, float] = {}
@@ -315,13 +319,13 @@ class FeatureProcessor:
             for key in GAZE:
                 rel.pop(key, None)
             rel.update(held)
-            if self.brows is not None:  # the brows' rest is not known yet: hold them
+            if self.brows is not None and not self.brows.known:  # no rest yet: hold them
                 rel.update((name, 0.0) for name in BROW_NAMED if name in rel)
             ranges = self.ranges if self.auto is None else self.auto.range.update(t, rel)
             named = scale(rel, ranges)
         delta = distances - distance_neutral if distance_neutral is not None else None
         moved = (frame - frame_neutral) * _Y_UP if frame_neutral is not None else None
-        if self.brows is not None:  # and their points' deltas and displacements
+        if self.brows is not None and not self.brows.known:  # and their points' deltas
             for array in (delta, moved):
                 if array is not None:
                     array[BROW_POINTS] = 0.0
@@ -342,7 +346,6 @@ class FeatureProcessor:
 
     def _rebase_brows(self, samples: list[Sample]) -> None:
         """Take the brows' part of the neutral from ``samples`` (brows at rest)."""
-        self.brows = None
         rest = neutral_face(samples, self.reference, use_mesh=self.use_mesh is not False)
         if self.named_neutral is not None:
             self.named_neutral.update(

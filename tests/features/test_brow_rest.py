@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from facesynth.runtime import blendshapes
-from services.features.brow_rest import BrowRest, brows_at_rest, eyes_open, window_at_rest
+from services.features.brow_rest import BrowRest, Found, brows_at_rest, eyes_open, window_at_rest
 from services.features.neutral import Sample
 
 SECOND = 1_000_000_000
@@ -35,32 +35,49 @@ def test_a_frame_is_at_rest_by_its_brows_and_open_by_its_eyes() -> None:
     assert not eyes_open(_scores(eyeBlinkRight=0.6))
 
 
-def test_a_window_with_the_eyes_shut_tells_no_rest() -> None:
+def test_a_window_with_the_eyes_shut_tells_a_provisional_rest() -> None:
     """Crying with the eyes squeezed shut: brow blendshapes at rest, brows not trusted."""
-    assert window_at_rest([_sample(SHUT)] * 10) is False
-    assert window_at_rest([_sample(REST)] * 10) is True
-    assert window_at_rest([_sample(RAISED)] * 10) is False
+    assert window_at_rest([_sample(SHUT)] * 10) == "shut"
+    assert window_at_rest([_sample(REST)] * 10) == "rest"
+    assert window_at_rest([_sample(RAISED)] * 10) == "moved"
     assert window_at_rest([_sample(None)] * 10) is None
 
 
-def test_closed_eyes_neither_count_nor_restart_the_search() -> None:
+def _feed(search: BrowRest, frames: list[np.ndarray | None], t: int = 0) -> list[tuple[int, Found]]:
+    found = []
+    for i, scores in enumerate(frames):
+        result = search.add(t + i * STEP, _sample(scores))
+        if result is not None:
+            found.append((i, result))
+    return found
+
+
+def test_resting_brows_with_the_eyes_shut_are_a_provisional_rest_then_open_ones_final() -> None:
     search = BrowRest(1.0)
-    t = 0
-    for _ in range(5):
-        assert search.add(t, _sample(REST)) is None
-        t += STEP
-    for _ in range(30):  # three seconds of closed eyes: left out
-        assert search.add(t, _sample(SHUT)) is None
-        t += STEP
-    assert search.add(t, _sample(REST)) is not None  # the second since the first rest is over
-    assert all(s.blendshapes is REST for s in search.window.samples)
+    found = _feed(search, [SHUT] * 15 + [REST] * 15)
+    assert [(i, f.final) for i, f in found] == [(10, False), (25, True)]
+    assert all(s.blendshapes is SHUT for s in found[0][1].samples)
+    assert all(s.blendshapes is REST for s in found[1][1].samples)
+    assert search.known
+
+
+def test_a_known_provisional_rest_is_not_searched_again() -> None:
+    search = BrowRest(1.0, provisional=True)
+    assert search.known
+    assert _feed(search, [SHUT] * 30) == []
+    assert [(i, f.final) for i, f in _feed(search, [REST] * 11, 30 * STEP)] == [(10, True)]
+
+
+def test_closed_eyes_neither_count_nor_restart_the_final_search() -> None:
+    search = BrowRest(1.0, provisional=True)
+    found = _feed(search, [REST] * 5 + [SHUT] * 30 + [REST])
+    assert [(i, f.final) for i, f in found] == [(35, True)]  # a second since the first rest
+    assert all(s.blendshapes is REST for s in found[0][1].samples)
 
 
 def test_moving_brows_restart_the_search() -> None:
     search = BrowRest(1.0)
-    t = 0
-    for scores in [REST] * 5 + [RAISED] + [REST] * 10:
-        assert search.add(t, _sample(scores)) is None
-        t += STEP
-    found = search.add(t, _sample(REST))
-    assert found is not None and len(found) == 10  # the rest frames after the raise
+    found = _feed(search, [REST] * 5 + [RAISED] + [REST] * 11)
+    assert [(i, f.final) for i, f in found] == [(16, True)]
+    assert len(found[0][1].samples) == 10  # the rest frames after the raise
+    assert _feed(BrowRest(1.0), [SHUT] * 5 + [None] + [SHUT] * 9) == []  # no scores: moved
