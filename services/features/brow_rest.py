@@ -11,12 +11,24 @@ brow points' nose distances and eye-frame positions) is taken again from the fir
 ``seconds`` of media time in which every brow blendshape stays at rest, frame after frame; until
 then the brow features hold at 0 (neutral). The rest of the neutral, and a calibration's or a
 restored neutral, are never changed.
+
+The brow blendshapes only tell the brows' rest for certain while the eyes are open
+(``eyeBlink*`` at most :data:`OPEN_EYES_SCORE`): with the eyes squeezed shut they miss a knitted
+brow. The bundled video cries with the eyes shut from frame 25 to about 140, brows visibly drawn
+down and together, while ``browDown*`` reads at most 0.16 there; a brows' neutral taken from
+those frames made the laugh's relaxed brows read as a frown on paper16 (median -1.00 of the left
+and middle eyebrows' travel). So a second of resting brows with the eyes shut (or a neutral
+second like it) is a provisional rest: the brows follow it (they are no longer held) while the
+search goes on for a second of resting brows with the eyes open, which replaces it and ends the
+search (on the bundled video: provisional from frames 25-48, final from 215-238). Frames with
+the eyes closed neither count toward that final second nor start it again.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Final
+from dataclasses import dataclass
+from typing import Final, Literal
 
 import numpy as np
 
@@ -34,6 +46,10 @@ BROW_SHAPES: Final = (
 #: A brow blendshape at most this strong counts as at rest (laughing brows: at most 0.2 on the
 #: bundled video; its sad opening second: browInnerUp 0.29-0.43, browOuterUp up to 0.55).
 REST_SCORE: Final = 0.2
+#: The eyes count as open (and the brow blendshapes as telling) while both ``eyeBlink*`` scores
+#: are at most this (the bundled video: 0.02-0.47 with the eyes open in the laugh, 0.57-0.91 for
+#: the right and left eye while crying with the eyes shut).
+OPEN_EYES_SCORE: Final = 0.5
 #: The iBUG 68 brow points (17-21 right, 22-26 left).
 BROW_POINTS: Final = slice(17, 27)
 #: The named features read from the brows: re-based with them, held at 0 while pending.
@@ -46,38 +62,77 @@ BROW_NAMED: Final = frozenset(
     | set(BROW_SHAPES)
 )
 _INDEX: Final = [blendshapes.INDEX[name] for name in BROW_SHAPES]
+_EYES: Final = [blendshapes.INDEX[name] for name in ("eyeBlinkLeft", "eyeBlinkRight")]
+
+
+def eyes_open(scores: np.ndarray) -> bool:
+    """Whether both eyes of one frame's 52 scores are open (its brow blendshapes telling)."""
+    return float(np.max(scores[_EYES])) <= OPEN_EYES_SCORE
 
 
 def brows_at_rest(scores: np.ndarray) -> bool:
-    """Whether every brow blendshape of one frame's 52 scores is at rest."""
+    """Whether every brow blendshape of one frame's 52 scores is at rest (eyes not looked at)."""
     return float(np.max(scores[_INDEX])) <= REST_SCORE
 
 
-def window_at_rest(samples: Sequence[Sample]) -> bool | None:
-    """Whether the brows were at rest over a neutral's frames (per-shape medians); None when
-    the frames carry no blendshapes (nothing to tell)."""
+#: What a neutral's frames say of the brows: at rest with the eyes open, at rest by the
+#: blendshapes but with the eyes shut (a provisional rest), moved; None: no blendshapes.
+WindowRest = Literal["rest", "shut", "moved"]
+
+
+def window_at_rest(samples: Sequence[Sample]) -> WindowRest | None:
+    """Whether the brows were at rest over a neutral's frames (per-shape medians), and the eyes
+    open (median ``eyeBlink*``); None when the frames carry no blendshapes (nothing to tell)."""
     scores = [s.blendshapes for s in samples if s.blendshapes is not None]
     if not scores:
         return None
-    medians = np.median(np.stack(scores)[:, _INDEX], axis=0)
-    return float(np.max(medians)) <= REST_SCORE
+    medians = np.median(np.stack(scores), axis=0)
+    if not brows_at_rest(medians):
+        return "moved"
+    return "rest" if eyes_open(medians) else "shut"
+
+
+@dataclass(frozen=True)
+class Found:
+    """A second of resting brows: its frames, and whether it is final (eyes open)."""
+
+    samples: list[Sample]
+    final: bool
 
 
 class BrowRest:
-    """Looks for the first ``seconds`` of media time in which the brows stay at rest."""
+    """Looks for the first ``seconds`` of media time in which the brows stay at rest with the
+    eyes open; meanwhile, for a provisional rest (resting brows, eyes shut)."""
 
-    def __init__(self, seconds: float) -> None:
+    def __init__(self, seconds: float, *, provisional: bool = False) -> None:
+        """``provisional``: a provisional rest is known already (the neutral's own second)."""
         self.seconds = seconds
+        #: Whether the brows have a rest to follow (provisional or final).
+        self.known = provisional
+        #: Whether the final rest was found (the search is over).
+        self.done = False
         self.window: NeutralWindow[Sample] = NeutralWindow(seconds)
+        self._any_eyes: NeutralWindow[Sample] = NeutralWindow(seconds)
 
-    def add(self, t_media_ns: int, sample: Sample) -> list[Sample] | None:
-        """Add a face frame; the frames of the brows' neutral once they span ``seconds``.
+    def add(self, t_media_ns: int, sample: Sample) -> Found | None:
+        """Add a face frame; the frames of a rest once they span ``seconds``: the first
+        provisional one (if none is known), then the final one (and nothing after it).
 
-        A frame whose brows move (or without blendshapes) starts the search again.
+        A frame whose brows move (or without blendshapes) starts both searches again; a frame
+        with the eyes closed (a blink, or eyes squeezed shut) counts only toward a provisional
+        rest and neither counts toward the final one nor starts it again.
         """
-        if sample.blendshapes is None or not brows_at_rest(sample.blendshapes):
-            self.window = NeutralWindow(self.seconds)
+        scores = sample.blendshapes
+        if self.done:
             return None
-        if self.window.add(t_media_ns, sample):
-            return self.window.samples
+        if scores is None or not brows_at_rest(scores):
+            self.window = NeutralWindow(self.seconds)
+            self._any_eyes = NeutralWindow(self.seconds)
+            return None
+        if eyes_open(scores) and self.window.add(t_media_ns, sample):
+            self.known = self.done = True
+            return Found(self.window.samples, final=True)
+        if not self.known and self._any_eyes.add(t_media_ns, sample):
+            self.known = True
+            return Found(self._any_eyes.samples, final=False)
         return None

@@ -27,9 +27,9 @@ from services.features.core import (
     blendshape_scores,
     ibug_points,
     mesh_points,
-    normalise,
     nose_distances,
     optional_points,
+    paper_frame,
 )
 from services.features.expressions import relative
 from services.features.pose import MeshReference
@@ -182,7 +182,7 @@ class CalibrationRecorder:
                 "(live: hold still facing the camera; video: widen the neutral segment)"
             )
         neutral_frames = neutral_step.frames
-        neutral = np.median([_distances(f.ibug) for f in neutral_frames], axis=0)
+        neutral = np.median([_distances(f.ibug, f.mesh) for f in neutral_frames], axis=0)
         meshes = [f.mesh for f in neutral_frames if f.mesh is not None]
         neutral_mesh = np.median(np.stack(meshes), axis=0) if len(meshes) >= 3 else None
         reference = MeshReference(neutral_mesh) if neutral_mesh is not None else None
@@ -194,7 +194,7 @@ class CalibrationRecorder:
         for recording in self.steps.values():
             if not recording.frames:
                 continue
-            deltas = np.stack([_distances(f.ibug) - neutral for f in recording.frames])
+            deltas = np.stack([_distances(f.ibug, f.mesh) - neutral for f in recording.frames])
             lows = np.minimum(lows, np.percentile(deltas, self.low_pct, axis=0))
             highs = np.maximum(highs, np.percentile(deltas, self.high_pct, axis=0))
             rows = [relative(self._named(f, reference), named_neutral) for f in recording.frames]
@@ -224,8 +224,8 @@ class CalibrationRecorder:
         return named
 
 
-def _distances(ibug: np.ndarray) -> np.ndarray:
-    return nose_distances(normalise(ibug))
+def _distances(ibug: np.ndarray, mesh: np.ndarray | None) -> np.ndarray:
+    return nose_distances(paper_frame(ibug, mesh))
 
 
 def _median_named(rows: list[dict[str, float]]) -> dict[str, float]:

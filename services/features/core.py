@@ -3,8 +3,11 @@
 The two outer eye corners (36, 45) define a face frame: origin at their midpoint, x axis along
 the eye line, unit length = their distance (inter-ocular distance, IOD). In that frame the
 distance of every point to the nose tip (30) no longer depends on the head's in-plane position,
-rotation or scale. Features are also given relative to the performer's neutral face: from a
-calibration, or the median over the first second (media time) in which a face is seen.
+rotation or scale. When the points come with a 3D mesh (the tracker), they are first turned out
+of the head's yaw (:func:`paper_frame`), so a head turned to one side does not read as brows
+lowered on the far side and raised on the near one. Features are also given relative to the
+performer's neutral face: from a calibration, or the median over the first second (media time)
+in which a face is seen.
 
 Beyond the paper, once the neutral is known every face frame also carries:
 
@@ -26,10 +29,13 @@ calibration has a named neutral but no neutral mesh). With
 
 from __future__ import annotations
 
+import contextlib
+
 import numpy as np
 
 from facesynth.runtime import blendshapes
 from facesynth.runtime.calibration import Calibration
+from facesynth.runtime.ibug_mesh import ibug68_depth
 from facesynth.runtime.landmarks import IBUG68, IRIS10, MESH468, MESH478, N_IBUG, NOSE_TIP
 from schemas.messages import Features, Points
 from services.features.brow_rest import BROW_NAMED, BROW_POINTS, BrowRest, window_at_rest
@@ -44,7 +50,7 @@ from services.features.expressions import (
 from services.features.frame import MIN_IOD_PX, FeatureError, normalise
 from services.features.gaze import SIDES, GazeHold
 from services.features.neutral import AutoNeutral, NeutralFace, NeutralWindow, Sample, neutral_face
-from services.features.pose import N_MESH, MeshReference
+from services.features.pose import N_MESH, MeshReference, PoseError, unturned
 
 __all__ = [
     "MIN_IOD_PX",
@@ -60,6 +66,7 @@ __all__ = [
     "normalise",
     "nose_distances",
     "optional_points",
+    "paper_frame",
 ]
 
 N_IRIS = 10
@@ -134,6 +141,17 @@ def blendshape_features(scores: np.ndarray | None) -> dict[str, float]:
     if scores is None:
         return {}
     return dict(zip(blendshapes.SHAPES, scores[1:].tolist(), strict=True))
+
+
+def paper_frame(ibug: np.ndarray, mesh: np.ndarray | None = None) -> np.ndarray:
+    """The 68 points in the eye-corner face frame (:func:`normalise`), first turned out of the
+    head's yaw with the mesh's depth when there is a mesh (``pose.unturned``; the points' depth
+    is the mesh's through the iBUG table, ``facesynth.runtime.ibug_mesh``). A mesh with no face
+    frame leaves the points as they are."""
+    if mesh is not None:
+        with contextlib.suppress(PoseError):
+            ibug = unturned(np.column_stack([ibug, ibug68_depth(mesh)]), mesh)
+    return normalise(ibug)
 
 
 def nose_distances(normalised: np.ndarray) -> np.ndarray:
@@ -222,7 +240,8 @@ class FeatureProcessor:
         self._brows_may_move = (
             calibration is None and neutral is None and not auto_range and not neutral_held
         )
-        #: The search for the brows' neutral while the measured one's brows were not at rest.
+        #: The search for the brows' neutral while the measured one's brows were not at rest, or
+        #: only with the eyes shut.
         self.brows: BrowRest | None = None
 
     @classmethod
@@ -236,8 +255,9 @@ class FeatureProcessor:
         neutral = neutral_face(
             self.window.samples, self.reference, use_mesh=self.use_mesh is not False
         )
-        if self._brows_may_move and window_at_rest(self.window.samples) is False:
-            self.brows = BrowRest(self.window.window_ns / 1e9)
+        rest = window_at_rest(self.window.samples)
+        if self._brows_may_move and rest in ("moved", "shut"):
+            self.brows = BrowRest(self.window.window_ns / 1e9, provisional=rest == "shut")
         self.window.samples = []
         self.frame_neutral = neutral.frame
         self.reference = neutral.reference
@@ -264,8 +284,8 @@ class FeatureProcessor:
                 neutral_ready=self.estimator.ready,
             )
         ibug = ibug_points(points)
-        frame = normalise(ibug)
         mesh = mesh_points(points)
+        frame = paper_frame(ibug, mesh)
         iris = optional_points(points, IRIS10, N_IRIS, 2)
         scores = blendshape_scores(points)
         distances = nose_distances(frame)
@@ -275,9 +295,11 @@ class FeatureProcessor:
         if self.frame_neutral is None and self.window.add(t, sample):
             self._complete_neutral()
         elif self.brows is not None:
-            rest = self.brows.add(t, sample)
-            if rest is not None:
-                self._rebase_brows(rest)
+            found = self.brows.add(t, sample)
+            if found is not None:
+                self._rebase_brows(found.samples)
+                if found.final:
+                    self.brows = None
         distance_neutral = self.estimator.neutral if ready else None
         frame_neutral = self.frame_neutral
         named: dict[str, float] = {}
@@ -297,13 +319,13 @@ class FeatureProcessor:
             for key in GAZE:
                 rel.pop(key, None)
             rel.update(held)
-            if self.brows is not None:  # the brows' rest is not known yet: hold them
+            if self.brows is not None and not self.brows.known:  # no rest yet: hold them
                 rel.update((name, 0.0) for name in BROW_NAMED if name in rel)
             ranges = self.ranges if self.auto is None else self.auto.range.update(t, rel)
             named = scale(rel, ranges)
         delta = distances - distance_neutral if distance_neutral is not None else None
         moved = (frame - frame_neutral) * _Y_UP if frame_neutral is not None else None
-        if self.brows is not None:  # and their points' deltas and displacements
+        if self.brows is not None and not self.brows.known:  # and their points' deltas
             for array in (delta, moved):
                 if array is not None:
                     array[BROW_POINTS] = 0.0
@@ -324,7 +346,6 @@ class FeatureProcessor:
 
     def _rebase_brows(self, samples: list[Sample]) -> None:
         """Take the brows' part of the neutral from ``samples`` (brows at rest)."""
-        self.brows = None
         rest = neutral_face(samples, self.reference, use_mesh=self.use_mesh is not False)
         if self.named_neutral is not None:
             self.named_neutral.update(

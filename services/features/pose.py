@@ -197,6 +197,34 @@ class MeshReference:
         return apply(transform, mesh), self.head_rotation(transform)
 
 
+def unturned(points: np.ndarray, mesh: np.ndarray) -> np.ndarray:
+    """Image points with their depth, (n, 3), turned out of the head's yaw; their x, y (n, 2).
+
+    The points are turned about the image's vertical axis through the eye corners' midpoint
+    until the face (the z axis of ``mesh``'s :func:`face_axes`) looks neither left nor right: a
+    face turned to one side looks as if it faced the camera, with its pitch and roll as they
+    were (the contract's yaw is the first of yaw, pitch, roll: undoing it leaves the other two).
+    The paper's 2D features then read these points as they read the image's.
+
+    Only the yaw is undone. Undoing the pitch too (the whole face frame) over-corrects with the
+    tracker's depth: on the bundled video's laugh the frontalised nose tip drops 0.011 IOD per
+    degree of chin-up, so the brow-to-nose distances grew 0.005-0.007 IOD per degree (2D: they
+    shrink about as much). Undoing the yaw alone takes the yaw's own effect on the brows'
+    distances (2D: up to 0.008 IOD per degree, shorter on the side turned away) to 0.002 or
+    less there.
+    """
+    origin, axes, _ = face_axes(mesh)
+    facing = axes[2]  # toward the camera: negative depth
+    if abs(float(facing[2])) < MIN_SCALE or facing[2] > 0:
+        raise PoseError("the face does not face the camera: no yaw to undo")
+    # Turning by ``angle`` about the image's y axis takes the facing's x to x cos + z sin.
+    angle = math.atan(-float(facing[0]) / float(facing[2]))
+    cos, sin = math.cos(angle), math.sin(angle)
+    rotation = np.array([[cos, 0.0, sin], [0.0, 1.0, 0.0], [-sin, 0.0, cos]])
+    turned: np.ndarray = ((points - origin) @ rotation.T)[:, :2] + origin[:2]
+    return turned
+
+
 def roll_2d(right_eye_outer: np.ndarray, left_eye_outer: np.ndarray) -> float:
     """Head roll in degrees from the image eye line (image y down; positive = toward the left
     shoulder, which lowers the performer's left eye, on the image's right)."""
