@@ -80,6 +80,7 @@ class VirtualDriver(ServoDriver):
     """Draw the virtual face live on a web page (servo bars for any profile)."""
 
     moves_hardware = False
+    expected_profile = "virtual"
 
     def __init__(self, config: VirtualConfig, profile: Profile | None = None) -> None:
         require("aiohttp", plugin="virtual driver", package="aiohttp", extra="face")
