@@ -50,9 +50,12 @@ def driver_class(driver: Driver) -> type[ServoDriver] | None:
     return factory if isinstance(factory, type) and issubclass(factory, ServoDriver) else None
 
 
-def settle_profiles(graph: Graph, configs: Mapping[str, Any] | None = None) -> Graph:
+def settle_profiles(
+    graph: Graph, configs: Mapping[str, Any] | None = None, *, check: bool = True
+) -> Graph:
     """Fill in the profile of every control and translator node that names none (in place),
-    then refuse a control node whose driver cannot show its profile (:func:`check_fit`).
+    then (unless ``check`` is false) refuse a control node whose driver cannot show its
+    profile (:func:`check_fit`).
 
     ``configs`` are the nodes' validated plugin configs when the command line changed them
     (its ``--driver``); else each control node's own driver table is read.
@@ -80,7 +83,7 @@ def settle_profiles(graph: Graph, configs: Mapping[str, Any] | None = None) -> G
         if isinstance(node, TranslatorNode) and node.profile is None:
             node.profile = chosen.get(node.robot, DEFAULT_PROFILE)
     for name, node in graph.nodes.items():  # refused before anything starts
-        if isinstance(node, ControlNode) and node.profile is not None:
+        if check and isinstance(node, ControlNode) and node.profile is not None:
             try:
                 profile = load_profile(node.profile)
             except ProfileError:

@@ -46,6 +46,9 @@ class ServoDriver(abc.ABC):
     shown_controls: ClassVar[frozenset[str] | None] = None
     #: What :attr:`shown_controls` are, in words, for the refusal.
     shown_controls_described: ClassVar[str] = "any control"
+    #: The ``facesynth`` extra whose packages it imports when built (``facesynth doctor`` checks
+    #: that a graph's plugins have theirs); None: no extra.
+    needs_extra: ClassVar[str | None] = None
 
     @classmethod
     def unshown_controls(cls, names: Iterable[str]) -> list[str]:

@@ -231,6 +231,7 @@ class VmcDriver(ServoDriver):
 
     moves_hardware = False
     expected_profile = "arkit52"
+    needs_extra = "face"
     shown_controls = frozenset(ARKIT52) | frozenset(VIRTUAL_TO_ARKIT) | frozenset(HEAD_CONTROLS)
     shown_controls_described = (
         "ARKit blendshape names, the virtual profile's controls and head_yaw/pitch/roll"

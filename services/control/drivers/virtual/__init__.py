@@ -81,6 +81,7 @@ class VirtualDriver(ServoDriver):
 
     moves_hardware = False
     expected_profile = "virtual"
+    needs_extra = "face"
 
     def __init__(self, config: VirtualConfig, profile: Profile | None = None) -> None:
         require("aiohttp", plugin="virtual driver", package="aiohttp", extra="face")
