@@ -30,6 +30,7 @@ COMMANDS = [
     "health",
     "learn",
     "simhead",
+    "doctor",
 ]
 
 
@@ -338,6 +339,18 @@ CASES = [
         "vmc with a head profile, as a service",
         ["control", "--driver", "vmc", "--profile", "head16"],
         "the vmc driver cannot show",
+    ),
+    (
+        "doctor: a graph that cannot run here",
+        ["doctor", "--driver", "vmc", "--profile", "paper16", "--listen", "tcp/127.0.0.1:0"],
+        "graph demo cannot run on this host: 1 thing to fix (profile paper16 (node control)), "
+        "said above",
+    ),
+    ("doctor: no such graph", ["doctor", "nosuchgraph"], "graph nosuchgraph does not exist"),
+    (
+        "doctor: a flag of another driver",
+        ["doctor", "--driver", "vmc", "--port", "/dev/ttyACM0"],
+        "--port does not apply to driver vmc",
     ),
     (
         "vmc with a servo profile in a graph",
