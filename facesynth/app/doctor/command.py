@@ -16,7 +16,15 @@ from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
 from facesynth.app import wiring
-from facesynth.app.doctor import cameras, extras, firmware_check, named, outputs, router
+from facesynth.app.doctor import (
+    addresses,
+    cameras,
+    extras,
+    firmware_check,
+    named,
+    outputs,
+    router,
+)
 from facesynth.app.doctor import serial_ports as serial
 from facesynth.app.doctor.needs import Needs, RouterNeed, graph_needs
 from facesynth.app.doctor.report import Finding, lines, verdict
@@ -103,6 +111,7 @@ def examine(needs: Needs, serial_ports: list[str], timeout: float) -> list[Findi
     findings += firmware_check.firmware_findings(found_ports, needs.serial, bundled)
     if found_router is not None and needs.router is not None:
         findings += router.router_findings(found_router, needs.router)
+    findings += addresses.address_findings(needs.addresses)
     findings += outputs.output_findings(needs.outputs, needs.folders, outputs.user_folders())
     findings += named.profile_findings(needs.profiles)
     findings += named.calibration_findings(needs.calibrations)

@@ -52,6 +52,8 @@ class Needs:
     profiles: list[tuple[str, str, msgspec.Struct | None]] = field(default_factory=list)
     calibrations: list[tuple[str, str]] = field(default_factory=list)
     extras: dict[str, list[str]] = field(default_factory=dict)
+    #: ``(who, HOST:PORT, the flag that changes it)`` of every server the graph starts.
+    addresses: list[tuple[str, str, str]] = field(default_factory=list)
     router: RouterNeed | None = None
 
     def need_extra(self, extra: str, who: str) -> None:
@@ -89,6 +91,9 @@ def graph_needs(
             if tag in SERIAL_DRIVERS:
                 port = getattr(config, "port", "")
                 needs.serial.append(SerialNeed(name, str(tag), port, getattr(config, "baud", 0)))
+            http = getattr(config, "http", None)
+            if tag == "virtual" and http:
+                needs.addresses.append((f"control node {name}'s live page", http, "--http"))
             out = getattr(config, "out", None)
             if tag == "record" and out:
                 needs.outputs.append((f"control node {name}'s record file", Path(out)))
@@ -104,8 +109,10 @@ def graph_needs(
     if record:
         needs.outputs.append(("--record session", Path(record)))
         needs.need_extra("record", "--record")
-    if getattr(options, "foxglove", None):
+    foxglove = getattr(options, "foxglove", None)
+    if foxglove:
         needs.need_extra("record", "--foxglove")
+        needs.addresses.append(("--foxglove live view", foxglove, "--foxglove"))
     render = getattr(options, "render", None)
     if render:
         needs.outputs.append(("--render video", Path(render)))
