@@ -95,11 +95,13 @@ def read_ssc32(data: bytes) -> Answer | None:
     return Answer("ssc32", f"Lynxmotion SSC-32 ({text})")
 
 
-def questions(boot_wait_s: float) -> tuple[Question, ...]:
+def questions(boot_wait_s: float, detect_baud: bool = False) -> tuple[Question, ...]:
     """The three questions in their order; ``boot_wait_s`` is how long our firmware may take
-    to answer (an Uno resets when its port opens and boots in about 2 s)."""
+    to answer (an Uno resets when its port opens and boots in about 2 s); ``detect_baud``
+    sends a Maestro's baud-rate byte (``0xAA``) first, as its driver does in that mode."""
+    baud_byte = bytes((mp.BAUD_INDICATION,)) if detect_baud else b""
     return (
-        Question("maestro", mp.get_errors(), 0.3, read_maestro),
+        Question("maestro", baud_byte + mp.get_errors(), 0.3, read_maestro),
         Question("firmware", fw.ping(PING_SEQ), boot_wait_s, read_firmware, repeat_s=0.25),
         Question("ssc32", b"\r" + sp.version(), 0.4, read_ssc32),
     )

@@ -30,6 +30,8 @@ class SerialNeed:
     driver: str
     port: str
     baud: int
+    #: A Maestro in "UART, detect baud rate" mode: it answers after the baud-rate byte.
+    detect_baud: bool = False
 
 
 @dataclass(frozen=True)
@@ -90,7 +92,8 @@ def graph_needs(
         if isinstance(node, ControlNode):
             if tag in SERIAL_DRIVERS:
                 port = getattr(config, "port", "")
-                needs.serial.append(SerialNeed(name, str(tag), port, getattr(config, "baud", 0)))
+                baud, detect = getattr(config, "baud", 0), getattr(config, "detect_baud", False)
+                needs.serial.append(SerialNeed(name, str(tag), port, baud, detect))
             http = getattr(config, "http", None)
             if tag == "virtual" and http:
                 needs.addresses.append((f"control node {name}'s live page", http, "--http"))

@@ -80,8 +80,9 @@ def ask(link: serial.SerialBase, question: Question) -> Answer | None:
             return None
 
 
-def probe_port(port: str, baud: int = DEFAULT_BAUD) -> PortResult:
-    """Open ``port`` (a device path, ``socket://`` or ``rfc2217://``) and ask who is there."""
+def probe_port(port: str, baud: int = DEFAULT_BAUD, detect_baud: bool = False) -> PortResult:
+    """Open ``port`` (a device path, ``socket://`` or ``rfc2217://``) and ask who is there
+    (``detect_baud``: a Maestro's baud-rate byte first)."""
     kwargs: dict[str, object] = {"baudrate": baud, "timeout": 0.05, "write_timeout": 0.5}
     if "://" not in port:
         kwargs["exclusive"] = True
@@ -90,7 +91,7 @@ def probe_port(port: str, baud: int = DEFAULT_BAUD) -> PortResult:
     except (serial.SerialException, OSError, ValueError) as exc:
         return PortResult(port, problem=_reason(exc))
     try:
-        for question in questions(boot_wait(port)):
+        for question in questions(boot_wait(port), detect_baud):
             answer = ask(link, question)
             if answer is not None:
                 return PortResult(port, answer=answer)
@@ -101,23 +102,25 @@ def probe_port(port: str, baud: int = DEFAULT_BAUD) -> PortResult:
         link.close()
 
 
-def probe_ports(ports: Sequence[tuple[str, int]]) -> list[PortResult]:
-    """Probe each ``(port, baud)`` at once (in threads), results in the same order."""
+def probe_ports(ports: Sequence[tuple[str, int, bool]]) -> list[PortResult]:
+    """Probe each ``(port, baud, detect_baud)`` at once (in threads), in the same order."""
     if not ports:
         return []
     with ThreadPoolExecutor(max_workers=min(8, len(ports))) as pool:
         return list(pool.map(lambda item: probe_port(*item), ports))
 
 
-def ports_to_probe(needed: Iterable[SerialNeed], extra: Iterable[str]) -> list[tuple[str, int]]:
+def ports_to_probe(
+    needed: Iterable[SerialNeed], extra: Iterable[str]
+) -> list[tuple[str, int, bool]]:
     """The graph's ports (at their baud rates), the ``--serial`` ones, then the listed ones."""
-    ports: dict[str, int] = {}
+    ports: dict[str, tuple[int, bool]] = {}
     for need in needed:
         if need.port:
-            ports.setdefault(need.port, need.baud or DEFAULT_BAUD)
+            ports.setdefault(need.port, (need.baud or DEFAULT_BAUD, need.detect_baud))
     for port in [*extra, *listed_ports()]:
-        ports.setdefault(port, DEFAULT_BAUD)
-    return list(ports.items())
+        ports.setdefault(port, (DEFAULT_BAUD, False))
+    return [(port, baud, detect) for port, (baud, detect) in ports.items()]
 
 
 def serial_findings(results: Sequence[PortResult], needed: Sequence[SerialNeed]) -> list[Finding]:

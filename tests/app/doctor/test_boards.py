@@ -71,3 +71,11 @@ def test_a_maestro_asked_first_only_reports_its_errors() -> None:
     assert boards.read_maestro(reply) == boards.Answer("maestro", "Pololu Maestro (errors: none)")
     assert maestro.errors == 0 and maestro.error_events == 0
     assert maestro.commands == [(0xA1,)]  # Get Errors, nothing else
+
+
+def test_a_maestro_detecting_its_baud_rate_gets_the_baud_byte_first() -> None:
+    (question, *_) = boards.questions(0.5, detect_baud=True)
+    assert question.request == b"\xaa\xa1"
+    maestro = Maestro()
+    assert boards.read_maestro(maestro.feed(question.request)) is not None
+    assert maestro.errors == 0 and maestro.error_events == 0

@@ -56,6 +56,11 @@ def test_what_a_camera_board_and_recording_need(tmp_path: Path) -> None:
     assert needs.router is not None and not needs.router.embedded
 
 
+def test_a_maestro_detecting_its_baud_rate_is_asked_so() -> None:
+    needs = needs_of("--driver", "maestro", "--port", "/dev/ttyAMA0", "--maestro-detect-baud")
+    assert needs.serial == [SerialNeed("control", "maestro", "/dev/ttyAMA0", 115200, True)]
+
+
 def test_the_vmc_driver_needs_the_face_extra_and_its_profile() -> None:
     needs = needs_of("--driver", "vmc")
     assert needs.extras["face"] == ["control node control (vmc)"]

@@ -137,7 +137,11 @@ def test_a_port_in_use_is_not_touched(ssc32: Any) -> None:
 def test_ports_are_asked_at_once_and_judged_by_the_graph(ssc32: Any, silent: Path) -> None:
     started = time.monotonic()
     results = probe_ports(
-        [(str(silent), 115200), (str(ssc32.link), 115200), ("/nonexistent", 9600)]
+        [
+            (str(silent), 115200, False),
+            (str(ssc32.link), 115200, False),
+            ("/nonexistent", 9600, False),
+        ]
     )
     assert time.monotonic() - started < 2.0  # in parallel, not one after the other
     needed = [SerialNeed("c", "ssc32", str(silent), 115200), SerialNeed("d", "maestro", "", 0)]
