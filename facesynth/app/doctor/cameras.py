@@ -61,10 +61,12 @@ def open_camera(target: int | str) -> CameraResult:
 
 
 def have_opencv() -> bool:
-    """Whether OpenCV can be imported (without importing it yet)."""
-    import importlib.util
-
-    return importlib.util.find_spec("cv2") is not None
+    """Whether OpenCV can be imported."""
+    try:
+        import cv2  # noqa: F401
+    except ImportError:
+        return False
+    return True
 
 
 def camera_findings(
