@@ -92,14 +92,16 @@ def examine(needs: Needs, serial_ports: list[str], timeout: float) -> list[Findi
     devices = cameras.video_devices()
     opencv = cameras.have_opencv()
     targets = cameras.cameras_to_open(devices, needs.cameras) if opencv else []
-    ports = serial.ports_to_probe(needs.serial, serial_ports)
+    ports, unasked = serial.ports_to_probe(needs.serial, serial_ports, serial.listed_ports())
     with ThreadPoolExecutor(max_workers=3) as pool:
         port_results = pool.submit(serial.probe_ports, ports)
         router_result = (
             pool.submit(router.probe_router, needs.router, timeout) if needs.router else None
         )
         camera_results = pool.submit(lambda: [cameras.open_camera(t) for t in targets])
-        found_ports = port_results.result()
+        found_ports = port_results.result() + [
+            serial.PortResult(port, unasked=True) for port in unasked
+        ]
         found_router = router_result.result() if router_result else None
         found_cameras = camera_results.result()
     try:

@@ -10,6 +10,7 @@ With ``--mode client`` (or a client config file) the graph needs a router that a
 from __future__ import annotations
 
 import json
+import socket
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -82,6 +83,8 @@ def probe_router(need: RouterNeed, timeout: float = 2.0) -> RouterResult:
         except ZenohConfigError as exc:
             return RouterResult(endpoints, "unknown", problem=str(exc))
         security = security_mode(endpoints, _json(own, "transport/link/tls") or {}, "listen")
+    if endpoints and all(_refused(endpoint, timeout) for endpoint in endpoints):
+        return RouterResult(endpoints, security, problem="nothing listens there")
     try:
         session = open_session(options)
     except ZenohConfigError as exc:
@@ -93,6 +96,24 @@ def probe_router(need: RouterNeed, timeout: float = 2.0) -> RouterResult:
     if not routers:
         return RouterResult(endpoints, security, problem="no router answered")
     return RouterResult(endpoints, security, router=routers[0][:8])
+
+
+def _refused(endpoint: str, timeout: float) -> bool:
+    """Whether a ``tcp/HOST:PORT`` endpoint refuses a TCP connection (at once, without the
+    Zenoh session's retries); False for other protocols and for anything less certain."""
+    protocol, _, rest = endpoint.partition("/")
+    if protocol != "tcp":
+        return False
+    host, _, port = rest.split("#", 1)[0].rpartition(":")
+    if not port.isdigit():
+        return False
+    try:
+        with socket.create_connection((host.strip("[]"), int(port)), timeout=min(timeout, 1.0)):
+            return False
+    except ConnectionRefusedError:
+        return True
+    except OSError:
+        return False
 
 
 def router_findings(result: RouterResult, need: RouterNeed) -> list[Finding]:

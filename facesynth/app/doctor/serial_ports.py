@@ -34,11 +34,15 @@ class PortResult:
     port: str
     answer: Answer | None = None
     problem: str | None = None
+    #: Not asked: a built-in UART nobody named (a serial console may listen there).
+    unasked: bool = False
 
 
-def listed_ports() -> list[str]:
-    """The serial ports pyserial finds on this host."""
-    return sorted(info.device for info in serial.tools.list_ports.comports())
+def listed_ports() -> list[tuple[str, bool]]:
+    """The serial ports pyserial finds on this host, and whether each is a USB device (a
+    board or adapter; the others are built-in UARTs, where a serial console may listen)."""
+    ports = serial.tools.list_ports.comports()
+    return sorted((info.device, info.vid is not None) for info in ports)
 
 
 def boot_wait(port: str) -> float:
@@ -111,16 +115,24 @@ def probe_ports(ports: Sequence[tuple[str, int, bool]]) -> list[PortResult]:
 
 
 def ports_to_probe(
-    needed: Iterable[SerialNeed], extra: Iterable[str]
-) -> list[tuple[str, int, bool]]:
-    """The graph's ports (at their baud rates), the ``--serial`` ones, then the listed ones."""
+    needed: Iterable[SerialNeed], extra: Iterable[str], listed: Iterable[tuple[str, bool]]
+) -> tuple[list[tuple[str, int, bool]], list[str]]:
+    """The ports to ask: the graph's (at their baud rates), the ``--serial`` ones, the listed
+    USB ones; and the listed built-in UARTs nobody named, left alone (a login prompt on a
+    serial console must not be typed at)."""
     ports: dict[str, tuple[int, bool]] = {}
     for need in needed:
         if need.port:
             ports.setdefault(need.port, (need.baud or DEFAULT_BAUD, need.detect_baud))
-    for port in [*extra, *listed_ports()]:
+    for port in extra:
         ports.setdefault(port, (DEFAULT_BAUD, False))
-    return [(port, baud, detect) for port, (baud, detect) in ports.items()]
+    unasked = []
+    for port, usb in listed:
+        if usb:
+            ports.setdefault(port, (DEFAULT_BAUD, False))
+        elif port not in ports:
+            unasked.append(port)
+    return [(port, baud, detect) for port, (baud, detect) in ports.items()], unasked
 
 
 def serial_findings(results: Sequence[PortResult], needed: Sequence[SerialNeed]) -> list[Finding]:
@@ -156,6 +168,14 @@ def _port_finding(result: PortResult, need: SerialNeed | None) -> Finding:
     subject = result.port
     if need is not None:
         subject += f" (control node {need.node}, {need.driver})"
+    if result.unasked:
+        return Finding(
+            FAMILY,
+            subject,
+            "a built-in serial port, not asked (a serial console may listen there): "
+            f"facesynth doctor --serial {result.port} asks it",
+            good=None,
+        )
     if result.problem is not None:
         return Finding(
             FAMILY,

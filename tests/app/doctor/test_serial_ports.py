@@ -16,7 +16,13 @@ import serial
 
 from facesynth.app.cli import main
 from facesynth.app.doctor.needs import SerialNeed
-from facesynth.app.doctor.serial_ports import probe_port, probe_ports, serial_findings
+from facesynth.app.doctor.serial_ports import (
+    PortResult,
+    ports_to_probe,
+    probe_port,
+    probe_ports,
+    serial_findings,
+)
 from facesynth.app.firmware import bundled_version
 from services.control.drivers.arduino import protocol as proto
 
@@ -152,3 +158,22 @@ def test_ports_are_asked_at_once_and_judged_by_the_graph(ssc32: Any, silent: Pat
         ("ok", str(ssc32.link)),
         ("info", "/nonexistent"),
     ]
+
+
+def test_built_in_uarts_are_asked_only_when_named() -> None:
+    """A login prompt on a serial console must not be typed at: listed ports that are not USB
+    are asked only when the graph or --serial names them."""
+    listed = [("/dev/ttyS0", False), ("/dev/ttyACM0", True), ("/dev/ttyAMA0", False)]
+    needed = [SerialNeed("c", "maestro", "/dev/ttyAMA0", 9600, True)]
+    asked, unasked = ports_to_probe(needed, ["/tmp/tty-x"], listed)
+    assert asked == [
+        ("/dev/ttyAMA0", 9600, True),
+        ("/tmp/tty-x", 115200, False),
+        ("/dev/ttyACM0", 115200, False),
+    ]
+    assert unasked == ["/dev/ttyS0"]
+    (finding,) = serial_findings([PortResult("/dev/ttyS0", unasked=True)], [])
+    assert finding.line() == (
+        "info serial   /dev/ttyS0: a built-in serial port, not asked (a serial console may "
+        "listen there): facesynth doctor --serial /dev/ttyS0 asks it"
+    )
