@@ -30,6 +30,7 @@ COMMANDS = [
     "health",
     "learn",
     "simhead",
+    "doctor",
 ]
 
 
@@ -58,6 +59,8 @@ def _files(tmp: Path) -> dict[str, Path]:
         "graph.toml": '[nodes.control]\nstage = "control"\n[nodes.f]\nstage = "features"\n',
         "nodriver.toml": '[nodes.c]\nstage = "control"\ndriver = { driver = "record" }\n',
         "badgraph.toml": "[nodes.x\n",
+        "vmcgraph.toml": '[nodes.c]\nstage = "control"\nprofile = "paper16"\n'
+        'driver = { driver = "vmc" }\n',
         "features.toml": '[nodes.f]\nstage = "features"\n',
         "robotgraph.toml": '[nodes.t]\nstage = "translator"\nrobot = "a b"\n',
         "noavatar.toml": (
@@ -323,7 +326,36 @@ CASES = [
     (
         "vmc profile without avatar controls",
         ["control", "--driver", "vmc", "--profile", "{noavatar.toml}"],
-        "has no control the vmc driver can send",
+        "the vmc driver cannot show 1 of the 1 controls of profile noavatar (tail)",
+    ),
+    (
+        "vmc with a servo profile",
+        ["run", "--driver", "vmc", "--profile", "paper16"],
+        "the vmc driver cannot show 15 of the 16 controls of profile paper16 (right_eyebrow, "
+        "left_eyebrow, middle_eyebrow, right_eye_x, …); it shows ARKit blendshape names, the "
+        "virtual profile's controls and head_yaw/pitch/roll: choose --profile arkit52 or virtual",
+    ),
+    (
+        "vmc with a head profile, as a service",
+        ["control", "--driver", "vmc", "--profile", "head16"],
+        "the vmc driver cannot show",
+    ),
+    (
+        "doctor: a graph that cannot run here",
+        ["doctor", "--driver", "vmc", "--profile", "paper16", "--listen", "tcp/127.0.0.1:0"],
+        "graph demo cannot run on this host: 1 thing to fix (profile paper16 (node control)), "
+        "said above",
+    ),
+    ("doctor: no such graph", ["doctor", "nosuchgraph"], "graph nosuchgraph does not exist"),
+    (
+        "doctor: a flag of another driver",
+        ["doctor", "--driver", "vmc", "--port", "/dev/ttyACM0"],
+        "--port does not apply to driver vmc",
+    ),
+    (
+        "vmc with a servo profile in a graph",
+        ["run", "{vmcgraph.toml}"],
+        "the vmc driver cannot show 15 of the 16 controls of profile paper16",
     ),
     (
         "bench chain encoding",

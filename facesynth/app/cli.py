@@ -385,6 +385,9 @@ def build_parser() -> argparse.ArgumentParser:
     from facesynth.app.simhead.command import add_simhead_parser
 
     add_simhead_parser(sub)
+    from facesynth.app.doctor.command import add_doctor_parser
+
+    add_doctor_parser(sub, _zenoh_arguments)
     return parser
 
 

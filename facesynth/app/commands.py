@@ -26,6 +26,7 @@ from facesynth.app.control_tools import TEST_OPTIONS, cmd_control_tool
 from facesynth.app.graph import Graph, check_node, load_graph, select_node
 from facesynth.app.nodes import NODE_TYPES, SensorNode, stage_of
 from facesynth.app.plugin_help import describe_plugins
+from facesynth.app.profile_choice import settle_profiles
 from facesynth.app.recording.attach import attached
 from facesynth.app.stage_args import apply_arguments
 from facesynth.app.tuning import Scheduling, apply_scheduling, combined, keep_buffers
@@ -63,6 +64,7 @@ def cmd_stage(args: argparse.Namespace) -> int:
     node, config = apply_arguments(name, node, args)
     check_node(name, node, args.graph or "command line")
     graph.nodes[name] = node
+    settle_profiles(graph, {name: config})
     tune_process([node])
     replay_frames = None
     if isinstance(node, SensorNode) and args.graph:
@@ -95,6 +97,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     for name, node in list(graph.nodes.items()):
         graph.nodes[name], configs[name] = apply_arguments(name, node, args)
         check_node(name, graph.nodes[name], args.graph or "command line")
+    settle_profiles(graph, configs)
     rig = args.rig or graph.rig
     check_run_outputs(args)
     tune_process(graph.nodes.values())
@@ -197,7 +200,7 @@ def cmd_render(args: argparse.Namespace) -> int:
     """``facesynth render [GRAPH] --out OUT.mp4``: the side-by-side video of a graph's input."""
     from facesynth.app.render import render_graph
 
-    graph = load_graph(args.graph, plugins=False)
+    graph = settle_profiles(load_graph(args.graph, plugins=False))
     configs = {}
     for name, node in list(graph.nodes.items()):
         if stage_of(node) == "control":

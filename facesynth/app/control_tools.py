@@ -16,8 +16,9 @@ import time
 from collections.abc import Callable
 from typing import Any
 
-from facesynth.app.graph import load_graph, select_node
+from facesynth.app.graph import Graph, load_graph, select_node
 from facesynth.app.nodes import ControlNode
+from facesynth.app.profile_choice import check_fit, settle_profiles
 from facesynth.app.stage_args import apply_arguments
 from facesynth.app.wiring import OptionError, build_profile
 from facesynth.runtime.profiles import Profile
@@ -65,7 +66,9 @@ def cmd_control_tool(args: argparse.Namespace) -> int:
         raise OptionError("no action")  # pragma: no cover - cmd_stage runs the service instead
     node = _control_node(args)
     node, config = apply_arguments("control", node, args)
+    settle_profiles(Graph(nodes={"control": node}), {"control": config})
     profile = build_profile(node.profile, node.mirror)
+    check_fit(config, profile)
     driver = DRIVERS.build(config, profile)
     if args.action == "status":
         if given:

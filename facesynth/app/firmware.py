@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import re
 import shutil
 import subprocess
 from pathlib import Path
@@ -48,6 +49,25 @@ def firmware_dir(given: str | None = None) -> Path:
 
 def _checkout_firmware() -> Path:
     return Path(__file__).resolve().parents[2] / "firmware"
+
+
+#: Where the firmware's sources say its version (reported by PING).
+VERSION_HEADER = Path("facesynth_servo") / "device.h"
+_VERSION_LINE = re.compile(r"#define FS_FIRMWARE_(MAJOR|MINOR|PATCH) (\d+)")
+
+
+def bundled_version(given: str | None = None) -> tuple[int, int, int]:
+    """The version of the firmware sources (``firmware/facesynth_servo/device.h``), as PING
+    reports it once flashed; :class:`FirmwareError` without sources."""
+    header = firmware_dir(given) / VERSION_HEADER
+    try:
+        text = header.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise FirmwareError(f"cannot read {header}: {exc}") from None
+    parts = dict(_VERSION_LINE.findall(text))
+    if set(parts) != {"MAJOR", "MINOR", "PATCH"}:
+        raise FirmwareError(f"{header} does not define FS_FIRMWARE_MAJOR, _MINOR and _PATCH")
+    return int(parts["MAJOR"]), int(parts["MINOR"]), int(parts["PATCH"])
 
 
 def missing_packages(needs: tuple[tuple[str, str], ...] = _BUILD_NEEDS) -> list[str]:

@@ -16,6 +16,9 @@ from msgspec import Meta
 
 from facesynth.runtime import keys
 
+#: The profile of a robot whose nodes and driver name none (:mod:`facesynth.app.profile_choice`).
+DEFAULT_PROFILE = "paper16"
+
 #: The CLI takes these fields through plugin flags (``--driver``, ``--video``, ``--openface-csv``).
 PLUGIN_FIELDS = ("source", "backend", "driver")
 
@@ -153,9 +156,16 @@ class FeaturesNode(_Node, tag="features"):
 class _RobotNode(_Node):
     """What the two nodes of one robot (T and C) share: its profile and its keys."""
 
-    profile: Annotated[
-        str, Meta(description="robot profile name or TOML path (default paper16)")
-    ] = "paper16"
+    profile: (
+        Annotated[
+            str,
+            Meta(
+                description="robot profile name or TOML path (default: the one the control "
+                "node's driver expects, vmc: arkit52, virtual: virtual; else paper16)"
+            ),
+        ]
+        | None
+    ) = None
     mirror: Annotated[
         bool, Meta(description="mirror the performer (robot's right follows the performer's left)")
     ] = False

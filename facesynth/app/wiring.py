@@ -18,6 +18,7 @@ import msgspec
 from facesynth.app.data import sample_video
 from facesynth.app.graph import Graph, plugin_config
 from facesynth.app.nodes import (
+    DEFAULT_PROFILE,
     ControlNode,
     FeaturesNode,
     PointsNode,
@@ -25,6 +26,7 @@ from facesynth.app.nodes import (
     TranslatorNode,
     stage_of,
 )
+from facesynth.app.profile_choice import check_fit
 from facesynth.runtime.bus.zenoh_bus import DEFAULT_ROUTER, ZenohOptions, endpoints
 from facesynth.runtime.calibration import Calibration, load_calibration, resolve_calibration
 from facesynth.runtime.feature_names import BLENDSHAPE_NAMES
@@ -118,9 +120,10 @@ def build_backend(config: msgspec.Struct) -> PointsBackend:
     return BACKENDS.build(config)
 
 
-def build_profile(name: str, mirror: bool) -> Profile:
-    """The profile called ``name``, mirrored when ``mirror`` (which flips the profile's own)."""
-    profile = load_profile(name)
+def build_profile(name: str | None, mirror: bool) -> Profile:
+    """The profile called ``name``, mirrored when ``mirror`` (which flips the profile's own);
+    ``None`` (a node whose profile was not settled by :func:`settle_profiles`) is the default."""
+    profile = load_profile(name or DEFAULT_PROFILE)
     if mirror:
         profile.mirror = not profile.mirror
     return profile
@@ -187,6 +190,7 @@ def build_control(node: ControlNode, driver: msgspec.Struct, fast: bool = False)
     asked, and never for a driver that moves hardware.
     """
     profile = build_profile(node.profile, node.mirror)
+    check_fit(driver, profile)
     output = DRIVERS.build(driver, profile)
     motion_time = node.motion_time
     if motion_time == "media" and output.moves_hardware:

@@ -28,10 +28,14 @@ class NamedFiles:
         dirs: list[Path] = []
         if env := os.environ.get(self.env_var):
             dirs.extend(Path(p) for p in env.split(os.pathsep) if p)
-        dirs.append(Path.home() / ".config" / "facesynth" / f"{self.kind}s")
+        dirs.append(self.user_dir())
         if self.builtin is not None:
             dirs.append(self.builtin)
         return dirs
+
+    def user_dir(self) -> Path:
+        """The user's own folder of this kind, ``~/.config/facesynth/<kind>s``."""
+        return Path.home() / ".config" / "facesynth" / f"{self.kind}s"
 
     def available(self) -> list[str]:
         """Names of every file of this kind in the search folders."""

@@ -16,6 +16,7 @@ from facesynth.app.graph import (
     select_node,
 )
 from facesynth.app.nodes import ControlNode, SensorNode, TranslatorNode, stage_of
+from facesynth.app.profile_choice import settle_profiles
 from facesynth.runtime import keys
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -29,9 +30,13 @@ def test_shipped_graphs_load_and_run_every_stage_once(path: Path) -> None:
 
 def test_the_demo_graph_is_the_default() -> None:
     graph = load_graph()
+    # No profile named: the record driver has no preference, so it is the default, paper16
+    # (facesynth.app.profile_choice; `--driver vmc` makes it arkit52).
     assert graph.nodes["control"] == ControlNode(
-        profile="paper16", driver={"driver": "record", "out": "facesynth-commands.jsonl"}
+        driver={"driver": "record", "out": "facesynth-commands.jsonl"}
     )
+    settled = settle_profiles(graph)
+    assert settled.nodes["control"].profile == settled.nodes["translator"].profile == "paper16"
     assert graph.nodes["sensor"] == SensorNode(source={"source": "video"})
 
 

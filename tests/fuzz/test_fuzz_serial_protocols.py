@@ -161,3 +161,38 @@ def test_maestro_u16_reads_two_bytes_or_raises_value_error() -> None:
 
     case()
     check_tally(target, "valid", "refused")
+
+
+def test_doctors_board_answers_are_a_board_or_none() -> None:
+    """``facesynth doctor``'s readings of whatever a port sends back to its three questions:
+    a board only for its own answer, never an exception (facesynth.app.doctor.boards)."""
+    from facesynth.app.doctor import boards
+
+    target = "doctor board answers (maestro, firmware, ssc32)"
+    record = tally(target)
+    version = proto.encode_frame(boards.PING_SEQ, 0x82, bytes((1, 0, 1, 0, 16, 1, 144)))
+    answers = st.one_of(
+        st.binary(max_size=40),
+        st.binary(min_size=2, max_size=2),
+        st.just(version),
+        damaged(version),
+        st.builds(
+            lambda text: text.encode("ascii") + b"\r", st.text("SC32-V.0123456789U\r", max_size=20)
+        ),
+        reply_frames(),
+    )
+
+    @FUZZ
+    @given(st.lists(answers, max_size=3))
+    def case(parts: list[bytes]) -> None:
+        data = b"".join(parts)
+        found = []
+        for read in (boards.read_maestro, boards.read_firmware, boards.read_ssc32):
+            answer = read(data)
+            if answer is not None:
+                assert answer.kind in boards.DRIVER_OF and "\n" not in answer.description
+                found.append(answer.kind)
+        record.count("board" if found else "none")
+
+    case()
+    check_tally(target, "board", "none")

@@ -198,7 +198,7 @@ def fanout_figures(
         )
         pooled.append(steady)
         figures.per_robot.append(
-            RobotFigures(robot, node.profile, len(lines), latency_figures(steady))
+            RobotFigures(robot, str(node.profile), len(lines), latency_figures(steady))
         )
     figures.overall_ms = latency_figures(np.concatenate(pooled) if pooled else np.array([]))
     return figures

@@ -17,6 +17,7 @@ from typing import Any
 from facesynth.app.chain import ChainResult, freeze_startup_objects, open_embedded, run_chain
 from facesynth.app.graph import load_graph
 from facesynth.app.nodes import stage_of
+from facesynth.app.profile_choice import settle_profiles
 from facesynth.app.recording.attach import attached
 from facesynth.app.recording.replay import Replayer
 from facesynth.app.stage_args import apply_arguments
@@ -42,11 +43,12 @@ def graph_parts(replayer: Replayer, args: argparse.Namespace) -> tuple[list[Stag
     parts = []
     configs = {}
     for name, node in graph.nodes.items():
-        if stage_of(node) not in wanted:
-            continue
-        node, configs[name] = apply_arguments(name, node, args)
-        graph.nodes[name] = node
-        parts.append(build_node(name, node, graph, configs[name], fast=replayer.options.fast))
+        if stage_of(node) in wanted:
+            graph.nodes[name], configs[name] = apply_arguments(name, node, args)
+    settle_profiles(graph, configs)
+    for name, node in graph.nodes.items():
+        if stage_of(node) in wanted:
+            parts.append(build_node(name, node, graph, configs[name], fast=replayer.options.fast))
     if not parts:
         raise OptionError(
             f"the graph has no {', '.join(wanted)} node to replay {replayer.stage} into"

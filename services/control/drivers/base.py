@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import abc
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from types import TracebackType
 from typing import Any, ClassVar, Self
 
@@ -38,6 +38,24 @@ class ServoDriver(abc.ABC):
     #: always measures speed limits in real time, even in a ``--fast`` replay. Drivers whose
     #: output is a file or a picture (``record``, ``virtual``, ``vmc``) say False.
     moves_hardware: ClassVar[bool] = True
+    #: The profile the driver expects when a node names none (``vmc``: ``arkit52``); None: the
+    #: chain's default (``paper16``). The command line says in one log line when it is used.
+    expected_profile: ClassVar[str | None] = None
+    #: The control names the driver can show; None: any (a servo board drives every channel, a
+    #: page draws a bar for every control). A profile with others is refused before it runs.
+    shown_controls: ClassVar[frozenset[str] | None] = None
+    #: What :attr:`shown_controls` are, in words, for the refusal.
+    shown_controls_described: ClassVar[str] = "any control"
+    #: The ``facesynth`` extra whose packages it imports when built (``facesynth doctor`` checks
+    #: that a graph's plugins have theirs); None: no extra.
+    needs_extra: ClassVar[str | None] = None
+
+    @classmethod
+    def unshown_controls(cls, names: Iterable[str]) -> list[str]:
+        """Those of ``names`` the driver cannot show, in their order (none when it shows any)."""
+        if cls.shown_controls is None:
+            return []
+        return [name for name in names if name not in cls.shown_controls]
 
     async def __aenter__(self) -> Self:
         await self.connect()

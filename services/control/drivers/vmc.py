@@ -230,6 +230,12 @@ class VmcDriver(ServoDriver):
     """Send blendshapes and head pose to avatar software (VMC protocol over OSC/UDP)."""
 
     moves_hardware = False
+    expected_profile = "arkit52"
+    needs_extra = "face"
+    shown_controls = frozenset(ARKIT52) | frozenset(VIRTUAL_TO_ARKIT) | frozenset(HEAD_CONTROLS)
+    shown_controls_described = (
+        "ARKit blendshape names, the virtual profile's controls and head_yaw/pitch/roll"
+    )
 
     def __init__(self, config: VmcConfig, profile: Profile | None = None) -> None:
         require("pythonosc", plugin="vmc driver", package="python-osc", extra="face")

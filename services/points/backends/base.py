@@ -9,6 +9,7 @@ with the same timing and latency measurements, as live tracking. Past the end of
 from __future__ import annotations
 
 import abc
+from typing import ClassVar
 
 import numpy as np
 
@@ -56,6 +57,9 @@ class PointsBackend(abc.ABC):
     """Frames in, Points out."""
 
     name: str = "backend"
+    #: The ``facesynth`` extra whose packages it imports when built (``facesynth doctor`` checks
+    #: that a graph's plugins have theirs); None: no extra.
+    needs_extra: ClassVar[str | None] = None
 
     @abc.abstractmethod
     def process(self, frame: Frame) -> Points:

@@ -98,6 +98,8 @@ class TrackerConfig(
 class TrackerBackend(PointsBackend):
     """Live face tracking on the frames' pixels."""
 
+    needs_extra = "tracker"
+
     name = "tracker"
 
     def __init__(self, config: TrackerConfig | None = None) -> None:

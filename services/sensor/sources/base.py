@@ -9,6 +9,7 @@ import abc
 from collections.abc import Iterator
 from dataclasses import dataclass
 from types import ModuleType
+from typing import ClassVar
 
 import numpy as np
 
@@ -33,6 +34,9 @@ class FrameSource(abc.ABC):
     """Base of all sources: ``info`` plus an iterator of ``(image | None, t_media_ns)``."""
 
     info: SourceInfo
+    #: The ``facesynth`` extra whose packages it imports when built (``facesynth doctor`` checks
+    #: that a graph's plugins have theirs); None: no extra.
+    needs_extra: ClassVar[str | None] = None
 
     @abc.abstractmethod
     def frames(self) -> Iterator[tuple[np.ndarray | None, int]]:

@@ -94,6 +94,8 @@ def camera_target(value: int | str) -> int | str:
 class CameraSource(FrameSource):
     """A live camera with a one-frame buffer, timed by the wall clock."""
 
+    needs_extra = "tracker"
+
     def __init__(self, config: CameraConfig) -> None:
         target = camera_target(config.index)
         width, height, fps = config.width, config.height, config.fps or 0.0

@@ -37,6 +37,8 @@ class FolderConfig(
 class FolderSource(FrameSource):
     """The images of a folder in name order, at a fixed rate."""
 
+    needs_extra = "tracker"
+
     def __init__(self, config: FolderConfig) -> None:
         fps = 30.0 if config.fps is None else config.fps
         loop = config.loop

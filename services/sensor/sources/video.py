@@ -38,6 +38,8 @@ class VideoConfig(
 class VideoSource(FrameSource):
     """Frames of a video file, timed by their index and the file's frame rate."""
 
+    needs_extra = "tracker"
+
     def __init__(self, config: VideoConfig) -> None:
         if config.path is None:
             raise SourceError("a video source needs a path (--video PATH)")

@@ -80,6 +80,8 @@ class VirtualDriver(ServoDriver):
     """Draw the virtual face live on a web page (servo bars for any profile)."""
 
     moves_hardware = False
+    expected_profile = "virtual"
+    needs_extra = "face"
 
     def __init__(self, config: VirtualConfig, profile: Profile | None = None) -> None:
         require("aiohttp", plugin="virtual driver", package="aiohttp", extra="face")

@@ -1,0 +1,56 @@
+"""Fixtures for the doctor tests: the real parts doctor looks at (the firmware on the emulated
+Uno, the simulated head's Maestro and camera, an SSC-32 on a pty), from tests/control."""
+
+from __future__ import annotations
+
+import re
+import sys
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "control"))
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "firmware"))
+
+from facesynth_processes import Processes, free_port
+from fake_devices.ssc32 import FakeSSC32
+from uno_rig import UnoRig, firmware_ready
+
+__all__ = ["firmware_ready"]
+
+
+@pytest.fixture
+def ssc32(tmp_path: Path) -> Iterator[FakeSSC32]:
+    """A fake SSC-32U, plugged in at ``tmp_path/ttySSC32``."""
+    device = FakeSSC32(tmp_path / "ttySSC32")
+    device.plug()
+    yield device
+    device.close()
+
+
+@pytest.fixture
+def uno(firmware_ready: None, tmp_path: Path) -> Iterator[UnoRig]:
+    """Our firmware (PCA9685 build) on an emulated Uno, behind a cable at ``tmp_path/uno``."""
+    rig = UnoRig(tmp_path / "uno", cable=True)
+    booted = lambda: any(e[1] == "PRE_SCALE" for e in rig.board.events("reg"))  # noqa: E731
+    rig.board.wait_for(booted, timeout=20)
+    yield rig
+    rig.close()
+
+
+@pytest.fixture
+def simhead(tmp_path: Path) -> Iterator[tuple[Path, str]]:
+    """``facesynth simhead`` as its own process: its Maestro's pty link and its camera URL."""
+    processes = Processes(tmp_path)
+    link = tmp_path / "simhead-tty"
+    processes(
+        "simhead", "--serial-link", str(link), "--http", f"127.0.0.1:{free_port()}", name="head"
+    )
+    try:
+        line = processes.wait_for_line("head", "camera:", timeout=60)
+        url = re.search(r"camera: (\S+)", line)
+        assert url is not None, line
+        yield link, url.group(1)
+    finally:
+        processes.stop()

@@ -1,0 +1,114 @@
+"""facesynth.app.doctor.router: a real router answering (or not) where the graph looks, and the
+security mode of the configs a rig uses (deploy/, and those ``facesynth certs`` writes)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from facesynth.app.cli import build_parser, main
+from facesynth.app.doctor.command import router_need
+from facesynth.app.doctor.router import probe_router, router_findings, security_mode
+from facesynth.app.secure import CertPaths, rig_configs
+
+REPO = Path(__file__).resolve().parents[3]
+
+
+def need(*argv: str):  # type: ignore[no-untyped-def]
+    return router_need(build_parser().parse_args(["doctor", *argv]))
+
+
+def test_a_router_that_answers_a_client_graph(zenoh_router: str) -> None:
+    wanted = need("--mode", "client", "--connect", zenoh_router)
+    result = probe_router(wanted, timeout=2.0)
+    assert result.router is not None and result.security == "plain"
+    (finding,) = router_findings(result, wanted)
+    assert finding.line() == f"ok   router   {zenoh_router}: router {result.router} answers (plain)"
+
+
+def test_no_router_is_one_line_to_fix(unused_tcp: str) -> None:
+    wanted = need("--mode", "client", "--connect", unused_tcp)
+    (finding,) = router_findings(probe_router(wanted, timeout=1.0), wanted)
+    assert finding.status.value == "fix"
+    assert finding.line().startswith(f"fix  router   {unused_tcp}: no router answers (plain): ")
+    assert finding.line().endswith("a secured rig needs its certificates (facesynth certs)")
+
+
+def test_runs_own_router_needs_its_endpoint_free(zenoh_router: str, unused_tcp: str) -> None:
+    taken = need("--listen", zenoh_router)
+    (finding,) = router_findings(probe_router(taken, timeout=2.0), taken)
+    assert finding.status.value == "fix" and "already listens there" in finding.text
+    free = need("--listen", unused_tcp)
+    (finding,) = router_findings(probe_router(free, timeout=1.0), free)
+    assert finding.status.value == "ok" and finding.text.startswith("free: run's own router")
+
+
+def test_doctor_exits_2_when_a_client_graph_has_no_router(
+    unused_tcp: str,
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    argv = ["doctor", "--mode", "client", "--connect", unused_tcp, "--timeout", "1"]
+    assert main([*argv, "--log-level", "WARNING"]) == 2
+    captured = capsys.readouterr()
+    assert f"fix router {unused_tcp}: no router answers" in " ".join(captured.out.split())
+    assert captured.err.strip().splitlines()[-1] == (
+        f"facesynth doctor: error: graph demo cannot run on this host: 1 thing to fix (router "
+        f"{unused_tcp}), said above"
+    )
+
+
+@pytest.mark.parametrize(
+    ("endpoints", "tls", "side", "mode"),
+    [
+        (["tcp/127.0.0.1:7447"], {}, "connect", "plain"),
+        (["tls/router:7447"], {"root_ca_certificate": "ca.pem"}, "connect", "TLS"),
+        (["tls/router:7447"], {"enable_mtls": True}, "connect", "TLS"),  # no certificate of its own
+        (
+            ["tls/router:7447"],
+            {"enable_mtls": True, "connect_certificate": "c"},
+            "connect",
+            "mutual TLS",
+        ),
+        (
+            ["tls/0.0.0.0:7447"],
+            {"enable_mtls": True, "listen_certificate": "r"},
+            "listen",
+            "mutual TLS",
+        ),
+        (["quic/router:7447"], {}, "connect", "TLS"),
+    ],
+)
+def test_security_modes(endpoints: list[str], tls: dict[str, object], side: str, mode: str) -> None:
+    assert security_mode(endpoints, tls, side) == mode
+
+
+def test_the_mode_of_a_secured_rigs_configs(tmp_path: Path, unused_tcp: str) -> None:
+    """The configs `facesynth certs` writes say mutual TLS; deploy/'s plain ones say plain."""
+    configs = rig_configs(
+        "default",
+        CertPaths(str(tmp_path)),
+        connect=["tls/localhost:7447"],
+        listen=["tls/0.0.0.0:7447"],
+    )
+    observer = tmp_path / "observer.json5"
+    observer.write_text(configs["observer.json5"])
+    result = probe_router(need("--zenoh-config", str(observer), "--mode", "client"), timeout=0.5)
+    assert result.security == "mutual TLS" and result.router is None
+    deploy = str(REPO / "deploy" / "zenoh-service.json5")
+    plain = probe_router(need("--zenoh-config", deploy, "--connect", unused_tcp), timeout=0.5)
+    assert plain.security == "plain" and plain.router is None
+
+
+@pytest.fixture
+def unused_tcp() -> str:
+    """A loopback TCP endpoint nothing listens on."""
+    import socket
+
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    return f"tcp/127.0.0.1:{port}"
