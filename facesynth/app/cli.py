@@ -385,6 +385,9 @@ def build_parser() -> argparse.ArgumentParser:
     from facesynth.app.simhead.command import add_simhead_parser
 
     add_simhead_parser(sub)
+    from facesynth.app.console.arguments import add_console_parser
+
+    add_console_parser(sub, _zenoh_arguments)
     return parser
 
 
