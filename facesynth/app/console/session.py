@@ -217,11 +217,12 @@ class ConsoleSession:
 
     async def _follow_latest(self, view: RigView, stage: Any) -> None:
         subscription = view.latest(stage)
-        kind = Frame if stage == "input" else Points
         try:
             async for sample in subscription:
                 with contextlib.suppress(ValueError):
-                    message = codec.decode(sample.payload, kind)
-                    self.listener("frame" if stage == "input" else "points", message)
+                    if stage == "input":
+                        self.listener("frame", codec.decode(sample.payload, Frame))
+                    else:
+                        self.listener("points", codec.decode(sample.payload, Points))
         finally:
             subscription.close()

@@ -6,6 +6,7 @@ writes a profile that reloads identically and restarts C with it."""
 from __future__ import annotations
 
 import asyncio
+import itertools
 import json
 from collections.abc import Callable
 from pathlib import Path
@@ -80,7 +81,7 @@ async def test_a_jog_moves_a_servo_through_c_and_it_returns_to_neutral(
         await page.until(lambda m: m["type"] == "state" and m["positions"][0] == FIRST.max_us)
         await page.ws.close()
     sent = [c[FIRST.name] for c in _commands(tmp_path)]
-    steps = [abs(b - a) for a, b in zip(sent, sent[1:], strict=False)]
+    steps = [abs(b - a) for a, b in itertools.pairwise(sent)]
     assert max(sent) == FIRST.max_us
     assert max(steps) < 500  # C's speed limit (3000 µs/s) split the move into steps
     async with asyncio.timeout(5):  # nobody holds the servos: C's watchdog brings them back
@@ -143,31 +144,32 @@ async def test_other_origins_and_host_names_are_refused(console: ConsoleServer) 
     assert console.session.core.holding  # stopped: held where they stand
 
 
-@pytest.mark.parametrize(
-    ("text", "error"),
-    [
-        ("not json", "not JSON"),
-        ("[1, 2]", "not a console message"),
-        ('{"type": "dance"}', "not a console message (Invalid value 'dance'"),
-        ('{"type": "jog", "servo": 0}', "missing required field `us`"),
-        ('{"type": "jog", "servo": "a", "us": 1}', "Expected `int`, got `str` - at `$.servo`"),
-        ('{"type": "jog", "servo": 99, "us": 1500}', "no servo 99"),
-        ('{"type": "take", "extra": 1}', "unknown field `extra`"),
-        ('{"type": "limit", "servo": 0, "which": "top"}', "Invalid enum value 'top'"),
-        ('{"type": "limit", "servo": 0, "which": "min", "us": 1700}', "min_us"),
-        ('{"type": "rename", "servo": 0, "name": "a b"}', "letters, digits"),
-        ('{"type": "calibrate", "name": "x"}', "start the console with --camera N or --video"),
-    ],
-)
-async def test_a_malformed_message_gets_a_clear_error(
-    console: ConsoleServer, text: str, error: str
-) -> None:
+MALFORMED = [
+    ("not json", "not JSON"),
+    ("[1, 2]", "not a console message"),
+    ('{"type": "dance"}', "not a console message (Invalid value 'dance'"),
+    ('{"type": "jog", "servo": 0}', "missing required field `us`"),
+    ('{"type": "jog", "servo": "a", "us": 1}', "Expected `int`, got `str` - at `$.servo`"),
+    ('{"type": "jog", "servo": 99, "us": 1500}', "no servo 99"),
+    ('{"type": "take", "extra": 1}', "unknown field `extra`"),
+    ('{"type": "limit", "servo": 0, "which": "top"}', "Invalid enum value 'top'"),
+    ('{"type": "limit", "servo": 0, "which": "min", "us": 1700}', "min_us"),
+    ('{"type": "rename", "servo": 0, "name": "a b"}', "letters, digits"),
+    ('{"type": "calibrate", "name": "x"}', "start the console with --camera N or --video"),
+]
+
+
+async def test_a_malformed_message_gets_a_clear_error(console: ConsoleServer) -> None:
     async with aiohttp.ClientSession() as http:
         page = await _page(http, console)
-        await page.ws.send_str(text)
-        assert error in (await page.reply("error"))["message"]
-        await page.send(type="ping", t=1.5)  # the page stays connected
-        assert (await page.reply("pong"))["t"] == 1.5
+        for text, error in MALFORMED:
+            await page.ws.send_str(text)
+            message = (await page.reply("error"))["message"]
+            assert error in message, (text, message)
+            await page.send(type="ping", t=1.5)  # the page stays connected
+            assert (await page.reply("pong"))["t"] == 1.5
+    assert console.refused == len(MALFORMED)
+    assert console.session.core.draft == console.session.core.active  # nothing changed
 
 
 async def test_binary_and_oversized_messages_close_the_page(console: ConsoleServer) -> None:
@@ -177,7 +179,9 @@ async def test_binary_and_oversized_messages_close_the_page(console: ConsoleServ
         closed = await page.until(lambda m: False)
         assert closed.type == aiohttp.WSMsgType.CLOSE and closed.data == 1003
         page = await _page(http, console)
-        await page.ws.send_str(json.dumps({"type": "rename", "servo": 0, "name": "x" * MAX_MESSAGE}))
+        await page.ws.send_str(
+            json.dumps({"type": "rename", "servo": 0, "name": "x" * MAX_MESSAGE})
+        )
         closed = await page.until(lambda m: False)
         assert closed.type == aiohttp.WSMsgType.CLOSE and closed.data == 1009
     assert console.refused >= 2
