@@ -78,6 +78,18 @@ def rig_lock(rig: str) -> Iterator[None]:
         handle.close()
 
 
+def check_source(config: msgspec.Struct) -> None:
+    """A camera or video that cannot be what it says is refused at start (``SourceError``),
+    not when the page asks for a calibration; nothing is opened."""
+    from services.sensor.sources.camera import CameraConfig, camera_target
+
+    if isinstance(config, CameraConfig):
+        camera_target(config.index)
+    path = getattr(config, "path", None)
+    if isinstance(path, str) and path and not Path(path).is_file():
+        raise OptionError(f"--video {path}: no such file")
+
+
 def _calibration_factory(args: argparse.Namespace) -> Any:
     """Makes a :class:`CalibrationRun` per request when a camera or video was given."""
     sensor_flags, _ = PLUGIN_FLAGS["sensor"]
@@ -86,7 +98,8 @@ def _calibration_factory(args: argparse.Namespace) -> Any:
     )
     if not chosen:
         return None
-    apply_arguments("sensor", SensorNode(), args)  # its options, checked now
+    _, config = apply_arguments("sensor", SensorNode(), args)  # its options, checked now
+    check_source(config)
     out_dir = Path(args.calibrations) if args.calibrations else None
     return lambda name: CalibrationRun(name, args, out_dir)
 
