@@ -40,6 +40,8 @@ class CalibrationRun:
         self.args = args
         self.path = (out_dir / f"{name}.json") if out_dir is not None else default_path(name)
         self._cancelled = threading.Event()
+        #: Frames used per step, once written.
+        self.frames_used: dict[str, int] = {}
 
     def cancel(self) -> None:
         """Stop after the current frame; nothing is written."""
@@ -47,7 +49,8 @@ class CalibrationRun:
 
     def run(self, report: Report) -> Path:
         """Record and save the calibration; ``report(kind, payload)`` is called from this
-        thread with ``frame`` (a Frame), ``points`` (Points) and ``calibration`` (a dict)."""
+        thread with ``frame`` (a Frame), ``points`` (Points) and ``calibration`` (a dict: the
+        step, its prompt, the seconds left in it)."""
         from facesynth.app.wiring import build_backend, build_source
         from facesynth.runtime.frames import encode_frame
         from services.features.expressions import raw_features
@@ -101,7 +104,5 @@ class CalibrationRun:
         created = datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds")
         calibration = recorder.build(created=created)
         save_calibration(calibration, self.path)
-        used = {step: used for step, (used, _) in recorder.summary().items()}
-        report("calibration", {"state": "done", "name": self.name, "path": str(self.path),
-                               "frames": used})  # fmt: skip
+        self.frames_used = {step: used for step, (used, _) in recorder.summary().items()}
         return self.path

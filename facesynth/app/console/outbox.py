@@ -24,8 +24,10 @@ class Outbox:
         self.slots: dict[str, str | bytes] = {}
         self.ready = asyncio.Event()
 
-    def say(self, text: str) -> None:
-        """Queue a reply (kept in order)."""
+    def say(self, text: str, replaces: str | None = None) -> None:
+        """Queue a reply (kept in order); it supersedes what channel ``replaces`` holds."""
+        if replaces is not None:
+            self.slots.pop(replaces, None)
         self.replies.append(text)
         self.ready.set()
 

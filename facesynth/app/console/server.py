@@ -327,13 +327,15 @@ class ConsoleServer:
             loop.call_soon_threadsafe(self._on_event, kind, payload)
 
         async def calibrate() -> None:
+            result: dict[str, Any]
             try:
-                await asyncio.to_thread(run.run, report)
+                path = await asyncio.to_thread(run.run, report)
+                result = {"state": "done", "path": str(path), "frames": run.frames_used}
             except Exception as exc:  # every failure is shown on the page, one line
                 log.warning("calibration %s: %s", name, exc)
-                self._on_event("calibration", {"state": "failed", "name": name, "error": str(exc)})
-            finally:
-                self.calibrating = None
+                result = {"state": "failed", "error": str(exc)}
+            self.calibrating = None
+            self._on_event("calibration", {"name": name, **result})
 
         self._tasks.append(asyncio.create_task(calibrate(), name="console-calibration"))
         return p.message("calibration", state="starting", name=name)
@@ -360,8 +362,8 @@ class ConsoleServer:
             for page in self.pages.values():
                 if payload.get("state") == "running":  # progress: the newest is enough
                     page.outbox.offer("calibration", message)
-                else:
-                    page.outbox.say(message)
+                else:  # the end: no progress message may come after it
+                    page.outbox.say(message, replaces="calibration")
         elif kind == "error":
             for page in self.pages.values():
                 page.outbox.say(p.message("error", message=str(payload)))
