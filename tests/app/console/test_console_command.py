@@ -55,3 +55,8 @@ def test_a_calibration_source_is_checked_at_start(argv: list[str], message: str)
     _, config = apply_arguments("sensor", SensorNode(), args)
     with pytest.raises(ValueError, match=message):
         check_source(config)
+
+
+def test_the_console_listens_on_loopback_by_default() -> None:
+    args = build_parser().parse_args(["console"])
+    assert parse_page(args.page) == ("127.0.0.1", 8095)
