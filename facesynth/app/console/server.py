@@ -26,6 +26,7 @@ from collections.abc import Callable
 from importlib import resources
 from typing import Any
 
+import msgspec
 from aiohttp import WSCloseCode, WSMsgType, web
 
 from facesynth.app.console import protocol as p
@@ -81,6 +82,7 @@ class ConsoleServer:
         self.refused = 0
         self.calibrating: CalibrationRun | None = None
         self._board = wire.StatusBoard()
+        self._notes: dict[tuple[str, str], str] = {}
         self._runner: web.AppRunner | None = None
         self._tasks: list[asyncio.Task[Any]] = []
         folder = resources.files("facesynth.app.console") / "static"
@@ -348,7 +350,9 @@ class ConsoleServer:
                 held = None if self.owner is None else ("you" if self.owner is page else "other")
                 page.outbox.offer("state", p.message("state", **payload, held_by=held))
         elif kind == "stats":
-            self._board.update(*payload)
+            stats, now_ns = payload
+            self._board.update(stats, now_ns)
+            self._notes[(stats.service, stats.instance)] = stats.note
         elif kind == "frame":
             frame = wire.frame(payload)
             if frame is not None:
@@ -372,10 +376,19 @@ class ConsoleServer:
         for page in self.pages.values():
             page.outbox.offer(channel, message)
 
+    def table(self, now_ns: int) -> str:
+        """The stage table for the pages: every service's figures and its note (C's says how
+        its servo board is: connected, reconnecting…)."""
+        rows = [
+            {**msgspec.to_builtins(row), "note": self._notes.get((row.service, row.instance), "")}
+            for row in self._board.rows(now_ns)
+        ]
+        return p.message("stats", services=rows)
+
     async def _send_stats(self) -> None:
         while True:
             await asyncio.sleep(1.0)
-            self._offer("stats", self._board.message(time.time_ns()))
+            self._offer("stats", self.table(time.time_ns()))
 
     async def _write(self, ws: web.WebSocketResponse, outbox: Outbox) -> None:
         try:

@@ -211,3 +211,18 @@ async def test_a_save_reloads_identically_and_c_runs_the_new_limits(
         await page.send(type="jog", servo=0, us=850.0)  # C now allows 900
         await page.until(lambda m: m["type"] == "state" and m["positions"][0] == 900.0, 8)
     assert min(c[FIRST.name] for c in _commands(tmp_path)) == 900.0
+
+
+async def test_the_stage_table_lists_c_and_the_console(console: ConsoleServer) -> None:
+    async with aiohttp.ClientSession() as http:
+        page = await _page(http, console)
+        table = await page.until(
+            lambda m: (
+                m["type"] == "stats"
+                and {"control", "console"} <= {row["service"] for row in m["services"]}
+            ),
+            timeout=6,
+        )
+    rows = {row["service"]: row for row in table["services"]}
+    assert rows["control"]["status"] == "running"
+    assert set(rows["control"]) >= {"rate_hz", "p50_ms", "dropped", "rejected", "note"}

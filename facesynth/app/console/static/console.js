@@ -296,7 +296,7 @@ function onStats(services) {
   for (const s of services) {
     const row = document.createElement("tr");
     const cells = [s.service, s.instance, s.status, s.rate_hz.toFixed(1), fmt(s.p50_ms),
-      fmt(s.p99_ms), s.received, s.published, s.dropped, s.rejected];
+      fmt(s.p99_ms), s.received, s.published, s.dropped, s.rejected, s.note || ""];
     cells.forEach((value, i) => {
       const td = cell(row);
       td.textContent = String(value);
