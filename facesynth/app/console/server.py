@@ -270,7 +270,7 @@ class ConsoleServer:
                 "(…/#token=…) to move servos or save"
             )
         if isinstance(message, p.Release):
-            if self.owner is page:
+            if self.owner is page or self.owner is None:  # (a hold of POST /api/stop too)
                 self.owner = None
                 core.release()
             return p.message("released")

@@ -142,6 +142,11 @@ async def test_other_origins_and_host_names_are_refused(console: ConsoleServer) 
             assert response.status == 200
     assert console.refused == 4
     assert console.session.core.holding  # stopped: held where they stand
+    async with aiohttp.ClientSession() as http:  # until a page with the token lets go
+        page = await _page(http, console)
+        await page.send(type="release")
+        await page.reply("released")
+    assert not console.session.core.holding
 
 
 MALFORMED = [
