@@ -43,7 +43,7 @@ log = logging.getLogger("facesynth.console")
 def parse_page(text: str) -> tuple[str, int]:
     """``--page HOST:PORT`` as (host, port); ``OptionError`` when it is not one."""
     host, sep, port = text.rpartition(":")
-    if not sep or not host or not port.isdigit() or int(port) > 65535:
+    if not sep or not host or not (port.isascii() and port.isdigit()) or int(port) > 65535:
         raise OptionError(f"--page {text!r} is not HOST:PORT (e.g. 127.0.0.1:8095)")
     return host.strip("[]"), int(port)
 

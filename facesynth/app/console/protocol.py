@@ -122,6 +122,11 @@ TYPES = ("hello", "take", "release", "jog", "centre", "neutral", "stop", "limit"
 
 def parse(text: str | bytes) -> ClientMessage:
     """One page message, or :class:`MessageError` saying what is wrong with it."""
+    if isinstance(text, str):
+        try:
+            text = text.encode()
+        except UnicodeEncodeError:
+            raise MessageError("not text: a lone surrogate in the message") from None
     if len(text) > MAX_MESSAGE:
         raise MessageError(f"a message of {len(text)} bytes (at most {MAX_MESSAGE})")
     try:

@@ -22,7 +22,9 @@ def test_a_page_address(text: str, address: tuple[str, int]) -> None:
     assert parse_page(text) == address
 
 
-@pytest.mark.parametrize("text", ["8095", ":8095", "host:", "host:http", "host:70000"])
+@pytest.mark.parametrize(
+    "text", ["8095", ":8095", "host:", "host:http", "host:70000", "host:²", "host:٣"]
+)
 def test_a_bad_page_address(text: str) -> None:
     with pytest.raises(OptionError, match="is not HOST:PORT"):
         parse_page(text)

@@ -38,6 +38,8 @@ def test_messages_parse(text: str, parsed: p.ClientMessage) -> None:
         ('{"type": "reverse", "servo": 1, "reversed": "yes"}', "Expected `bool`"),
         ('{"type": "save", "now": true}', "unknown field `now`"),
         ("x" * (p.MAX_MESSAGE + 1), f"at most {p.MAX_MESSAGE}"),
+        ("é" * (p.MAX_MESSAGE // 2 + 1), "bytes (at most"),  # counted in bytes, not characters
+        ('{"type": "rename", "servo": 0, "name": "\ud800"}', "not text: a lone surrogate"),
     ],
 )
 def test_malformed_messages_are_refused_clearly(text: str, message: str) -> None:
