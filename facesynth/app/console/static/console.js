@@ -195,7 +195,9 @@ function onState(m) {
   state.dirty = m.dirty;
   const held = $("held");
   held.className = "pill " + (m.held_by || "");
-  held.textContent = m.held_by === "you" ? "you hold the servos" : m.held_by === "other" ? "another page holds the servos" : "servos free";
+  held.textContent = m.held_by === "you" ? "you hold the servos"
+    : m.held_by === "other" ? "another page holds the servos"
+    : m.holding ? "servos stopped (let go to free them)" : "servos free";
   $("save").textContent = m.dirty ? "save profile *" : "save profile";
   rows.forEach((r, i) => {
     const p = m.positions[i];
@@ -290,6 +292,8 @@ function drawPoints(width) {
 }
 
 function onStats(services) {
+  const c = services.find((s) => s.service === "control");
+  $("board").textContent = c ? `board: ${c.note || "–"}${c.status === "running" ? "" : ` (C ${c.status})`}` : "";
   const body = document.querySelector("#stats tbody");
   body.replaceChildren();
   const fmt = (v) => (v === null ? "–" : v.toFixed(2));
