@@ -203,6 +203,7 @@ class ConsoleServer:
         await ws.prepare(request)
         page = Page()
         self.pages[ws] = page
+        self.session.watch(True)
         writer = asyncio.create_task(self._write(ws, page.outbox), name="console-writer")
         try:
             page.outbox.say(self._hello())
@@ -214,6 +215,7 @@ class ConsoleServer:
             with contextlib.suppress(asyncio.CancelledError):
                 await writer
             del self.pages[ws]
+            self.session.watch(any(other.outbox.frames for other in self.pages.values()))
             if self.owner is page:  # the page that held the servos is gone: let go
                 self.owner = None
                 self.session.core.release()
@@ -258,6 +260,7 @@ class ConsoleServer:
         core = self.session.core
         if isinstance(message, p.Hello):
             page.outbox.frames = message.frames
+            self.session.watch(any(other.outbox.frames for other in self.pages.values()))
             page.trusted = bool(message.token) and self._token_ok(message.token)
             if message.token and not page.trusted:
                 raise ConsoleError("wrong token: open the address the console printed at start")

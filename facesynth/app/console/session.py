@@ -77,6 +77,8 @@ class ConsoleSession:
         self._c: asyncio.Task[Any] | None = None
         self._tasks: list[asyncio.Task[Any]] = []
         self._saving = asyncio.Lock()
+        self._watching = asyncio.Event()
+        self._following: dict[str, Any] = {}
 
     # --- life ---------------------------------------------------------------------------
 
@@ -215,14 +217,35 @@ class ConsoleSession:
         finally:
             subscription.close()
 
+    @property
+    def watching(self) -> bool:
+        """Whether the performer's frames and landmarks are followed (a page shows them)."""
+        return self._watching.is_set()
+
+    def watch(self, wanted: bool) -> None:
+        """Follow the performer's frames and landmarks only while a page shows them."""
+        if wanted:
+            self._watching.set()
+            return
+        self._watching.clear()
+        for subscription in list(self._following.values()):
+            subscription.close()  # its follower waits for a page again
+
     async def _follow_latest(self, view: RigView, stage: Any) -> None:
-        subscription = view.latest(stage)
-        try:
-            async for sample in subscription:
-                with contextlib.suppress(ValueError):
-                    if stage == "input":
-                        self.listener("frame", codec.decode(sample.payload, Frame))
-                    else:
-                        self.listener("points", codec.decode(sample.payload, Points))
-        finally:
-            subscription.close()
+        while True:
+            await self._watching.wait()
+            subscription = view.latest(stage)
+            self._following[stage] = subscription
+            try:
+                await self._forward(stage, subscription)
+            finally:
+                subscription.close()
+                self._following.pop(stage, None)
+
+    async def _forward(self, stage: Any, subscription: Any) -> None:
+        async for sample in subscription:
+            with contextlib.suppress(ValueError):
+                if stage == "input":
+                    self.listener("frame", codec.decode(sample.payload, Frame))
+                else:
+                    self.listener("points", codec.decode(sample.payload, Points))

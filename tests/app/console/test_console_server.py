@@ -231,3 +231,16 @@ async def test_the_stage_table_lists_c_and_the_console(console: ConsoleServer) -
     rows = {row["service"]: row for row in table["services"]}
     assert rows["control"]["status"] == "running"
     assert set(rows["control"]) >= {"rate_hz", "p50_ms", "dropped", "rejected", "note"}
+
+
+async def test_frames_are_followed_only_while_a_page_shows_them(console: ConsoleServer) -> None:
+    assert not console.session.watching
+    async with aiohttp.ClientSession() as http:
+        page = await _page(http, console)
+        await page.reply("welcome")
+        assert console.session.watching
+        await page.send(type="hello", token=TOKEN, frames=False)
+        await page.reply("welcome")
+        assert not console.session.watching
+        await page.ws.close()
+    assert not console.session.watching
