@@ -244,3 +244,21 @@ async def test_frames_are_followed_only_while_a_page_shows_them(console: Console
         assert not console.session.watching
         await page.ws.close()
     assert not console.session.watching
+
+
+async def test_http_save_with_the_token(console: ConsoleServer, tmp_path: Path) -> None:
+    url = f"http://127.0.0.1:{console.port}"
+    console.session.core.set_limit(2, "max", 1900.0)
+    async with aiohttp.ClientSession() as http:
+        async with http.get(f"{url}/state") as response:
+            state = await response.json()
+            assert state["dirty"] and not state["locked"] and state["control"] == "running"
+        async with http.post(f"{url}/api/save", headers={TOKEN_HEADER: "nope"}) as response:
+            assert response.status == 401
+        async with http.post(f"{url}/api/save", headers={TOKEN_HEADER: TOKEN}) as response:
+            assert response.status == 200
+            saved = await response.json()
+    assert saved["path"] == str(tmp_path / "head.toml")
+    assert load_profile(saved["path"]).servos[2].max_us == 1900.0
+    assert load_profile(saved["path"]) == console.session.core.active
+    assert not console.session.core.dirty
