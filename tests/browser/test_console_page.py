@@ -100,7 +100,12 @@ async def test_a_slider_moves_the_pulse_and_a_saved_profile_reloads_identically(
     await asyncio.sleep(0.3)
     assert uno.shows({first.channel: first.neutral_us})
 
+    await asyncio.to_thread(browser.get, f"{base}#token={token}")
+    await wait_js(browser, "window.facesynth.status === 'open' && window.facesynth.trusted")
+    await js(browser, JOG, 1300)
+    await uno.settle({first.channel: 1300.0}, timeout=10)
     processes.stop()  # the console stops: C returns the face to neutral, the page says so
+    await uno.settle({first.channel: first.neutral_us}, timeout=10)
     await wait_js(browser, "window.facesynth.status === 'closed'")
     assert "Disconnected" in await js(
         browser, "return document.getElementById('banner').textContent"
