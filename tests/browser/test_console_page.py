@@ -100,6 +100,7 @@ async def test_a_slider_moves_the_pulse_and_a_saved_profile_reloads_identically(
     await asyncio.sleep(0.3)
     assert uno.shows({first.channel: first.neutral_us})
 
+    await asyncio.to_thread(browser.get, "about:blank")  # (a new #fragment alone: no reload)
     await asyncio.to_thread(browser.get, f"{base}#token={token}")
     await wait_js(browser, "window.facesynth.status === 'open' && window.facesynth.trusted")
     await js(browser, JOG, 1300)

@@ -324,4 +324,7 @@ setInterval(() => {
   }
 }, 2000);
 
+// A token pasted into the address bar (a new #fragment) does not reload a page: reload it.
+window.addEventListener("hashchange", () => location.reload());
+
 connect();
