@@ -1,4 +1,5 @@
-"""What the console sends one page: its replies in order, everything else latest-only.
+"""One open console page: whether it gave the token, and what the console sends it (its
+replies in order, everything else latest-only).
 
 Replies (``welcome``, ``error``, ``saved``…) are kept in order, at most :data:`MAX_REPLIES`
 (older ones are dropped for a page that does not read); the servos' state, the stage table,
@@ -46,3 +47,11 @@ class Outbox:
         self.replies.clear()
         self.slots.clear()
         return items
+
+
+class Page:
+    """One open page: its outbox and whether it gave the token."""
+
+    def __init__(self) -> None:
+        self.outbox = Outbox()
+        self.trusted = False

@@ -31,7 +31,7 @@ from aiohttp import WSCloseCode, WSMsgType, web
 
 from facesynth.app.console import protocol as p
 from facesynth.app.console.calibration import CalibrationRun
-from facesynth.app.console.outbox import Outbox
+from facesynth.app.console.outbox import Outbox, Page
 from facesynth.app.console.rig import ConsoleError
 from facesynth.app.console.session import ConsoleSession
 from facesynth.runtime.web_app import serve_app
@@ -46,14 +46,6 @@ STATIC = {
 }
 LOOPBACK = {"127.0.0.1", "localhost", "::1"}
 TOKEN_HEADER = "X-Facesynth-Token"
-
-
-class Page:
-    """One open page: its outbox and whether it gave the token."""
-
-    def __init__(self) -> None:
-        self.outbox = Outbox()
-        self.trusted = False
 
 
 class ConsoleServer:
