@@ -33,7 +33,7 @@ test-faults: $(BIN)/.installed
 ## Fuzz: 10,000 hypothesis cases for every decoder, loader and protocol parser, in two shards
 ## of about equal time run side by side (one per core); each prints its own tally, then the other's.
 FUZZ_SHARD_A := tests/fuzz/test_fuzz_loaders.py tests/fuzz/test_fuzz_files.py \
-	tests/fuzz/test_fuzz_translator.py tests/fuzz/test_fuzz_text_inputs.py
+	tests/fuzz/test_fuzz_translator.py tests/fuzz/test_fuzz_text_inputs.py tests/fuzz/test_fuzz_console.py
 test-fuzz: $(BIN)/.installed
 	@mkdir -p build; \
 	$(BIN)/python -m pytest -q -s -p no:cacheprovider -m fuzz $(FUZZ_SHARD_A) >build/fuzz-a.log 2>&1 & a=$$!; \

@@ -31,6 +31,7 @@ COMMANDS = [
     "learn",
     "simhead",
     "doctor",
+    "console",
 ]
 
 
@@ -509,6 +510,43 @@ CASES = [
         ["simhead", "--serial-link", "tty", "--device-number", "300"],
         "device number 300 is not in 0..127",
     ),
+    ("console without a profile", ["console", "--driver", "virtual"], "console needs --profile"),
+    ("console without a driver", ["console", "--profile", "head16"], "console needs --driver NAME"),
+    (
+        "console page address",
+        ["console", "--profile", "head16", "--driver", "virtual", "--page", "8095"],
+        "--page '8095' is not HOST:PORT",
+    ),
+    (
+        "console unknown profile",
+        ["console", "--profile", "nohead", "--driver", "virtual"],
+        "no profile named 'nohead'",
+    ),
+    (
+        "console bad profile file",
+        ["console", "--profile", "{bad.toml}", "--driver", "virtual"],
+        "not valid TOML",
+    ),
+    (
+        "console save to a non-profile",
+        ["console", "--profile", "head16", "--driver", "virtual", "--save", "head.json"],
+        "--save head.json: a profile file ends in .toml",
+    ),
+    (
+        "console save into a folder",
+        ["console", "--profile", "head16", "--driver", "virtual", "--save", "{a-folder}"],
+        "a profile file ends in .toml",
+    ),
+    (
+        "console face page",
+        ["console", "--profile", "head16", "--driver", "virtual", "--face-page", "host:8090"],
+        "--face-page 'host:8090': give an http:// or https:// address",
+    ),
+    (
+        "console calibration source",
+        ["console", "--profile", "head16", "--driver", "virtual", "--camera", "front"],
+        "--camera 'front': expected a device index",
+    ),
     ("camera name", ["sensor", "--camera", "front"], "--camera 'front': expected a device index"),
     ("camera file", ["sensor", "--camera", "{garbage.mp4}"], "a file, not a camera (use --video"),
     ("camera scheme", ["sensor", "--camera", "ftp://cam/x"], "--camera ftp://cam/x: cannot stream"),
@@ -609,6 +647,24 @@ def test_a_taken_page_port_is_one_error_line(capsys: pytest.CaptureFixture[str])
     err = capsys.readouterr().err
     assert f"facesynth run: error: cannot serve the live face page on {address}" in err
     assert "choose another address with --http HOST:PORT" in err
+    assert "Traceback" not in err
+
+
+def test_a_taken_console_page_port_is_one_error_line(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    import socket
+
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        address = f"127.0.0.1:{taken.getsockname()[1]}"
+        argv = ["console", "--profile", "head16", "--driver", "record", "--out",
+                str(tmp_path / "c.jsonl"), "--page", address, "--listen", "tcp/127.0.0.1:0",
+                "--save", str(tmp_path / "head16.toml"), "--rig", "taken"]  # fmt: skip
+        assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert f"facesynth console: error: --page {address}: cannot listen there" in err
     assert "Traceback" not in err
 
 

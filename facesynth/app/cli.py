@@ -388,6 +388,9 @@ def build_parser() -> argparse.ArgumentParser:
     from facesynth.app.doctor.command import add_doctor_parser
 
     add_doctor_parser(sub, _zenoh_arguments)
+    from facesynth.app.console.arguments import add_console_parser
+
+    add_console_parser(sub, _zenoh_arguments)
     return parser
 
 

@@ -1,0 +1,330 @@
+// facesynth rig console: talks to `facesynth console` (facesynth/app/console/protocol.py).
+// It reconnects by itself and always says what state it is in: never a silent dead page.
+"use strict";
+
+const state = {
+  status: "connecting", // "open" | "closed" | "connecting"
+  connects: 0,
+  trusted: false,
+  heldBy: null, // null | "you" | "other"
+  control: null,
+  servos: [],
+  positions: [],
+  targets: [],
+  errors: [],
+  saved: null,
+  calibration: null,
+  framesDrawn: 0,
+  points: null,
+};
+window.facesynth = state;
+
+const $ = (id) => document.getElementById(id);
+const token = new URLSearchParams(location.hash.slice(1)).get("token") || "";
+const frameCanvas = $("frame");
+const frameCtx = frameCanvas.getContext("2d");
+let socket = null;
+let retryMs = 250;
+let rows = [];
+
+function send(message) {
+  if (socket && socket.readyState === WebSocket.OPEN) {
+    socket.send(JSON.stringify(message));
+    return true;
+  }
+  showError("not connected: the console is not reachable (is `facesynth console` running?)");
+  return false;
+}
+window.consoleSend = send;
+
+function setStatus(status) {
+  state.status = status;
+  const el = $("status");
+  el.className = "pill " + status;
+  el.textContent = { open: "connected", closed: "disconnected", connecting: "connecting…" }[status];
+  const banner = $("banner");
+  banner.hidden = status === "open";
+  banner.textContent = status === "closed"
+    ? "Disconnected from the console: retrying… (servos return to neutral when no page holds them)"
+    : "Connecting to the console…";
+}
+
+function showError(text) {
+  state.errors.push(text);
+  $("error-text").textContent = text;
+  $("error").hidden = false;
+}
+$("error-close").onclick = () => { $("error").hidden = true; };
+
+function connect() {
+  setStatus("connecting");
+  const scheme = location.protocol === "https:" ? "wss://" : "ws://";
+  const ws = new WebSocket(scheme + location.host + "/ws");
+  ws.binaryType = "arraybuffer";
+  socket = ws;
+  ws.onopen = () => {
+    state.connects += 1;
+    retryMs = 250;
+    setStatus("open");
+    ws.send(JSON.stringify({ type: "hello", token }));
+  };
+  ws.onmessage = (event) => {
+    if (typeof event.data === "string") onText(JSON.parse(event.data));
+    else onFrame(event.data);
+  };
+  ws.onclose = () => {
+    if (socket !== ws) return;
+    setStatus("closed");
+    state.trusted = false;
+    state.heldBy = null;
+    setTimeout(connect, retryMs);
+    retryMs = Math.min(retryMs * 2, 2000);
+  };
+}
+
+function onText(m) {
+  switch (m.type) {
+    case "hello": return onHello(m);
+    case "welcome": return onWelcome(m);
+    case "state": return onState(m);
+    case "stats": return onStats(m.services);
+    case "points": state.points = m; return;
+    case "control": return onControl(m.state);
+    case "calibration": return onCalibration(m);
+    case "saved": state.saved = m;
+      $("save-info").textContent = `saved ${m.path}` + (m.backup ? ` (previous: ${m.backup})` : "");
+      return;
+    case "released": return;
+    case "error": return showError(m.message);
+    case "pong": $("rtt").textContent = `page round trip ${(performance.now() - m.t).toFixed(1)} ms`;
+      return;
+  }
+}
+
+function onWelcome(m) {
+  state.trusted = m.trusted;
+  const el = $("trust");
+  el.className = "pill" + (m.trusted ? " trusted" : "");
+  el.textContent = m.trusted ? "token ok" : "watching (no token)";
+  if (!m.trusted) showError("This page has no token: it can watch but not move servos. Open the address the console printed (…/#token=…).");
+}
+
+function onControl(value) {
+  state.control = value;
+  const el = $("control");
+  el.className = "pill " + value.split(":")[0];
+  el.textContent = `C: ${value}`;
+}
+
+function cell(row, html) {
+  const td = document.createElement("td");
+  if (html !== undefined) td.innerHTML = html;
+  row.appendChild(td);
+  return td;
+}
+
+function onHello(m) {
+  $("profile").textContent = `profile ${m.profile} → ${m.save_to}`;
+  onControl(m.control);
+  $("calibrate").disabled = !m.calibration;
+  if (!m.calibration) $("calib-result").textContent = "start the console with --camera N or --video FILE to calibrate";
+  if (m.face_page) { $("face-panel").hidden = false; if ($("face-page").src !== m.face_page) $("face-page").src = m.face_page; }
+  if (m.robot_camera) { $("camera-panel").hidden = false; if ($("robot-camera").src !== m.robot_camera) $("robot-camera").src = m.robot_camera; }
+  state.servos = m.servos;
+  const body = document.querySelector("#servos tbody");
+  body.replaceChildren();
+  const bars = $("bars");
+  bars.replaceChildren();
+  rows = m.servos.map((s) => {
+    const row = document.createElement("tr");
+    row.dataset.servo = s.index;
+    cell(row, String(s.index));
+    cell(row, String(s.channel));
+    const name = cell(row, '<input class="servo-name">').firstChild;
+    name.value = s.name;
+    name.onchange = () => send({ type: "rename", servo: s.index, name: name.value });
+    name.parentNode.className = "name";
+    const jog = cell(row, '<input type="range" class="jog" step="1">').firstChild;
+    jog.parentNode.className = "jog";
+    jog.min = s.low; jog.max = s.high; jog.value = s.neutral;
+    let pending = null;
+    jog.oninput = () => {
+      if (pending === null) setTimeout(() => { send({ type: "jog", servo: s.index, us: pending }); pending = null; }, 30);
+      pending = Number(jog.value);
+    };
+    const target = cell(row, "–");
+    const at = cell(row, "–");
+    const limits = {};
+    for (const which of ["min", "neutral", "max"]) {
+      const input = cell(row, '<input type="number" step="1">').firstChild;
+      input.parentNode.className = "limit";
+      input.value = s[which];
+      input.className = `limit-${which}`;
+      input.onchange = () => send({ type: "limit", servo: s.index, which, us: Number(input.value) });
+      limits[which] = input;
+    }
+    const here = cell(row);
+    for (const which of ["min", "neutral", "max"]) {
+      const b = document.createElement("button");
+      b.textContent = which;
+      b.className = `here-${which}`;
+      b.title = `set ${which} to where the servo stands`;
+      b.onclick = () => send({ type: "limit", servo: s.index, which });
+      here.appendChild(b);
+    }
+    const rev = cell(row, '<input type="checkbox" class="reversed">').firstChild;
+    rev.checked = s.reversed;
+    rev.onchange = () => send({ type: "reverse", servo: s.index, reversed: rev.checked });
+    body.appendChild(row);
+    const bar = document.createElement("div");
+    bar.className = "bar";
+    bar.innerHTML = '<span class="name"></span><span class="track"><span class="fill"></span><span class="mark"></span></span><span class="value"></span>';
+    bar.querySelector(".name").textContent = s.name;
+    const span = s.max - s.min || 1;
+    bar.querySelector(".mark").style.left = `${(100 * (s.neutral - s.min)) / span}%`;
+    bars.appendChild(bar);
+    return { s, jog, target, at, limits, bar, span };
+  });
+}
+
+function onState(m) {
+  state.positions = m.positions;
+  state.targets = m.targets;
+  state.heldBy = m.held_by;
+  state.holding = m.holding;
+  state.dirty = m.dirty;
+  const held = $("held");
+  held.className = "pill " + (m.held_by || "");
+  held.textContent = m.held_by === "you" ? "you hold the servos"
+    : m.held_by === "other" ? "another page holds the servos"
+    : m.holding ? "servos stopped (let go to free them)" : "servos free";
+  $("save").textContent = m.dirty ? "save profile *" : "save profile";
+  rows.forEach((r, i) => {
+    const p = m.positions[i];
+    const t = m.targets[i];
+    r.target.textContent = m.holding ? t.toFixed(0) : "–";
+    r.at.textContent = p.toFixed(0);
+    if (document.activeElement !== r.jog && m.holding) r.jog.value = t;
+    const v = Math.min(r.s.max, Math.max(r.s.min, p));
+    const a = (100 * (Math.min(v, r.s.neutral) - r.s.min)) / r.span;
+    const b = (100 * (Math.max(v, r.s.neutral) - r.s.min)) / r.span;
+    const fill = r.bar.querySelector(".fill");
+    fill.style.left = `${a}%`;
+    fill.style.width = `${b - a}%`;
+    r.bar.querySelector(".value").textContent = p.toFixed(0);
+  });
+}
+
+function onCalibration(m) {
+  state.calibration = m;
+  if (m.state === "running" || m.state === "starting") {
+    $("calib-step").textContent = m.step ? m.step.replace(/_/g, " ").toUpperCase() : m.state;
+    $("calib-prompt").textContent = m.prompt || "";
+    $("calib-left").textContent = m.left_s === null || m.left_s === undefined ? "" : `${Math.ceil(m.left_s)}`;
+    $("calib-result").textContent = "";
+  } else if (m.state === "done") {
+    $("calib-step").textContent = "done";
+    $("calib-left").textContent = "";
+    $("calib-prompt").textContent = "";
+    $("calib-result").textContent = `calibration ${m.name} written to ${m.path}: use --calibration ${m.name}`;
+  } else if (m.state === "failed") {
+    $("calib-step").textContent = "failed";
+    $("calib-left").textContent = "";
+    showError(`calibration ${m.name}: ${m.error}`);
+  }
+}
+
+let pendingFrame = null;
+let decoding = false;
+function onFrame(buffer) {
+  pendingFrame = buffer;
+  if (!decoding) decodeFrames();
+}
+
+async function decodeFrames() {
+  decoding = true;
+  try {
+    while (pendingFrame !== null) {
+      const buffer = pendingFrame;
+      pendingFrame = null;
+      const view = new DataView(buffer);
+      const length = view.getUint32(0);
+      const header = JSON.parse(new TextDecoder().decode(new Uint8Array(buffer, 4, length)));
+      const pixels = new Uint8Array(buffer, 4 + length);
+      if (frameCanvas.width !== header.width || frameCanvas.height !== header.height) {
+        frameCanvas.width = header.width;
+        frameCanvas.height = header.height;
+      }
+      if (header.encoding === "jpeg") {
+        const bitmap = await createImageBitmap(new Blob([pixels], { type: "image/jpeg" }));
+        frameCtx.drawImage(bitmap, 0, 0);
+        bitmap.close();
+      } else {
+        const image = frameCtx.createImageData(header.width, header.height);
+        for (let i = 0, j = 0; i < pixels.length; i += 3, j += 4) {
+          image.data[j] = pixels[i + 2]; image.data[j + 1] = pixels[i + 1];
+          image.data[j + 2] = pixels[i]; image.data[j + 3] = 255;
+        }
+        frameCtx.putImageData(image, 0, 0);
+      }
+      drawPoints(header.width);
+      state.framesDrawn += 1;
+      $("no-frames").hidden = true;
+      $("frame-info").textContent = `frame ${header.seq}`;
+    }
+  } catch (error) {
+    console.warn("frame not drawn", error);
+  } finally {
+    decoding = false;
+  }
+}
+
+function drawPoints(width) {
+  const p = state.points;
+  if (!p || !p.face) return;
+  const r = Math.max(1.5, width / 320);
+  frameCtx.fillStyle = "#50ff78";
+  for (let i = 0; i + 1 < p.ibug68.length; i += 2) {
+    frameCtx.beginPath();
+    frameCtx.arc(p.ibug68[i], p.ibug68[i + 1], r, 0, 2 * Math.PI);
+    frameCtx.fill();
+  }
+}
+
+function onStats(services) {
+  const c = services.find((s) => s.service === "control");
+  $("board").textContent = c ? `board: ${c.note || "–"}${c.status === "running" ? "" : ` (C ${c.status})`}` : "";
+  const body = document.querySelector("#stats tbody");
+  body.replaceChildren();
+  const fmt = (v) => (v === null ? "–" : v.toFixed(2));
+  for (const s of services) {
+    const row = document.createElement("tr");
+    const cells = [s.service, s.instance, s.status, s.rate_hz.toFixed(1), fmt(s.p50_ms),
+      fmt(s.p99_ms), s.received, s.published, s.dropped, s.rejected, s.note || ""];
+    cells.forEach((value, i) => {
+      const td = cell(row);
+      td.textContent = String(value);
+      if (i === 2) td.className = s.status;
+    });
+    body.appendChild(row);
+  }
+}
+
+$("take").onclick = () => send({ type: "take" });
+$("release").onclick = () => send({ type: "release" });
+$("centre").onclick = () => send({ type: "centre" });
+$("neutral").onclick = () => send({ type: "neutral" });
+$("stop").onclick = () => send({ type: "stop" });
+$("save").onclick = () => send({ type: "save" });
+$("calibrate").onclick = () => send({ type: "calibrate", name: $("calib-name").value });
+
+setInterval(() => {
+  if (socket && socket.readyState === WebSocket.OPEN) {
+    socket.send(JSON.stringify({ type: "ping", t: performance.now() }));
+  }
+}, 2000);
+
+// A token pasted into the address bar (a new #fragment) does not reload a page: reload it.
+window.addEventListener("hashchange", () => location.reload());
+
+connect();
