@@ -547,6 +547,11 @@ CASES = [
         ["console", "--profile", "head16", "--driver", "virtual", "--camera", "front"],
         "--camera 'front': expected a device index",
     ),
+    (
+        "console driver that cannot show the profile",
+        ["console", "--profile", "paper16", "--driver", "vmc"],
+        "the vmc driver cannot show 15 of the 16 controls of profile paper16",
+    ),
     ("camera name", ["sensor", "--camera", "front"], "--camera 'front': expected a device index"),
     ("camera file", ["sensor", "--camera", "{garbage.mp4}"], "a file, not a camera (use --video"),
     ("camera scheme", ["sensor", "--camera", "ftp://cam/x"], "--camera ftp://cam/x: cannot stream"),

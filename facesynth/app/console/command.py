@@ -28,6 +28,7 @@ from facesynth.app.console.profile_file import save_path
 from facesynth.app.console.rig import ConsoleRig
 from facesynth.app.graph import Graph
 from facesynth.app.nodes import ControlNode, SensorNode
+from facesynth.app.profile_choice import check_fit
 from facesynth.app.stage_args import PLUGIN_FLAGS, apply_arguments
 from facesynth.app.wiring import OptionError, StageParts, build_node, zenoh_options
 from facesynth.runtime.bus.zenoh_bus import ZenohBus, endpoints
@@ -117,10 +118,12 @@ def cmd_console(args: argparse.Namespace) -> int:
     if getattr(args, "plugin_driver", None) is None and not hasattr(args, "plugin_driver_file"):
         raise OptionError(f"console needs --driver NAME ({', '.join(DRIVERS.names())})")
     node, config = apply_arguments("control", ControlNode(), args)
-    profile = load_profile(node.profile)
+    profile_file = node.profile or ""  # given: checked above
+    profile = load_profile(profile_file)
+    check_fit(config, profile)
     core = ConsoleRig(profile)
     save_to = (
-        Path(args.save) if args.save else save_path(resolve_profile(node.profile), profile.name)
+        Path(args.save) if args.save else save_path(resolve_profile(profile_file), profile.name)
     )
     if save_to.suffix != ".toml":
         raise OptionError(f"--save {save_to}: a profile file ends in .toml")
@@ -167,7 +170,7 @@ async def _serve(
     zsession, locators = await asyncio.to_thread(open_embedded, listen, zenoh)
     bus = ZenohBus(zsession, mode="router")
     session = ConsoleSession(
-        bus, rig, core, control, profile_file=node.profile, save_to=save_to,
+        bus, rig, core, control, profile_file=node.profile or "", save_to=save_to,
         stats_interval=args.stats_interval, robot=node.robot,
     )  # fmt: skip
     views = {"face_page": args.face_page, "robot_camera": args.robot_camera}
