@@ -17,7 +17,12 @@ from facesynth.app.bench.chain import (
     bench_chain_once,
     variants,
 )
-from facesynth.app.bench.chain_report import format_chain_bench, format_summary, verdict
+from facesynth.app.bench.chain_report import (
+    format_budget,
+    format_chain_bench,
+    format_summary,
+    verdict,
+)
 from facesynth.app.bench.observe import HOP_NAMES, RigObserver, Trigger
 from facesynth.app.bench.processes import CpuWindow, cpu_seconds
 from facesynth.app.data import sample_openface_csv
@@ -153,17 +158,35 @@ def test_the_report_puts_goals_against_every_runs_figures() -> None:
     figures = [
         _figures(fast, 1, 7.5, 11.0, 7.0),
         _figures(slow, 1, 12.0, 20.0, 15.0),
-        _figures(fast, 2, 7.9, 16.0, 7.6),
+        _figures(fast, 2, 7.9, 21.0, 9.6),
         _figures(slow, 2, 13.0, 22.0, 15.4),
     ]
     summary = format_summary(figures)
     fast_line = next(line for line in summary.splitlines() if "raw fast peer realtime" in line)
-    assert "7.5 7.9" in fast_line and "11.0 16.0" in fast_line
-    assert "p50 met; p99 missed by 1.0 ms; CPU met" in fast_line  # worst run; mean CPU 7.3
+    assert "7.5 7.9" in fast_line and "11.0 21.0" in fast_line
+    assert "p50 met; p99 missed by 1.0 ms; CPU met" in fast_line  # worst run; mean CPU 8.3
     slow_line = next(line for line in summary.splitlines() if "jpeg full client" in line)
-    assert "p50 missed by 5.0 ms" in slow_line and "CPU missed by 7.2 ms" in slow_line
+    assert "p50 missed by 3.0 ms" in slow_line and "CPU missed by 5.2 ms" in slow_line
     text = format_chain_bench(figures)
     assert text.count("run 1 ·") == 2 and "whole chain" in text and "router" in text
+
+
+def test_the_budget_puts_each_process_against_its_share_and_points_beyond_its_model() -> None:
+    five, board = ChainVariant(), ChainVariant(layout="board")
+    cpu = {"sensor": 1.4, "points": 7.0, "features": 0.6, "translator": 0.3, "control": 0.2}
+    figures = [_figures(five, 1, 9.0, 19.0, 0.0), _figures(board, 1, 9.5, 21.0, 0.0)]
+    figures[0].cpu_ms = {**cpu, "router": 0.4}
+    figures[1].cpu_ms = {"sensor": 1.4, "points": 7.0, "board": 1.25, "router": 0.3}
+    text = format_budget(figures, {("full", 1): 5.0})
+    rows = {line.split("  ")[2].strip(): line for line in text.splitlines() if "   " in line}
+    assert rows["sensor"].endswith("met")
+    assert "7.00     6.50   missed by 0.5 ms" in rows["points (model 5.00)"]
+    assert "missed by 0.1 ms" in rows["features"] and rows["translator"].endswith("met")
+    assert "10.00   met" in rows["five-process chain"]  # 9.9 ms with the router
+    assert "1.25     1.00   missed by 0.2 ms" in rows["F + T + C, one process"]
+    assert "p50 9.0 ms (met), p99 19.0 ms (met)" in text
+    assert "p50 9.5 ms (met), p99 21.0 ms (missed by 1.0 ms)" in text
+    assert "jpeg full client board" in text and format_chain_bench(figures).count("CPU budget") == 0
 
 
 def test_variants_are_every_combination_in_the_order_given() -> None:
@@ -175,6 +198,10 @@ def test_variants_are_every_combination_in_the_order_given() -> None:
         "raw fast client",
     ]
     assert ChainVariant(sched="realtime").router_args() == ["--realtime", "10"]
+    boards = variants(layouts=("processes", "board"))
+    assert [v.label() for v in boards] == ["jpeg full client", "jpeg full client board"]
+    assert boards[0].groups() is None
+    assert boards[1].groups() == {"board": ["features", "translator", "control"]}
 
 
 @pytest.mark.slow
