@@ -7,6 +7,7 @@ import os
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -24,7 +25,7 @@ from facesynth.app.bench.chain_report import (
     verdict,
 )
 from facesynth.app.bench.observe import HOP_NAMES, RigObserver, Trigger
-from facesynth.app.bench.processes import CpuWindow, cpu_seconds
+from facesynth.app.bench.processes import CpuWindow, ProcessGroup, cpu_seconds
 from facesynth.app.data import sample_openface_csv
 from facesynth.runtime import codec, keys
 from facesynth.runtime.bus.memory import MemoryNetwork
@@ -226,3 +227,19 @@ def test_a_real_run_measures_every_process_and_the_router() -> None:
     assert set(figures.stage_ms) == {"sensor", "points", "features", "translator", "control"}
     assert set(figures.gc) >= {"sensor", "points", "features", "translator", "control"}
     assert 0 <= figures.others_busy <= figures.machine_busy <= 1
+
+
+def test_a_baseline_tree_runs_its_own_facesynth_even_from_another_trees_root(
+    tmp_path: Path,
+) -> None:
+    source = tmp_path / "old"
+    (source / "facesynth").mkdir(parents=True)
+    (source / "facesynth" / "__init__.py").write_text("")
+    (source / "facesynth" / "__main__.py").write_text("print('old tree', __file__)\n")
+    assert (Path.cwd() / "facesynth" / "__main__.py").is_file()  # run from this tree's root
+    group = ProcessGroup(tmp_path, str(source))
+    try:
+        assert group.start("probe", "--version").wait(timeout=30) == 0
+    finally:
+        group.close()
+    assert f"old tree {source}" in group.log("probe").read_text()
