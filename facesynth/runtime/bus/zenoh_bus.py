@@ -54,10 +54,11 @@ MESSAGE_LIMIT_PATH: Final = "transport/link/rx/max_message_size"
 #: same host, its default, and facesynth's. Zenoh's 3 KiB sends every JPEG frame, Points and
 #: Features message through shared memory, and at 30 messages a second that costs more CPU
 #: than the copy it saves: measured on loopback (one publisher, a router, one subscriber, 30
-#: messages/s), 6 kB payloads took 0.17 ms of CPU per message to receive, 0.24 to publish and
-#: 0.20 in the router without shared memory, against 0.26, 0.39 and 0.31 with it; the
-#: five-process chain spent 1.6 ms less CPU per frame (``facesynth bench chain``). Raw frames
-#: (hundreds of kB) still go through shared memory.
+#: messages/s, plain Zenoh sessions), 6 kB payloads took 0.15-0.19 ms of CPU per message to
+#: receive, 0.23-0.24 to publish and 0.17-0.20 in the router without shared memory, against
+#: 0.24-0.26, 0.39-0.48 and 0.31 with it (40 kB alike). In ``facesynth bench chain`` the
+#: difference is within the run-to-run spread of a shared 2-core machine. Raw frames (hundreds
+#: of kB) still go through shared memory.
 SHM_THRESHOLD_PATH: Final = "transport/shared_memory/transport_optimization/message_size_threshold"
 ZENOH_SHM_THRESHOLD: Final = 3072
 SHM_THRESHOLD: Final = 256 * 1024
