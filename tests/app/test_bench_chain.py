@@ -243,3 +243,14 @@ def test_a_baseline_tree_runs_its_own_facesynth_even_from_another_trees_root(
     finally:
         group.close()
     assert f"old tree {source}" in group.log("probe").read_text()
+
+
+@pytest.mark.slow
+def test_a_real_run_with_the_board_as_one_process_measures_it_as_one() -> None:
+    figures = bench_chain_once(
+        ChainVariant(layout="board"), seconds=3.0, openface_csv=str(sample_openface_csv())
+    )
+    assert 80 <= figures.commands <= 90, figures.commands
+    assert set(figures.cpu_ms) == {"sensor", "points", "board", "router"}
+    assert set(figures.stage_ms) == {"sensor", "points", "features", "translator", "control"}
+    assert 0 < figures.steady_ms[0] <= figures.steady_ms[1]

@@ -67,7 +67,7 @@ def model_calls_ms(model: str, threads: int, video: Path, frames: int = 150) -> 
     from services.points.tracker.offline import iter_video_frames
 
     # The points service's own tracker, set up as it sets it up.
-    tracker = TrackerBackend(TrackerConfig(model=model, threads=threads)).tracker  # type: ignore[arg-type]
+    tracker = TrackerBackend(TrackerConfig(model=model, threads=threads)).tracker
     spent = [0.0]
     for loaded in _models_of(tracker):
         # This instance only: the benchmark's own tracker, counting its inference calls.
