@@ -367,6 +367,7 @@ CASES = [
     ("bench chain sched", ["bench", "chain", "--sched", "fifo"], "--sched: unknown fifo"),
     ("bench chain mode", ["bench", "chain", "--mode", "router"], "--mode: unknown router"),
     ("bench chain model", ["bench", "chain", "--models", "tiny"], "--models: unknown tiny"),
+    ("bench chain layout", ["bench", "chain", "--layout", "shared"], "--layout: unknown shared"),
     ("bench fanout robots", ["bench", "fanout", "--robots", "a,b"], "--robots: not a list"),
     ("bench fanout no robots", ["bench", "fanout", "--robots", "0"], "counts of at least 1"),
     ("bench fanout layout", ["bench", "fanout", "--layout", "threads"], "unknown layout 'threads'"),

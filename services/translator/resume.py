@@ -50,9 +50,10 @@ class ServoStateWatch:
         self.moved_on_its_own = False
         return self.positions
 
-    async def follow(self, subscription: Subscription) -> None:
-        """Keep up with the reports until the subscription closes (screened on arrival)."""
-        async for sample in subscription:
+    def catch_up(self, subscription: Subscription) -> None:
+        """Every report waiting in ``subscription`` (screened on arrival), in order: the
+        translator reads them just before each command instead of waking for each one."""
+        while (sample := subscription.receive_nowait()) is not None:
             if sample.message is not None:
                 self.see(sample.message)
 

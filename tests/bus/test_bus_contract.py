@@ -82,6 +82,33 @@ async def test_queued_drops_oldest_when_full(make_bus: Factory, key_prefix: str)
     assert subscription.dropped == 7
 
 
+async def test_a_polled_mailbox_stores_screened_samples_without_waking_its_reader(
+    make_bus: Factory, key_prefix: str
+) -> None:
+    sender, receiver = make_bus(), make_bus()
+    subscription = receiver.subscribe_queued(f"{key_prefix}/polled", 3)
+
+    def screen(payload: bytes) -> int:
+        if payload == b"bad":
+            raise ValueError("bad")
+        return int(payload)
+
+    subscription.guard(1024, screen)
+    subscription.poll_only()
+    await settle(receiver)
+    for payload in (b"0", b"bad", b"1", b"2", b"3", b"4"):
+        sender.publish(f"{key_prefix}/polled", payload)
+    await _wait_received(subscription, 5)
+    assert [s.message for s in iter(subscription.receive_nowait, None)] == [2, 3, 4]
+    assert subscription.dropped == 2 and subscription.refused == 1
+    with pytest.raises(RuntimeError, match="receive_nowait"):
+        await subscription.receive()
+    sender.publish(f"{key_prefix}/polled", b"5")
+    await _wait_received(subscription, 6)
+    subscription.close()
+    assert subscription.receive_nowait() is None
+
+
 async def test_latest_keeps_only_newest(make_bus: Factory, key_prefix: str) -> None:
     sender, receiver = make_bus(), make_bus()
     subscription = receiver.subscribe_latest(f"{key_prefix}/latest")

@@ -162,6 +162,25 @@ def test_video_source_reads_the_sample_video() -> None:
     assert not np.array_equal(frames[0][0], frames[2][0])  # real, moving frames
 
 
+def test_a_small_video_decodes_on_one_thread_and_a_large_one_on_ffmpegs_default(
+    tmp_path: Path,
+) -> None:
+    large = tmp_path / "large.mp4"
+    writer = cv2.VideoWriter(str(large), cv2.VideoWriter_fourcc(*"mp4v"), 30.0, (1920, 1080))
+    for value in (0, 128):
+        writer.write(np.full((1080, 1920, 3), value, np.uint8))
+    writer.release()
+    threads = {}
+    for name, path in (("small", VIDEO), ("large", large)):
+        source = VideoSource(VideoConfig(path=str(path)))
+        try:
+            threads[name] = source._capture.get(cv2.CAP_PROP_N_THREADS)
+            assert next(iter(source.frames()))[0] is not None
+        finally:
+            source.close()
+    assert threads["small"] == 1 and threads["large"] != 1, threads
+
+
 def test_video_source_fps_override() -> None:
     source = VideoSource(VideoConfig(path=str(VIDEO), fps=10.0))
     try:

@@ -1,13 +1,15 @@
 """The printed report of ``facesynth bench chain``: each run, then the variants side by side
-with the goals against them."""
+with the goals against them, then the CPU budget of each stage against the figures."""
 
 from __future__ import annotations
 
 import math
 import os
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
+from facesynth.app.bench.budget import BOARD_BUDGET_MS, BUDGET_MS, CHAIN_BUDGET_MS
 from facesynth.app.bench.chain import (
+    BOARD,
     GOAL_CPU_MS,
     GOAL_P50_MS,
     GOAL_P99_MS,
@@ -116,12 +118,81 @@ def format_summary(all_figures: Sequence[ChainFigures]) -> str:
     return "\n".join(lines)
 
 
-def format_chain_bench(all_figures: Sequence[ChainFigures]) -> str:
-    """The whole report."""
+def _mean(values: Sequence[float]) -> float:
+    return sum(values) / len(values) if values else float("nan")
+
+
+def format_budget(
+    all_figures: Sequence[ChainFigures], model_ms: Mapping[tuple[str, int], float]
+) -> str:
+    """Each variant's CPU per frame (the mean of its runs) against the budget of each process,
+    the five-process chain and the board process; ``model_ms`` (by model and threads) is what
+    the tracker's model calls take, which the points stage may spend on top of its budget."""
+    chosen: list[ChainVariant] = []
+    for figures in all_figures:
+        if figures.variant not in chosen:
+            chosen.append(figures.variant)
+    lines = [
+        "CPU budget (ms of CPU per frame, mean of the runs; points: beyond its model calls, "
+        "measured in this process on the same video)"
+    ]
+    for variant in chosen:
+        runs = [f for f in all_figures if f.variant == variant]
+        cpu = {
+            name: _mean([f.cpu_ms[name] for f in runs if name in f.cpu_ms])
+            for name in {name for f in runs for name in f.cpu_ms}
+        }
+        load = ", ".join(f"{f.load[0]:.1f}→{f.load[1]:.1f}" for f in runs)
+        others = _mean([f.others_busy for f in runs]) * 100
+        lines.append(
+            f"  {variant.label()} ({len(runs)} run{'s' if len(runs) != 1 else ''}; load "
+            f"average {load}; others busy {others:.0f} %)"
+        )
+        lines.append(f"    {'process':<22} {'CPU ms':>8} {'budget':>8}   verdict")
+        for name, budget in BUDGET_MS.items():
+            if name not in cpu:
+                continue
+            value = cpu[name]
+            label = name
+            if name == "points":
+                model = model_ms.get((variant.model, variant.threads), float("nan"))
+                label = f"points (model {model:.2f})"
+                budget = model + budget
+            lines.append(f"    {label:<22} {value:>8.2f} {budget:>8.2f}   {verdict(value, budget)}")
+        if BOARD in cpu:
+            value = cpu[BOARD]
+            lines.append(
+                f"    {'F + T + C, one process':<22} {value:>8.2f} {BOARD_BUDGET_MS:>8.2f}   "
+                f"{verdict(value, BOARD_BUDGET_MS)}"
+            )
+        else:
+            total = _mean([f.cpu_total_ms for f in runs])
+            lines.append(
+                f"    {'five-process chain':<22} {total:>8.2f} {CHAIN_BUDGET_MS:>8.2f}   "
+                f"{verdict(total, CHAIN_BUDGET_MS)}"
+            )
+        p50s = " ".join(f"{f.steady_ms[0]:.1f}" for f in runs)
+        p99s = " ".join(f"{f.steady_ms[1]:.1f}" for f in runs)
+        worst50 = max(f.steady_ms[0] for f in runs)
+        worst99 = max(f.steady_ms[1] for f in runs)
+        lines.append(
+            f"    capture → command p50 {p50s} ms ({verdict(worst50, GOAL_P50_MS)}), p99 {p99s} "
+            f"ms ({verdict(worst99, GOAL_P99_MS)})"
+        )
+    return "\n".join(lines)
+
+
+def format_chain_bench(
+    all_figures: Sequence[ChainFigures], model_ms: Mapping[tuple[str, int], float] | None = None
+) -> str:
+    """The whole report (with the CPU budget when ``model_ms`` is given)."""
     first = all_figures[0]
     head = (
         f"facesynth bench chain: sensor, points, features, translator, control as separate "
         f"processes + a router on loopback, {os.cpu_count()} cores; {first.frames_sent} frames "
         f"at {first.fps:g} fps per run, record driver"
     )
-    return "\n\n".join([head, *(format_run(f) for f in all_figures), format_summary(all_figures)])
+    parts = [head, *(format_run(f) for f in all_figures), format_summary(all_figures)]
+    if model_ms is not None:
+        parts.append(format_budget(all_figures, model_ms))
+    return "\n\n".join(parts)

@@ -64,11 +64,13 @@ def add_bench_arguments(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument(
         "--layout",
-        default="processes,shared",
+        default=None,
         metavar="A,B",
-        help="fanout: how robots' nodes share processes, compared side by side: processes (one "
-        "per translator and per control interface), robot (one per robot), shared (one for all "
-        "robots), shared:K (K processes); default processes,shared",
+        help="chain: processes (one per service) and/or board (features, translator and "
+        "control in one process), default processes,board; fanout: how robots' nodes share "
+        "processes, compared side by side: processes (one per translator and per control "
+        "interface), robot (one per robot), shared (one for all robots), shared:K (K "
+        "processes); default processes,shared",
     )
     p.add_argument(
         "--sched",
@@ -253,8 +255,10 @@ def _choices(value: str, flag: str, allowed: tuple[str, ...]) -> list[str]:
 
 def _bench_chain(args: argparse.Namespace) -> int:
     """``facesynth bench chain``: the variants asked for, side by side, ``--runs`` times."""
-    from facesynth.app.bench.chain import SCHEDULES, bench_chain, variants
+    from facesynth.app.bench.budget import model_calls_ms
+    from facesynth.app.bench.chain import LAYOUTS, SCHEDULES, bench_chain, variants
     from facesynth.app.bench.chain_report import format_chain_bench
+    from facesynth.app.data import sample_video
     from services.points.tracker.landmarkers import model_names
 
     if args.runs < 1:
@@ -267,6 +271,7 @@ def _bench_chain(args: argparse.Namespace) -> int:
         modes=_choices(args.mode, "--mode", ("client", "peer")),
         scheds=_choices(args.sched, "--sched", SCHEDULES),
         baseline=_baseline(args.baseline),
+        layouts=_choices(args.layout or ",".join(LAYOUTS), "--layout", LAYOUTS),
     )
     figures = bench_chain(
         chosen,
@@ -277,7 +282,14 @@ def _bench_chain(args: argparse.Namespace) -> int:
         openface_csv=args.openface_csv,
         hops=args.hops,
     )
-    print(format_chain_bench(figures))
+    # The tracker's own model calls, which the points stage may spend beyond its budget.
+    model_ms = {}
+    if not args.openface_csv:
+        for variant in chosen:
+            key = (variant.model, variant.threads)
+            if key not in model_ms:
+                model_ms[key] = model_calls_ms(*key, Path(args.video or sample_video()))
+    print(format_chain_bench(figures, model_ms))
     return 0
 
 
@@ -300,7 +312,8 @@ def _bench_fanout(args: argparse.Namespace) -> int:
     (encoding,) = _single(args.encoding, "--encoding", ("jpeg", "raw"))
     (mode,) = _single(args.mode, "--mode", ("client", "peer"))
     (sched,) = _single(args.sched, "--sched", SCHEDULES)
-    layouts = [item.strip() for item in args.layout.split(",") if item.strip()]
+    layout = args.layout or "processes,shared"
+    layouts = [item.strip() for item in layout.split(",") if item.strip()]
     try:
         layouts = [check_layout(layout) for layout in layouts]
     except ValueError as exc:

@@ -61,6 +61,8 @@ class RigObserver:
     triggers: list[Trigger] = field(default_factory=list)
     #: Without hops, follow this robot's applied commands only (default: every robot's).
     progress_robot: str | None = None
+    #: The latest stats of each service instance, by ``service/instance`` (the nodes of one
+    #: process share its instance id).
     stats: dict[str, ServiceStats] = field(default_factory=dict)
     last_seq: int = -1
     #: ``arrivals[stage][(robot, seq)]``: when the message of frame ``seq`` arrived (ns).
@@ -99,7 +101,8 @@ class RigObserver:
         with contextlib.suppress(ValueError):
             stats = codec.decode(sample.payload, ServiceStats)
             parsed = keys.parse_service_key(sample.key)
-            self.stats[parsed[2] if parsed else stats.instance] = stats
+            instance = parsed[2] if parsed else stats.instance
+            self.stats[f"{stats.service}/{instance}"] = stats
 
     def _on_stage(self, stage: str, sample: Sample) -> None:
         try:

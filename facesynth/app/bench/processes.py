@@ -88,6 +88,9 @@ class ProcessGroup:
         self.procs: dict[str, subprocess.Popen[bytes]] = {}
         self.locator = ""
         self.env = {**os.environ, "PYTHONUNBUFFERED": "1"}
+        #: ``-P``: no current directory first on ``sys.path``, which would shadow ``source``
+        #: with the tree the benchmark was started from.
+        self.python = [sys.executable, "-P"] if source else [sys.executable]
         if source:
             self.env["PYTHONPATH"] = os.pathsep.join(
                 [source, *filter(None, [os.environ.get("PYTHONPATH")])]
@@ -97,7 +100,7 @@ class ProcessGroup:
         """Start ``python -m facesynth ARGS`` with its output in ``<folder>/<name>.log``."""
         with open(self.log(name), "wb") as out:
             proc = subprocess.Popen(
-                [sys.executable, "-m", "facesynth", *args],
+                [*self.python, "-m", "facesynth", *args],
                 stdout=out,
                 stderr=subprocess.STDOUT,
                 env=self.env,

@@ -51,7 +51,7 @@ class RigRun:
     #: Frames the chain applied inside the CPU window, and the window's length in seconds.
     window_frames: int = 0
     window_seconds: float = 0.0
-    #: Latest stats of each service instance (its own latency window), by instance.
+    #: Latest stats of each service instance (its own latency window), by service/instance.
     stats: dict[str, ServiceStats] = field(default_factory=dict)
     #: Peak resident memory of each process still running at the end (MB).
     peak_rss_mb: dict[str, float] = field(default_factory=dict)

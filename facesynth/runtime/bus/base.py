@@ -16,6 +16,7 @@ import abc
 import asyncio
 import collections
 import contextlib
+import threading
 import time
 from collections.abc import AsyncIterator, Callable
 from dataclasses import dataclass
@@ -63,6 +64,15 @@ class Subscription:
         self._refusals = 0  # refused since the last report to ``on_refused``
         self._reason = ""
         self._report_pending = False
+        #: Polled (see :meth:`poll_only`): samples are stored under this lock, nobody is woken.
+        self._polled: threading.Lock | None = None
+
+    def poll_only(self) -> None:
+        """Never wake the event loop for a sample: the reader drains the mailbox with
+        :meth:`receive_nowait` when it needs to (a side stream read between the service's own
+        messages), so a sample costs no event-loop wake-up. Samples from a transport thread
+        are stored there at once, under a lock. :meth:`receive` is not for such a mailbox."""
+        self._polled = threading.Lock()
 
     @property
     def closed(self) -> bool:
@@ -138,14 +148,26 @@ class Subscription:
                 return
             if message is not None:
                 sample = Sample(sample.key, sample.payload, sample.t_received_ns, message)
+        if self._polled is not None:
+            self._store_polled(sample)
+            return
+        self._store(sample)
+        waiter = self._waiter
+        if waiter is not None and not waiter.done():
+            waiter.set_result(None)
+
+    def _store(self, sample: Sample) -> None:
         self.received += 1
         if len(self._items) >= self.maxsize:
             self._items.popleft()
             self.dropped += 1
         self._items.append(sample)
-        waiter = self._waiter
-        if waiter is not None and not waiter.done():
-            waiter.set_result(None)
+
+    def _store_polled(self, sample: Sample) -> None:
+        assert self._polled is not None
+        with self._polled:
+            if not self._closed:
+                self._store(sample)
 
     def deliver_threadsafe(self, key: str, payload: bytes) -> None:
         """Screen a sample on the calling (transport) thread, then hand it over without
@@ -154,12 +176,17 @@ class Subscription:
         if not admitted:
             return
         sample = Sample(key, payload, time.time_ns(), message)
+        if self._polled is not None:
+            self._store_polled(sample)
+            return
         # A closed loop means the service is shutting down: the sample is not needed.
         with contextlib.suppress(RuntimeError):
             self._loop.call_soon_threadsafe(self.deliver, sample)
 
     async def receive(self) -> Sample:
         """Wait for the next sample (the newest one for a latest subscription)."""
+        if self._polled is not None:
+            raise RuntimeError("a polled subscription is drained with receive_nowait()")
         while not self._items:
             if self._closed:
                 raise SubscriptionClosed(self.key)
@@ -172,6 +199,9 @@ class Subscription:
 
     def receive_nowait(self) -> Sample | None:
         """The next pending sample, or ``None``."""
+        if self._polled is not None:
+            with self._polled:
+                return self._items.popleft() if self._items else None
         return self._items.popleft() if self._items else None
 
     def pending(self) -> int:
@@ -182,8 +212,9 @@ class Subscription:
         """Stop receiving; a task waiting in :meth:`receive` gets :class:`SubscriptionClosed`."""
         if self._closed:
             return
-        self._closed = True
-        self._items.clear()
+        with self._polled or contextlib.nullcontext():
+            self._closed = True
+            self._items.clear()
         self._release()
         waiter = self._waiter
         if waiter is not None and not waiter.done():

@@ -34,6 +34,10 @@ class VideoConfig(
     )
 
 
+#: Videos up to this many pixels a frame (720p) are decoded on one thread.
+ONE_THREAD_PIXELS = 1280 * 720
+
+
 @SOURCES.register(VideoConfig)
 class VideoSource(FrameSource):
     """Frames of a video file, timed by their index and the file's frame rate."""
@@ -52,6 +56,16 @@ class VideoSource(FrameSource):
         self._capture = cv2.VideoCapture(str(self.path))
         if not self._capture.isOpened():
             raise SourceError(f"cannot open {self.path} as a video")
+        pixels = self._capture.get(cv2.CAP_PROP_FRAME_WIDTH) * self._capture.get(
+            cv2.CAP_PROP_FRAME_HEIGHT
+        )
+        if 0 < pixels <= ONE_THREAD_PIXELS:
+            # One decoding thread: FFmpeg's default (a thread per core, frames handed between
+            # them) costs more CPU per frame for a small video, and decodes it fast enough.
+            single = cv2.VideoCapture(str(self.path), cv2.CAP_FFMPEG, [cv2.CAP_PROP_N_THREADS, 1])
+            if single.isOpened():
+                self._capture.release()
+                self._capture = single
         rate = fps or float(self._capture.get(cv2.CAP_PROP_FPS) or 0.0)
         if not rate > 0 or rate > 1000:
             rate = 30.0
