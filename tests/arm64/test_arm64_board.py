@@ -5,7 +5,8 @@ The arm64 board image, built from the same Dockerfile as the amd64 one, runs the
 replays a recorded session into it over Zenoh, and the recorded servo commands must equal the
 x86 run of the same replay. A plain ``pip install .`` in a fresh arm64 venv installs the board
 side without OpenCV or an inference runtime; the tracker extra then installs on top (LiteRT's
-aarch64 wheel and OpenCV's), and a few frames of the sample video are tracked with each runtime.
+aarch64 wheel and OpenCV's), and a few frames of the sample video are tracked with OpenCV DNN
+(LiteRT's aarch64 build crashes or hangs under qemu-user here, so it is installed, not run).
 Timing under emulation means nothing; function does. Prints the group's times.
 """
 
@@ -19,7 +20,7 @@ import time
 from pathlib import Path
 
 import pytest
-from conftest import BOARD_IMAGE, PLATFORM, TRACKED_FRAMES, Arm64
+from conftest import BOARD_IMAGE, PLATFORM, TRACKED_FRAMES, TRACKED_RUNTIMES, Arm64
 
 from facesynth.runtime.profiles import load_profile
 from services.control.drivers.record import RecordLine, read_record
@@ -91,7 +92,9 @@ def _wait_for_log(arm64: Arm64, container: str, pattern: str, timeout: float = 3
 def test_the_arm64_board_image_runs_the_board_graph_like_x86(
     arm64: Arm64, session: Path, tmp_path: Path
 ) -> None:
-    arch = arm64.podman.run("podman", "image", "inspect", "--format", "{{.Architecture}}", BOARD_IMAGE)
+    arch = arm64.podman.run(
+        "podman", "image", "inspect", "--format", "{{.Architecture}}", BOARD_IMAGE
+    )
     assert arch.stdout.strip() == "arm64"
     machine = arm64.podman.run(
         "podman", "run", "--rm", "--platform", PLATFORM, "--entrypoint", "uname", BOARD_IMAGE, "-m"
@@ -103,8 +106,17 @@ def test_the_arm64_board_image_runs_the_board_graph_like_x86(
     replay = ["replay", str(session), "--from", "points", "--fast"]
     # --motion-time media: speed limits on the commands' media time, so both runs are
     # deterministic (a --fast replay to a recording driver).
-    _facesynth(*replay, "--graph", graph, "--motion-time", "media", "--out", str(x86),
-               "--listen", "tcp/127.0.0.1:0")
+    _facesynth(
+        *replay,
+        "--graph",
+        graph,
+        "--motion-time",
+        "media",
+        "--out",
+        str(x86),
+        "--listen",
+        "tcp/127.0.0.1:0",
+    )
     # The same graph's board nodes, each in its own arm64 container, around an arm64 router.
     recordings = tmp_path / "recordings"
     recordings.mkdir()
@@ -119,19 +131,38 @@ def test_the_arm64_board_image_runs_the_board_graph_like_x86(
     containers = [f"{name}-router", *(f"{name}-{node}" for node in BOARD_NODES)]
     started = time.monotonic()
     try:
-        arm64.podman.run(*common, "--name", containers[0], BOARD_IMAGE, "router", "--listen", endpoint)
+        arm64.podman.run(
+            *common, "--name", containers[0], BOARD_IMAGE, "router", "--listen", endpoint
+        )
         for node, container in zip(BOARD_NODES, containers[1:], strict=True):
             extra = ["-v", f"{recordings}:/recordings"] if node == "control" else []
             flags = ["--motion-time", "media"] if node == "control" else []
             arm64.podman.run(
-                *common, *extra, "--name", container, BOARD_IMAGE, node,
-                "--graph", "/etc/facesynth/graph.toml", "--node", node, "--connect", endpoint,
+                *common,
+                *extra,
+                "--name",
+                container,
+                BOARD_IMAGE,
+                node,
+                "--graph",
+                "/etc/facesynth/graph.toml",
+                "--node",
+                node,
+                "--connect",
+                endpoint,
                 *flags,
             )
         _wait_for_log(arm64, containers[0], "listening on")
         fed = _facesynth(
-            *replay, "--mode", "client", "--connect", endpoint,
-            "--wait-for", ",".join(BOARD_NODES), "--wait-timeout", "600",
+            *replay,
+            "--mode",
+            "client",
+            "--connect",
+            endpoint,
+            "--wait-for",
+            ",".join(BOARD_NODES),
+            "--wait-timeout",
+            "600",
             timeout=900,
         )
         assert json.loads(fed.stdout.strip().splitlines()[-1])["published"] == 100
@@ -142,8 +173,9 @@ def test_the_arm64_board_image_runs_the_board_graph_like_x86(
             time.sleep(0.5)
         arm64.podman.run("podman", "stop", "-t", "30", containers[-1])
         arm64.timings["board graph"] = time.monotonic() - started
-        code = arm64.podman.run("podman", "inspect", "--format", "{{.State.ExitCode}}",
-                                containers[-1])
+        code = arm64.podman.run(
+            "podman", "inspect", "--format", "{{.State.ExitCode}}", containers[-1]
+        )
         assert code.stdout.strip() == "0", "the arm64 controller stops cleanly"
     finally:
         for container in containers:
@@ -168,7 +200,7 @@ def test_a_plain_pip_install_on_arm64_is_the_board_side(arm64: Arm64) -> None:
     arm64.install.wait_for("plain.ok")  # control, translator, features and router --help ran
 
 
-def test_the_tracker_on_arm64_gets_litert_and_tracks_the_sample(arm64: Arm64) -> None:
+def test_the_tracker_extra_installs_on_arm64_and_tracks_the_sample(arm64: Arm64) -> None:
     arm64.install.wait_for("done.ok")
     times = (arm64.install.out / "times.txt").read_text()
     arm64.timings["install job"] = time.monotonic() - arm64.install.started
@@ -179,7 +211,7 @@ def test_the_tracker_on_arm64_gets_litert_and_tracks_the_sample(arm64: Arm64) ->
     }
     # ai-edge-litert publishes manylinux_2_27_aarch64 wheels (Debian bookworm's glibc is 2.36).
     assert "ai-edge-litert" in installed and "opencv-python-headless" in installed, installed
-    for runtime in ("litert", "opencv"):
+    for runtime in TRACKED_RUNTIMES:
         log = (arm64.install.out / f"track-{runtime}.log").read_text()
         stdout = (arm64.install.out / f"track-{runtime}.json").read_text()
         summary = json.loads(stdout.strip().splitlines()[-1])
