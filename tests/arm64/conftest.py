@@ -4,7 +4,7 @@
 They need root, podman, runc, debootstrap and qemu-user-static with binfmt_misc (``.ci/run``
 installs and mounts them); without them they fail and say what is missing. One session makes
 the arm64 base image (``deploy/base-image.sh --arch arm64``), starts the plain ``pip install .``
-in a container of it (:mod:`install_on_arm64.sh`) and, meanwhile, builds the arm64 board image
+in a container of it (``install_on_arm64.sh``) and, meanwhile, builds the arm64 board image
 from the Dockerfile: the two emulated jobs use the machine's two cores at once.
 """
 

@@ -1,7 +1,7 @@
 #!/bin/sh
 # Runs in the arm64 base image under qemu (tests/arm64): `pip install .` of the board side into a
 # fresh venv, as on a Raspberry Pi, then the tracker extra into the same venv and a few frames of
-# the sample video through the chain with each inference runtime.
+# the sample video through the chain with each runtime in $RUNTIMES ($FRAMES frames).
 # /src: the project (read-only); /out: results for the test to check.
 # Under emulation every Python program runs tens of times slower, and what costs most is pip
 # byte-compiling what it installs (its own ~800 modules in `python3 -m venv`'s ensurepip, then
