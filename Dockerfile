@@ -6,6 +6,12 @@
 # VMC, recording, certs: no scikit-learn, which only `facesynth learn` needs); EXTRAS="fast" (or
 # "") builds the servo-board image
 # (control, translator, features, router, status: no OpenCV, no inference runtime).
+# The same file builds for linux/arm64 (a Raspberry Pi) as for linux/amd64: nothing in it is
+# architecture-specific, every dependency has aarch64 wheels, and the base decides, e.g.
+#   docker buildx build --platform linux/arm64 --build-arg EXTRAS=fast,face -t facesynth-board .
+# or, without a registry, on a base from `deploy/base-image.sh --arch arm64` under qemu-user:
+#   podman build --platform linux/arm64 \
+#     --build-arg BASE_IMAGE=localhost/facesynth-base:bookworm-arm64 --build-arg EXTRAS=fast,face .
 # Behind a TLS-intercepting proxy, give pip the proxy's CA, which never enters the image: as a build
 # secret (docker build --secret id=pip_ca,src=/etc/ssl/certs/ca-certificates.crt .), or, for
 # docker-compose v1, which cannot pass build secrets, as deploy/build-ca/ca.crt (git-ignored).

@@ -5,7 +5,7 @@ PYTHON ?= python3
 BIN := $(VENV)/bin
 
 .PHONY: demo test test-browser lint bench bench-drivers install clean firmware-test test-deploy \
-	test-containers test-netns test-board test-faults test-fuzz
+	test-containers test-netns test-board test-faults test-fuzz test-arm64
 
 $(BIN)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -22,7 +22,7 @@ demo: $(BIN)/.installed
 
 ## Lint, type-check, schema freshness, and the whole test suite (the browser group last).
 test: $(BIN)/.installed lint
-	$(BIN)/python -m pytest -q -m "not browser and not containers and not netns and not board and not faults and not fuzz"
+	$(BIN)/python -m pytest -q -m "not browser and not containers and not netns and not board and not faults and not fuzz and not arm64"
 	$(BIN)/python -m pytest -q -m browser
 
 ## Faults: each process and the router killed and restarted mid-stream, a flood on every key,
@@ -59,6 +59,12 @@ test-netns: $(BIN)/.installed
 
 test-board: $(BIN)/.installed
 	$(BIN)/python -m pytest -q -s -m board tests/board
+
+## The board side on arm64 (a Raspberry Pi) under qemu-user emulation (root; qemu-user-static with
+## binfmt_misc, which .ci/run installs and mounts): the arm64 board image runs the board graph fed
+## from this machine, a plain `pip install .` in an arm64 venv, the tracker on a few frames.
+test-arm64: $(BIN)/.installed
+	$(BIN)/python -m pytest -q -s -m arm64 tests/arm64
 
 lint: $(BIN)/.installed
 	$(BIN)/ruff check .
