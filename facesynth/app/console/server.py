@@ -165,6 +165,10 @@ class ConsoleServer:
         refused = self._http_check(request)
         if refused is not None:
             return refused
+        try:
+            self.session.check_free()
+        except ValueError as exc:
+            return web.json_response({"error": str(exc)}, status=409)
         self.session.core.stop_all()
         return web.json_response({"ok": True, "stopped": True})
 
@@ -270,6 +274,7 @@ class ConsoleServer:
                 core.release()
             return p.message("released")
         if isinstance(message, p.Stop):  # any trusted page may stop the servos
+            self.session.check_free()
             core.stop_all()
             return None
         if isinstance(message, p.Calibrate):
@@ -283,6 +288,8 @@ class ConsoleServer:
             self.owner = None
             self._broadcast_hello()
             return p.message("saved", **saved)
+        if isinstance(message, p.Take | p.Jog | p.Centre | p.Neutral):
+            self.session.check_free()
         self.owner = page
         if isinstance(message, p.Take):
             core.hold()

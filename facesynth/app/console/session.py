@@ -44,6 +44,9 @@ RATE_HZ = 30.0
 Listener = Callable[[str, Any], None]
 #: Builds C's node for a profile file.
 ControlFactory = Callable[[str], StageParts]
+#: Another service's servo command this recent (s) means something else drives the servos: the
+#: console lets go and will not take them, rather than alternate with it in C.
+ELSEWHERE_S = 1.0
 
 
 class ConsoleSession:
@@ -79,6 +82,8 @@ class ConsoleSession:
         self._saving = asyncio.Lock()
         self._watching = asyncio.Event()
         self._following: dict[str, Any] = {}
+        self._elsewhere: tuple[str, int] | None = None  # another sender, when last seen
+        self._monotonic_ns: Callable[[], int] = time.monotonic_ns
 
     # --- life ---------------------------------------------------------------------------
 
@@ -137,6 +142,23 @@ class ConsoleSession:
             "sent": self.sent,
         }
 
+    def driven_elsewhere(self) -> str | None:
+        """The other sender of servo commands on this rig (a translator, another console's C
+        client…) seen in the last :data:`ELSEWHERE_S`, or None."""
+        if self._elsewhere is None:
+            return None
+        sender, seen_ns = self._elsewhere
+        return sender if self._monotonic_ns() - seen_ns < ELSEWHERE_S * 1e9 else None
+
+    def check_free(self) -> None:
+        """Refuse to move servos (``ConsoleError``) while another sender drives them."""
+        sender = self.driven_elsewhere()
+        if sender is not None:
+            raise ConsoleError(
+                f"{sender} is sending servo commands on this rig: stop it before moving the "
+                "servos from the console"
+            )
+
     # --- C ----------------------------------------------------------------------------------
 
     def _start_control(self, profile_file: str) -> None:
@@ -168,19 +190,33 @@ class ConsoleSession:
 
     async def _serve(self, ctx: ServiceContext) -> None:
         states = ctx.subscribe("servo_state", 4, ServoCommands)
+        commands = ctx.subscribe("servo_commands", 4, ServoCommands)
+        self._monotonic_ns = ctx.clock.monotonic_ns
         ctx.ready()
-        follower = asyncio.create_task(self._follow_states(states))
+        followers = [
+            asyncio.create_task(self._follow_states(states)),
+            asyncio.create_task(self._follow_senders(commands)),
+        ]
         started = ctx.clock.monotonic_ns()
         try:
             while True:
+                elsewhere = self.driven_elsewhere()
+                if self.core.holding and elsewhere is not None:
+                    self.core.release()
+                    self.listener(
+                        "error",
+                        f"{elsewhere} started sending servo commands on this rig: the console "
+                        "let go of the servos",
+                    )
                 if self.core.holding and self.control_state == "running":
                     self._command(ctx, started)
                 self.listener("state", self.state())
                 await ctx.clock.sleep(1 / RATE_HZ)
         finally:
-            follower.cancel()
-            with contextlib.suppress(asyncio.CancelledError):
-                await follower
+            for follower in followers:
+                follower.cancel()
+                with contextlib.suppress(asyncio.CancelledError):
+                    await follower
 
     def _command(self, ctx: ServiceContext, started_ns: int) -> None:
         self.sent += 1
@@ -206,6 +242,12 @@ class ConsoleSession:
             state = sample.message
             if isinstance(state, ServoCommands):
                 self.core.report(state.profile, state.positions)
+
+    async def _follow_senders(self, subscription: Any) -> None:
+        async for sample in subscription:
+            command = sample.message
+            if isinstance(command, ServoCommands) and command.sender != self._sender:
+                self._elsewhere = (command.sender or "another service", self._monotonic_ns())
 
     async def _follow_stats(self, view: RigView) -> None:
         subscription = view.stats()

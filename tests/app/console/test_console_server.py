@@ -18,7 +18,9 @@ from conftest import TOKEN
 
 from facesynth.app.console.protocol import MAX_MESSAGE
 from facesynth.app.console.server import TOKEN_HEADER, ConsoleServer
+from facesynth.runtime import codec
 from facesynth.runtime.profiles import load_profile
+from schemas.messages import ServoCommands
 
 FIRST = load_profile("head16_hardware").servos[0]
 
@@ -119,6 +121,41 @@ async def test_one_page_holds_the_servos_at_a_time(console: ConsoleServer) -> No
         await first.ws.close()
         await second.send(type="jog", servo=0, us=1600.0)
         await second.until(lambda m: m["type"] == "state" and m["held_by"] == "you")
+
+
+async def test_while_another_service_sends_servo_commands_the_console_lets_go(
+    console: ConsoleServer,
+) -> None:
+    """A translator starting on the rig while a page holds the servos: the console lets go
+    (rather than alternate with it in C) and refuses to move them until it stops."""
+    bus = console.session.bus
+
+    def translator_command(seq: int) -> None:
+        command = ServoCommands(
+            seq=seq, t_capture_ns=0, t_media_ns=0, face=True, profile=FIRST.name,
+            positions={}, sender="translator/abc", sender_seq=seq,
+        )  # fmt: skip
+        bus.publish("facesynth/t/servo_commands", codec.encode(command))
+
+    async with aiohttp.ClientSession() as http:
+        page = await _page(http, console)
+        await page.send(type="take")
+        await page.until(lambda m: m["type"] == "state" and m["holding"])
+        translator_command(1)
+        error = await page.reply("error")
+        assert "translator/abc started sending servo commands" in error["message"]
+        await page.until(lambda m: m["type"] == "state" and not m["holding"])
+        for kind in ("take", "stop"):
+            translator_command(2)
+            await page.send(type=kind)
+            refusal = await page.reply("error")
+            assert "translator/abc is sending servo commands on this rig" in refusal["message"]
+        translator_command(3)
+        response = await http.post(
+            f"http://127.0.0.1:{console.port}/api/stop", headers={TOKEN_HEADER: TOKEN}
+        )
+        assert response.status == 409
+    assert not console.session.core.holding
 
 
 async def test_other_origins_and_host_names_are_refused(console: ConsoleServer) -> None:
