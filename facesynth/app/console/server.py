@@ -31,7 +31,7 @@ from aiohttp import WSCloseCode, WSMsgType, web
 
 from facesynth.app.console import protocol as p
 from facesynth.app.console.calibration import CalibrationRun
-from facesynth.app.console.outbox import Outbox, Page
+from facesynth.app.console.page import Page
 from facesynth.app.console.rig import ConsoleError
 from facesynth.app.console.session import ConsoleSession
 from facesynth.runtime.web_app import serve_app
@@ -196,7 +196,7 @@ class ConsoleServer:
         page = Page()
         self.pages[ws] = page
         self.session.watch(True)
-        writer = asyncio.create_task(self._write(ws, page.outbox), name="console-writer")
+        writer = asyncio.create_task(page.outbox.send_to(ws), name="console-writer")
         try:
             page.outbox.say(self._hello())
             await self._read(ws, page)
@@ -384,14 +384,3 @@ class ConsoleServer:
         while True:
             await asyncio.sleep(1.0)
             self._offer("stats", self.table(time.time_ns()))
-
-    async def _write(self, ws: web.WebSocketResponse, outbox: Outbox) -> None:
-        try:
-            while not ws.closed:
-                for item in await outbox.take():
-                    if isinstance(item, bytes):
-                        await ws.send_bytes(item)
-                    else:
-                        await ws.send_str(item)
-        except (ConnectionError, RuntimeError):
-            pass

@@ -169,7 +169,7 @@ class PageServer:
         self._sockets.add(ws)
         mailbox = self.fanout.add(self.frames)
         self._update_demand()
-        writer = asyncio.create_task(self._write(ws, mailbox), name="page-writer")
+        writer = asyncio.create_task(mailbox.send_to(ws), name="page-writer")
         try:
             await ws.send_str(self.hello)
             for channel, last in (("face", self._last_face), ("stats", self._last_stats)):
@@ -217,18 +217,6 @@ class PageServer:
         self.refused += 1
         if self.refused <= 10 or self.refused % 100 == 0:
             log.warning("refused a page's message (%d so far): %s", self.refused, reason)
-
-    async def _write(self, ws: web.WebSocketResponse, mailbox: Mailbox) -> None:
-        """Send a page what its mailbox holds; only this task waits on a slow page."""
-        try:
-            while not ws.closed:
-                for item in await mailbox.take():
-                    if isinstance(item, bytes):
-                        await ws.send_bytes(item)
-                    else:
-                        await ws.send_str(item)
-        except (ConnectionError, RuntimeError):
-            pass
 
     # --- following the rig ---------------------------------------------------------------
 
