@@ -44,6 +44,8 @@ STATIC = {
     "/console.js": ("console.js", "text/javascript"),
     "/console.css": ("console.css", "text/css"),
 }
+#: The live face page's files the console's page uses too (the performer's frames).
+FACE_PAGE_STATIC = {"/frames.js": ("frames.js", "text/javascript")}
 LOOPBACK = {"127.0.0.1", "localhost", "::1"}
 TOKEN_HEADER = "X-Facesynth-Token"
 
@@ -77,8 +79,13 @@ class ConsoleServer:
         self._notes: dict[tuple[str, str], str] = {}
         self._runner: web.AppRunner | None = None
         self._tasks: list[asyncio.Task[Any]] = []
-        folder = resources.files("facesynth.app.console") / "static"
-        self._files = {k: (folder.joinpath(n).read_bytes(), t) for k, (n, t) in STATIC.items()}
+        self._files: dict[str, tuple[bytes, str]] = {}
+        for package, files in (
+            ("facesynth.app.console", STATIC),
+            ("services.control.drivers.virtual", FACE_PAGE_STATIC),
+        ):
+            folder = resources.files(package) / "static"
+            self._files |= {k: (folder.joinpath(n).read_bytes(), t) for k, (n, t) in files.items()}
 
     @property
     def url(self) -> str:

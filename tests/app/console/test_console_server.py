@@ -121,6 +121,22 @@ async def test_one_page_holds_the_servos_at_a_time(console: ConsoleServer) -> No
         await second.until(lambda m: m["type"] == "state" and m["held_by"] == "you")
 
 
+async def test_the_page_and_its_files_are_served(console: ConsoleServer) -> None:
+    url = f"http://127.0.0.1:{console.port}/"
+    async with aiohttp.ClientSession() as http:
+        for path, kind, needle in (
+            ("", "text/html", '<script src="frames.js">'),
+            ("console.js", "text/javascript", "frameView(state)"),
+            ("frames.js", "text/javascript", "createImageBitmap"),  # the live face page's
+            ("console.css", "text/css", "banner"),
+        ):
+            async with http.get(url + path) as response:
+                assert response.status == 200
+                assert response.content_type == kind
+                assert response.headers["Cache-Control"] == "no-store"
+                assert needle in await response.text()
+
+
 async def test_other_origins_and_host_names_are_refused(console: ConsoleServer) -> None:
     url = f"http://127.0.0.1:{console.port}"
     async with aiohttp.ClientSession() as http:

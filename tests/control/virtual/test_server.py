@@ -37,6 +37,7 @@ async def test_the_page_and_its_files_are_served(page_driver: VirtualDriver) -> 
         for path, kind, needle in (
             ("", "text/html", "face.js"),
             ("face.js", "text/javascript", "new WebSocket"),
+            ("frames.js", "text/javascript", "createImageBitmap"),
             ("face.css", "text/css", "canvas"),
         ):
             async with session.get(page_driver.url + path) as response:

@@ -32,6 +32,7 @@ log = logging.getLogger("facesynth.control.virtual")
 STATIC = {
     "/": ("index.html", "text/html"),
     "/face.js": ("face.js", "text/javascript"),
+    "/frames.js": ("frames.js", "text/javascript"),  # the rig console serves it too
     "/face.css": ("face.css", "text/css"),
 }
 #: Seconds between the page's status updates.
