@@ -44,8 +44,11 @@ STATIC = {
     "/console.js": ("console.js", "text/javascript"),
     "/console.css": ("console.css", "text/css"),
 }
-#: The live face page's files the console's page uses too (the performer's frames).
-FACE_PAGE_STATIC = {"/frames.js": ("frames.js", "text/javascript")}
+#: The live face page's files the console's page uses too (its WebSocket, the performer's frames).
+FACE_PAGE_STATIC = {
+    "/link.js": ("link.js", "text/javascript"),
+    "/frames.js": ("frames.js", "text/javascript"),
+}
 LOOPBACK = {"127.0.0.1", "localhost", "::1"}
 TOKEN_HEADER = "X-Facesynth-Token"
 

@@ -126,8 +126,9 @@ async def test_the_page_and_its_files_are_served(console: ConsoleServer) -> None
     async with aiohttp.ClientSession() as http:
         for path, kind, needle in (
             ("", "text/html", '<script src="frames.js">'),
-            ("console.js", "text/javascript", "frameView(state)"),
-            ("frames.js", "text/javascript", "createImageBitmap"),  # the live face page's
+            ("console.js", "text/javascript", "pageLink(state"),
+            ("link.js", "text/javascript", "new WebSocket"),  # this and frames.js: the
+            ("frames.js", "text/javascript", "createImageBitmap"),  # live face page's
             ("console.css", "text/css", "banner"),
         ):
             async with http.get(url + path) as response:

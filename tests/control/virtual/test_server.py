@@ -36,7 +36,8 @@ async def test_the_page_and_its_files_are_served(page_driver: VirtualDriver) -> 
     async with aiohttp.ClientSession() as session:
         for path, kind, needle in (
             ("", "text/html", "face.js"),
-            ("face.js", "text/javascript", "new WebSocket"),
+            ("face.js", "text/javascript", "pageLink(state"),
+            ("link.js", "text/javascript", "new WebSocket"),
             ("frames.js", "text/javascript", "createImageBitmap"),
             ("face.css", "text/css", "canvas"),
         ):

@@ -22,13 +22,11 @@ window.facesynth = state;
 const $ = (id) => document.getElementById(id);
 const token = new URLSearchParams(location.hash.slice(1)).get("token") || "";
 const onFrame = frameView(state);
-let socket = null;
-let retryMs = 250;
 let rows = [];
 
 function send(message) {
-  if (socket && socket.readyState === WebSocket.OPEN) {
-    socket.send(JSON.stringify(message));
+  if (link.open()) {
+    link.send(message);
     return true;
   }
   showError("not connected: the console is not reachable (is `facesynth console` running?)");
@@ -54,32 +52,6 @@ function showError(text) {
   $("error").hidden = false;
 }
 $("error-close").onclick = () => { $("error").hidden = true; };
-
-function connect() {
-  setStatus("connecting");
-  const scheme = location.protocol === "https:" ? "wss://" : "ws://";
-  const ws = new WebSocket(scheme + location.host + "/ws");
-  ws.binaryType = "arraybuffer";
-  socket = ws;
-  ws.onopen = () => {
-    state.connects += 1;
-    retryMs = 250;
-    setStatus("open");
-    ws.send(JSON.stringify({ type: "hello", token }));
-  };
-  ws.onmessage = (event) => {
-    if (typeof event.data === "string") onText(JSON.parse(event.data));
-    else onFrame(event.data);
-  };
-  ws.onclose = () => {
-    if (socket !== ws) return;
-    setStatus("closed");
-    state.trusted = false;
-    state.heldBy = null;
-    setTimeout(connect, retryMs);
-    retryMs = Math.min(retryMs * 2, 2000);
-  };
-}
 
 function onText(m) {
   switch (m.type) {
@@ -260,13 +232,16 @@ $("stop").onclick = () => send({ type: "stop" });
 $("save").onclick = () => send({ type: "save" });
 $("calibrate").onclick = () => send({ type: "calibrate", name: $("calib-name").value });
 
-setInterval(() => {
-  if (socket && socket.readyState === WebSocket.OPEN) {
-    socket.send(JSON.stringify({ type: "ping", t: performance.now() }));
-  }
-}, 2000);
-
 // A token pasted into the address bar (a new #fragment) does not reload a page: reload it.
 window.addEventListener("hashchange", () => location.reload());
 
-connect();
+const link = pageLink(state, {
+  status: setStatus,
+  hello: () => ({ type: "hello", token }),
+  text: onText,
+  binary: onFrame,
+  closed: () => {
+    state.trusted = false;
+    state.heldBy = null;
+  },
+});

@@ -32,7 +32,8 @@ log = logging.getLogger("facesynth.control.virtual")
 STATIC = {
     "/": ("index.html", "text/html"),
     "/face.js": ("face.js", "text/javascript"),
-    "/frames.js": ("frames.js", "text/javascript"),  # the rig console serves it too
+    "/link.js": ("link.js", "text/javascript"),  # this and frames.js: the rig console's too
+    "/frames.js": ("frames.js", "text/javascript"),
     "/face.css": ("face.css", "text/css"),
 }
 #: Seconds between the page's status updates.

@@ -20,8 +20,6 @@ const faceCanvas = $("face");
 const faceCtx = faceCanvas.getContext("2d");
 const onFrame = frameView(state);
 const showFrames = $("show-frames");
-let socket = null;
-let retryMs = 250;
 let bars = new Map();
 
 function setStatus(status) {
@@ -29,30 +27,6 @@ function setStatus(status) {
   const el = $("status");
   el.className = "pill " + status;
   el.textContent = { open: "live", closed: "reconnecting…", connecting: "connecting…" }[status];
-}
-
-function connect() {
-  setStatus("connecting");
-  const scheme = location.protocol === "https:" ? "wss://" : "ws://";
-  const ws = new WebSocket(scheme + location.host + "/ws");
-  ws.binaryType = "arraybuffer";
-  socket = ws;
-  ws.onopen = () => {
-    state.connects += 1;
-    retryMs = 250;
-    setStatus("open");
-    ws.send(JSON.stringify({ type: "hello", frames: showFrames.checked }));
-  };
-  ws.onmessage = (event) => {
-    if (typeof event.data === "string") onText(JSON.parse(event.data));
-    else onFrame(event.data);
-  };
-  ws.onclose = () => {
-    if (socket !== ws) return;
-    setStatus("closed");
-    setTimeout(connect, retryMs);
-    retryMs = Math.min(retryMs * 2, 2000);
-  };
 }
 
 function onText(message) {
@@ -147,15 +121,12 @@ function onStats(services) {
 
 showFrames.addEventListener("change", () => {
   $("performer-panel").classList.toggle("off", !showFrames.checked);
-  if (socket && socket.readyState === WebSocket.OPEN) {
-    socket.send(JSON.stringify({ type: "hello", frames: showFrames.checked }));
-  }
+  if (link.open()) link.send({ type: "hello", frames: showFrames.checked });
 });
 
-setInterval(() => {
-  if (socket && socket.readyState === WebSocket.OPEN) {
-    socket.send(JSON.stringify({ type: "ping", t: performance.now() }));
-  }
-}, 2000);
-
-connect();
+const link = pageLink(state, {
+  status: setStatus,
+  hello: () => ({ type: "hello", frames: showFrames.checked }),
+  text: onText,
+  binary: onFrame,
+});
