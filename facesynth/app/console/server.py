@@ -23,7 +23,6 @@ import logging
 import secrets
 import time
 from collections.abc import Callable
-from importlib import resources
 from typing import Any
 
 import msgspec
@@ -34,7 +33,7 @@ from facesynth.app.console.calibration import CalibrationRun
 from facesynth.app.console.page import Page
 from facesynth.app.console.rig import ConsoleError
 from facesynth.app.console.session import ConsoleSession
-from facesynth.runtime.web_app import serve_app
+from facesynth.runtime.web_app import close_sockets, serve_app, static_files, static_response
 from services.control.drivers.virtual import wire
 
 log = logging.getLogger("facesynth.console")
@@ -82,13 +81,9 @@ class ConsoleServer:
         self._notes: dict[tuple[str, str], str] = {}
         self._runner: web.AppRunner | None = None
         self._tasks: list[asyncio.Task[Any]] = []
-        self._files: dict[str, tuple[bytes, str]] = {}
-        for package, files in (
-            ("facesynth.app.console", STATIC),
-            ("services.control.drivers.virtual", FACE_PAGE_STATIC),
-        ):
-            folder = resources.files(package) / "static"
-            self._files |= {k: (folder.joinpath(n).read_bytes(), t) for k, (n, t) in files.items()}
+        self._files = static_files("facesynth.app.console", STATIC) | static_files(
+            "services.control.drivers.virtual", FACE_PAGE_STATIC
+        )
 
     @property
     def url(self) -> str:
@@ -116,10 +111,7 @@ class ConsoleServer:
             self.calibrating.cancel()
         for task in self._tasks:
             task.cancel()
-        for ws in list(self.pages):
-            with contextlib.suppress(Exception):
-                async with asyncio.timeout(1.0):
-                    await ws.close(code=WSCloseCode.GOING_AWAY, message=b"console stopping")
+        await close_sockets(self.pages, b"console stopping")
         if self._runner is not None:
             await self._runner.cleanup()
             self._runner = None
@@ -143,8 +135,7 @@ class ConsoleServer:
 
     async def _static(self, request: web.Request) -> web.Response:
         body, kind = self._files[request.path]
-        headers = {"Cache-Control": "no-store", "X-Content-Type-Options": "nosniff"}
-        return web.Response(body=body, content_type=kind, charset="utf-8", headers=headers)
+        return static_response(body, kind)
 
     async def _no_icon(self, request: web.Request) -> web.Response:
         return web.Response(status=204)

@@ -14,7 +14,6 @@ import asyncio
 import contextlib
 import logging
 import time
-from importlib import resources
 from typing import Any
 
 from aiohttp import WSCloseCode, WSMsgType, web
@@ -22,7 +21,7 @@ from aiohttp import WSCloseCode, WSMsgType, web
 from facesynth.runtime import codec, keys
 from facesynth.runtime.bus.base import Subscription
 from facesynth.runtime.rig_view import RigView
-from facesynth.runtime.web_app import serve_app
+from facesynth.runtime.web_app import close_sockets, serve_app, static_files, static_response
 from schemas.messages import Frame, Points, ServiceStats
 from services.control.drivers.virtual import wire
 from services.control.drivers.virtual.fanout import Fanout, Mailbox
@@ -38,13 +37,6 @@ STATIC = {
 }
 #: Seconds between the page's status updates.
 STATS_EVERY_S = 1.0
-
-
-def _static_files() -> dict[str, tuple[bytes, str]]:
-    folder = resources.files("services.control.drivers.virtual") / "static"
-    return {
-        path: (folder.joinpath(name).read_bytes(), kind) for path, (name, kind) in STATIC.items()
-    }
 
 
 class PageServer:
@@ -78,7 +70,7 @@ class PageServer:
         self._tasks: list[asyncio.Task[None]] = []
         self._following: dict[str, Subscription] = {}
         self._runner: web.AppRunner | None = None
-        self._files = _static_files()
+        self._files = static_files("services.control.drivers.virtual", STATIC)
 
     @property
     def url(self) -> str:
@@ -112,10 +104,7 @@ class PageServer:
             with contextlib.suppress(asyncio.CancelledError):
                 await task
         self._tasks.clear()
-        for ws in list(self._sockets):
-            with contextlib.suppress(Exception):
-                async with asyncio.timeout(1.0):
-                    await ws.close(code=WSCloseCode.GOING_AWAY, message=b"server stopping")
+        await close_sockets(self._sockets, b"server stopping")
         if self._runner is not None:
             await self._runner.cleanup()
             self._runner = None
@@ -129,12 +118,7 @@ class PageServer:
 
     async def _static(self, request: web.Request) -> web.Response:
         body, kind = self._files[request.path]
-        return web.Response(
-            body=body,
-            content_type=kind,
-            charset="utf-8",
-            headers={"Cache-Control": "no-store", "X-Content-Type-Options": "nosniff"},
-        )
+        return static_response(body, kind)
 
     async def _no_icon(self, request: web.Request) -> web.Response:
         return web.Response(status=204)
