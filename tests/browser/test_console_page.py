@@ -63,6 +63,7 @@ async def test_a_slider_moves_the_pulse_and_a_saved_profile_reloads_identically(
     await js(browser, JOG, 1720)
     await uno.settle({first.channel: 1720.0}, timeout=10)  # the PCA9685's pulse, to a step
     await wait_js(browser, "window.facesynth.positions[0] === 1720")
+    await wait_js(browser, "document.querySelector('#bars .bar .value').textContent === '1720'")
     await js(browser, "document.querySelector('tr[data-servo=\"0\"] button.here-max').click()")
     await wait_js(browser, "window.facesynth.servos[0].max === 1720")
     await js(browser, "document.getElementById('save').click()")

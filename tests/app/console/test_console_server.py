@@ -127,8 +127,9 @@ async def test_the_page_and_its_files_are_served(console: ConsoleServer) -> None
         for path, kind, needle in (
             ("", "text/html", '<script src="frames.js">'),
             ("console.js", "text/javascript", "pageLink(state"),
-            ("link.js", "text/javascript", "new WebSocket"),  # this and frames.js: the
+            ("link.js", "text/javascript", "new WebSocket"),  # these three: the
             ("frames.js", "text/javascript", "createImageBitmap"),  # live face page's
+            ("bars.js", "text/javascript", "function servoBar"),
             ("console.css", "text/css", "banner"),
         ):
             async with http.get(url + path) as response:

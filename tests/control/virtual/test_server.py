@@ -39,6 +39,7 @@ async def test_the_page_and_its_files_are_served(page_driver: VirtualDriver) -> 
             ("face.js", "text/javascript", "pageLink(state"),
             ("link.js", "text/javascript", "new WebSocket"),
             ("frames.js", "text/javascript", "createImageBitmap"),
+            ("bars.js", "text/javascript", "function servoBar"),
             ("face.css", "text/css", "canvas"),
         ):
             async with session.get(page_driver.url + path) as response:

@@ -147,14 +147,9 @@ function onHello(m) {
     rev.checked = s.reversed;
     rev.onchange = () => send({ type: "reverse", servo: s.index, reversed: rev.checked });
     body.appendChild(row);
-    const bar = document.createElement("div");
-    bar.className = "bar";
-    bar.innerHTML = '<span class="name"></span><span class="track"><span class="fill"></span><span class="mark"></span></span><span class="value"></span>';
-    bar.querySelector(".name").textContent = s.name;
-    const span = s.max - s.min || 1;
-    bar.querySelector(".mark").style.left = `${(100 * (s.neutral - s.min)) / span}%`;
-    bars.appendChild(bar);
-    return { s, jog, target, at, limits, bar, span };
+    const bar = servoBar(s.name, s.min, s.neutral, s.max);
+    bars.appendChild(bar.element);
+    return { s, jog, target, at, limits, bar };
   });
 }
 
@@ -176,13 +171,7 @@ function onState(m) {
     r.target.textContent = m.holding ? t.toFixed(0) : "–";
     r.at.textContent = p.toFixed(0);
     if (document.activeElement !== r.jog && m.holding) r.jog.value = t;
-    const v = Math.min(r.s.max, Math.max(r.s.min, p));
-    const a = (100 * (Math.min(v, r.s.neutral) - r.s.min)) / r.span;
-    const b = (100 * (Math.max(v, r.s.neutral) - r.s.min)) / r.span;
-    const fill = r.bar.querySelector(".fill");
-    fill.style.left = `${a}%`;
-    fill.style.width = `${b - a}%`;
-    r.bar.querySelector(".value").textContent = p.toFixed(0);
+    r.bar.show(p);
   });
 }
 

@@ -49,15 +49,9 @@ function onHello(message) {
   box.replaceChildren();
   bars = new Map();
   for (const c of message.controls) {
-    const row = document.createElement("div");
-    row.className = "bar";
-    row.innerHTML = '<span class="name"></span><span class="track"><span class="fill"></span>' +
-      '<span class="mark"></span></span><span class="value"></span>';
-    row.querySelector(".name").textContent = c.name;
-    const span = c.high - c.low || 1;
-    row.querySelector(".mark").style.left = `${(100 * (c.neutral - c.low)) / span}%`;
-    box.appendChild(row);
-    bars.set(c.name, { row, c, span });
+    const bar = servoBar(c.name, c.low, c.neutral, c.high);
+    box.appendChild(bar.element);
+    bars.set(c.name, bar);
   }
 }
 
@@ -69,14 +63,7 @@ function onFace(message) {
   $("face-info").textContent = message.seq === null ? "" : `frame ${message.seq}`;
   for (const [name, value] of Object.entries(message.controls)) {
     const bar = bars.get(name);
-    if (!bar) continue;
-    const v = Math.min(bar.c.high, Math.max(bar.c.low, value));
-    const a = (100 * (Math.min(v, bar.c.neutral) - bar.c.low)) / bar.span;
-    const b = (100 * (Math.max(v, bar.c.neutral) - bar.c.low)) / bar.span;
-    const fill = bar.row.querySelector(".fill");
-    fill.style.left = `${a}%`;
-    fill.style.width = `${b - a}%`;
-    bar.row.querySelector(".value").textContent = value.toFixed(0);
+    if (bar) bar.show(value);
   }
   if (message.shapes) drawShapes(faceCtx, message.shapes);
   state.drawn += 1;
