@@ -45,17 +45,23 @@ def static_files(package: str, files: dict[str, tuple[str, str]]) -> dict[str, t
     }
 
 
-def static_response(body: bytes, kind: str) -> web.Response:
-    """One of a page's files as served: never cached (a restarted server's page is the one
-    loaded) and taken as its declared type only."""
+def add_page_files(app: web.Application, files: dict[str, tuple[bytes, str]]) -> None:
+    """Serve a page's files on ``app``, each at its path (``GET``: never cached, so a restarted
+    server's page is the one loaded, and taken as its declared type only), and no icon (204)."""
     from aiohttp import web
 
-    return web.Response(
-        body=body,
-        content_type=kind,
-        charset="utf-8",
-        headers={"Cache-Control": "no-store", "X-Content-Type-Options": "nosniff"},
-    )
+    headers = {"Cache-Control": "no-store", "X-Content-Type-Options": "nosniff"}
+
+    async def page_file(request: web.Request) -> web.Response:
+        body, kind = files[request.path]
+        return web.Response(body=body, content_type=kind, charset="utf-8", headers=headers)
+
+    async def no_icon(request: web.Request) -> web.Response:
+        return web.Response(status=204)
+
+    for path in files:
+        app.router.add_get(path, page_file)
+    app.router.add_get("/favicon.ico", no_icon)
 
 
 async def close_sockets(sockets: Iterable[Any], message: bytes) -> None:

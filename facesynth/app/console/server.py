@@ -33,7 +33,7 @@ from facesynth.app.console.calibration import CalibrationRun
 from facesynth.app.console.page import Page
 from facesynth.app.console.rig import ConsoleError
 from facesynth.app.console.session import ConsoleSession
-from facesynth.runtime.web_app import close_sockets, serve_app, static_files, static_response
+from facesynth.runtime.web_app import add_page_files, close_sockets, serve_app, static_files
 from services.control.drivers.virtual import wire
 
 log = logging.getLogger("facesynth.console")
@@ -96,9 +96,7 @@ class ConsoleServer:
     async def start(self) -> None:
         """Listen (``OSError`` if the address cannot be used) and relay what the session sees."""
         app = web.Application(client_max_size=p.MAX_MESSAGE)
-        for path in self._files:
-            app.router.add_get(path, self._static)
-        app.router.add_get("/favicon.ico", self._no_icon)
+        add_page_files(app, self._files)
         app.router.add_get("/ws", self._websocket)
         app.router.add_get("/state", self._state)
         app.router.add_post("/api/stop", self._http_stop)
@@ -134,13 +132,6 @@ class ConsoleServer:
         return secrets.compare_digest(given.encode(), self.token.encode())
 
     # --- HTTP -------------------------------------------------------------------------------
-
-    async def _static(self, request: web.Request) -> web.Response:
-        body, kind = self._files[request.path]
-        return static_response(body, kind)
-
-    async def _no_icon(self, request: web.Request) -> web.Response:
-        return web.Response(status=204)
 
     async def _state(self, request: web.Request) -> web.Response:
         return web.json_response(

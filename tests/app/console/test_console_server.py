@@ -137,6 +137,8 @@ async def test_the_page_and_its_files_are_served(console: ConsoleServer) -> None
                 assert response.content_type == kind
                 assert response.headers["Cache-Control"] == "no-store"
                 assert needle in await response.text()
+        async with http.get(url + "favicon.ico") as response:
+            assert response.status == 204  # no icon, and no 404 logged for it
 
 
 async def test_other_origins_and_host_names_are_refused(console: ConsoleServer) -> None:

@@ -46,6 +46,8 @@ async def test_the_page_and_its_files_are_served(page_driver: VirtualDriver) -> 
                 assert response.status == 200
                 assert response.content_type == kind
                 assert needle in await response.text()
+        async with session.get(page_driver.url + "favicon.ico") as response:
+            assert response.status == 204
         for path in ("nope", "../../etc/passwd", "static/face.js"):
             async with session.get(page_driver.url + path) as response:
                 assert response.status == 404

@@ -21,7 +21,7 @@ from aiohttp import WSCloseCode, WSMsgType, web
 from facesynth.runtime import codec, keys
 from facesynth.runtime.bus.base import Subscription
 from facesynth.runtime.rig_view import RigView
-from facesynth.runtime.web_app import close_sockets, serve_app, static_files, static_response
+from facesynth.runtime.web_app import add_page_files, close_sockets, serve_app, static_files
 from schemas.messages import Frame, Points, ServiceStats
 from services.control.drivers.virtual import wire
 from services.control.drivers.virtual.fanout import Fanout, Mailbox
@@ -82,11 +82,9 @@ class PageServer:
     async def start(self) -> None:
         """Listen (``OSError`` if the address cannot be used) and start following the rig."""
         app = web.Application()
-        for path in self._files:
-            app.router.add_get(path, self._static)
+        add_page_files(app, self._files)
         app.router.add_get("/ws", self._websocket)
         app.router.add_get("/state", self._state)
-        app.router.add_get("/favicon.ico", self._no_icon)
         self._runner, self.port = await serve_app(app, self.host, self.port)
         if self.rig is not None:
             self._tasks.append(asyncio.create_task(self._follow_stats(), name="page-stats"))
@@ -116,13 +114,6 @@ class PageServer:
         self.fanout.offer("face", message)
 
     # --- HTTP --------------------------------------------------------------------------------
-
-    async def _static(self, request: web.Request) -> web.Response:
-        body, kind = self._files[request.path]
-        return static_response(body, kind)
-
-    async def _no_icon(self, request: web.Request) -> web.Response:
-        return web.Response(status=204)
 
     async def _state(self, request: web.Request) -> web.Response:
         return web.json_response(self.state())
