@@ -60,6 +60,8 @@ async def test_a_slider_moves_the_pulse_and_a_saved_profile_reloads_identically(
     await wait_js(browser, "window.facesynth.servos.length === 16")
     board = "document.getElementById('board').textContent"
     await wait_js(browser, f"{board}.includes('connected to ' + {str(uno.port)!r})")  # C's note
+    table = "document.querySelector('#stats tbody').textContent"
+    await wait_js(browser, f"{table}.includes('connected to ' + {str(uno.port)!r})")  # its column
     await js(browser, JOG, 1720)
     await uno.settle({first.channel: 1720.0}, timeout=10)  # the PCA9685's pulse, to a step
     await wait_js(browser, "window.facesynth.positions[0] === 1720")

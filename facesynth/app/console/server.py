@@ -44,11 +44,12 @@ STATIC = {
     "/console.css": ("console.css", "text/css"),
 }
 #: The live face page's files the console's page uses too (its WebSocket, the performer's
-#: frames, the servos' bars).
+#: frames, the servos' bars, the stage table).
 FACE_PAGE_STATIC = {
     "/link.js": ("link.js", "text/javascript"),
     "/frames.js": ("frames.js", "text/javascript"),
     "/bars.js": ("bars.js", "text/javascript"),
+    "/stages.js": ("stages.js", "text/javascript"),
 }
 LOOPBACK = {"127.0.0.1", "localhost", "::1"}
 TOKEN_HEADER = "X-Facesynth-Token"

@@ -127,9 +127,10 @@ async def test_the_page_and_its_files_are_served(console: ConsoleServer) -> None
         for path, kind, needle in (
             ("", "text/html", '<script src="frames.js">'),
             ("console.js", "text/javascript", "pageLink(state"),
-            ("link.js", "text/javascript", "new WebSocket"),  # these three: the
+            ("link.js", "text/javascript", "new WebSocket"),  # these four: the
             ("frames.js", "text/javascript", "createImageBitmap"),  # live face page's
             ("bars.js", "text/javascript", "function servoBar"),
+            ("stages.js", "text/javascript", "function showStages"),
             ("console.css", "text/css", "banner"),
         ):
             async with http.get(url + path) as response:

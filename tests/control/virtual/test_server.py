@@ -40,6 +40,7 @@ async def test_the_page_and_its_files_are_served(page_driver: VirtualDriver) -> 
             ("link.js", "text/javascript", "new WebSocket"),
             ("frames.js", "text/javascript", "createImageBitmap"),
             ("bars.js", "text/javascript", "function servoBar"),
+            ("stages.js", "text/javascript", "function showStages"),
             ("face.css", "text/css", "canvas"),
         ):
             async with session.get(page_driver.url + path) as response:

@@ -197,20 +197,7 @@ function onCalibration(m) {
 function onStats(services) {
   const c = services.find((s) => s.service === "control");
   $("board").textContent = c ? `board: ${c.note || "–"}${c.status === "running" ? "" : ` (C ${c.status})`}` : "";
-  const body = document.querySelector("#stats tbody");
-  body.replaceChildren();
-  const fmt = (v) => (v === null ? "–" : v.toFixed(2));
-  for (const s of services) {
-    const row = document.createElement("tr");
-    const cells = [s.service, s.instance, s.status, s.rate_hz.toFixed(1), fmt(s.p50_ms),
-      fmt(s.p99_ms), s.received, s.published, s.dropped, s.rejected, s.note || ""];
-    cells.forEach((value, i) => {
-      const td = cell(row);
-      td.textContent = String(value);
-      if (i === 2) td.className = s.status;
-    });
-    body.appendChild(row);
-  }
+  showStages(services, true);
 }
 
 $("take").onclick = () => send({ type: "take" });

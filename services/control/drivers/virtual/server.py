@@ -31,9 +31,10 @@ log = logging.getLogger("facesynth.control.virtual")
 STATIC = {
     "/": ("index.html", "text/html"),
     "/face.js": ("face.js", "text/javascript"),
-    "/link.js": ("link.js", "text/javascript"),  # these three: the rig console's too
+    "/link.js": ("link.js", "text/javascript"),  # these four: the rig console's too
     "/frames.js": ("frames.js", "text/javascript"),
     "/bars.js": ("bars.js", "text/javascript"),
+    "/stages.js": ("stages.js", "text/javascript"),
     "/face.css": ("face.css", "text/css"),
 }
 #: Seconds between the page's status updates.

@@ -34,7 +34,7 @@ function onText(message) {
     case "hello": return onHello(message);
     case "face": return onFace(message);
     case "points": state.points = message; return;
-    case "stats": return onStats(message.services);
+    case "stats": return showStages(message.services, false);
     case "pong": state.rttMs = performance.now() - message.t;
       $("rtt").textContent = `page round trip ${state.rttMs.toFixed(1)} ms`; return;
   }
@@ -85,24 +85,6 @@ function drawShapes(ctx, shapes) {
     }
     if (s.fill && s.kind !== "polyline") { ctx.fillStyle = s.fill; ctx.fill(); }
     if (s.stroke) { ctx.strokeStyle = s.stroke; ctx.lineWidth = s.width; ctx.stroke(); }
-  }
-}
-
-function onStats(services) {
-  const body = document.querySelector("#stats tbody");
-  body.replaceChildren();
-  const fmt = (v) => (v === null ? "–" : v.toFixed(2));
-  for (const s of services) {
-    const row = document.createElement("tr");
-    const cells = [s.service, s.instance, s.status, s.rate_hz.toFixed(1), fmt(s.p50_ms),
-      fmt(s.p99_ms), s.received, s.published, s.dropped, s.rejected];
-    cells.forEach((value, i) => {
-      const td = document.createElement("td");
-      td.textContent = String(value);
-      if (i === 2) td.className = s.status;
-      row.appendChild(td);
-    });
-    body.appendChild(row);
   }
 }
 
