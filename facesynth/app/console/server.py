@@ -191,16 +191,13 @@ class ConsoleServer:
         page = Page()
         self.pages[ws] = page
         self.session.watch(True)
-        writer = asyncio.create_task(page.outbox.send_to(ws), name="console-writer")
         try:
-            page.outbox.say(self._hello())
-            await self._read(ws, page)
+            async with page.outbox.sending(ws, "console-writer"):
+                page.outbox.say(self._hello())
+                await self._read(ws, page)
         except (ConnectionError, RuntimeError):
             pass
         finally:
-            writer.cancel()
-            with contextlib.suppress(asyncio.CancelledError):
-                await writer
             del self.pages[ws]
             self.session.watch(any(other.outbox.frames for other in self.pages.values()))
             if self.owner is page:  # the page that held the servos is gone: let go

@@ -96,3 +96,30 @@ async def test_channels_outside_the_order_follow_in_the_order_they_came() -> Non
     for channel in ("state", "stats", "control", "face"):
         unordered.offer(channel, channel)
     assert await unordered.take() == ["state", "stats", "control", "face"]
+
+
+class _Socket:
+    """What a writer sends to, recorded (aiohttp's WebSocket in the servers)."""
+
+    def __init__(self) -> None:
+        self.closed = False
+        self.sent: list[str | bytes] = []
+
+    async def send_str(self, data: str) -> None:
+        self.sent.append(data)
+
+    async def send_bytes(self, data: bytes) -> None:
+        self.sent.append(data)
+
+
+async def test_a_writer_sends_while_sending_and_stops_after() -> None:
+    box, ws = Mailbox(), _Socket()
+    async with box.sending(ws, "writer"):
+        box.say("hello")
+        box.offer("frame", b"jpeg")
+        await asyncio.sleep(0.01)
+        assert ws.sent == ["hello", b"jpeg"]
+    assert not [t for t in asyncio.all_tasks() if t.get_name() == "writer"]
+    box.offer("face", "late")
+    await asyncio.sleep(0.01)
+    assert ws.sent == ["hello", b"jpeg"] and box.pending() == 1

@@ -2,10 +2,10 @@
 
 The driver offers each message once (``face``, ``frame``, ``points``, ``stats``); every client
 has one slot per channel holding the newest message not yet sent. A client's own writer task
-(:meth:`Mailbox.send_to`) takes what is there and sends it; while it waits on a slow browser,
-newer messages replace older ones in its slots (counted as dropped). Offering never waits for a
-client, so a slow or stuck browser costs the chain nothing but a dictionary store per client and
-message.
+(:meth:`Mailbox.send_to`, run while in :meth:`Mailbox.sending`) takes what is there and sends
+it; while it waits on a slow browser, newer messages replace older ones in its slots (counted as
+dropped). Offering never waits for a client, so a slow or stuck browser costs the chain nothing
+but a dictionary store per client and message.
 
 A page that talks back (the rig console, :mod:`facesynth.app.console.server`) also gets replies
 (``welcome``, ``error``, ``saved``…) through :meth:`Mailbox.say`: kept in order, at most
@@ -17,6 +17,8 @@ from __future__ import annotations
 
 import asyncio
 import collections
+import contextlib
+from collections.abc import AsyncIterator
 from typing import Protocol
 
 Outgoing = str | bytes
@@ -100,6 +102,17 @@ class Mailbox:
                         await ws.send_str(item)
         except (ConnectionError, RuntimeError):
             pass
+
+    @contextlib.asynccontextmanager
+    async def sending(self, ws: Socket, name: str) -> AsyncIterator[None]:
+        """While inside, a task (named ``name``) runs :meth:`send_to`; leaving stops it."""
+        writer = asyncio.create_task(self.send_to(ws), name=name)
+        try:
+            yield
+        finally:
+            writer.cancel()
+            with contextlib.suppress(asyncio.CancelledError):
+                await writer
 
 
 class Fanout:

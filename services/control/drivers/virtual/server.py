@@ -148,19 +148,16 @@ class PageServer:
         self._sockets.add(ws)
         mailbox = self.fanout.add(self.frames)
         self._update_demand()
-        writer = asyncio.create_task(mailbox.send_to(ws), name="page-writer")
         try:
-            await ws.send_str(self.hello)
-            for channel, last in (("face", self._last_face), ("stats", self._last_stats)):
-                if last is not None:
-                    mailbox.offer(channel, last)
-            await self._read(ws, mailbox)
+            async with mailbox.sending(ws, "page-writer"):
+                await ws.send_str(self.hello)
+                for channel, last in (("face", self._last_face), ("stats", self._last_stats)):
+                    if last is not None:
+                        mailbox.offer(channel, last)
+                await self._read(ws, mailbox)
         except (ConnectionError, RuntimeError):
             pass
         finally:
-            writer.cancel()
-            with contextlib.suppress(asyncio.CancelledError):
-                await writer
             self.fanout.remove(mailbox)
             self._sockets.discard(ws)
             self._update_demand()
