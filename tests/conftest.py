@@ -1,4 +1,5 @@
-"""Shared fixtures: a real Zenoh router (a Python session in router mode) on loopback."""
+"""Shared fixtures: a real Zenoh router (a Python session in router mode) on loopback, facesynth
+commands as real OS processes."""
 
 from __future__ import annotations
 
@@ -8,6 +9,7 @@ from pathlib import Path
 
 import pytest
 import zenoh
+from facesynth_processes import Processes
 
 from facesynth.runtime.bus.zenoh_bus import ZenohOptions, open_session, router_locators
 
@@ -63,3 +65,11 @@ def client_options(locator: str, mode: str = "peer") -> ZenohOptions:
 
 
 __all__ = ["client_options", "zenoh"]
+
+
+@pytest.fixture
+def processes(tmp_path: Path) -> Iterator[Processes]:
+    """A :class:`Processes`; what is still running at the end gets SIGTERM, then SIGKILL."""
+    spawner = Processes(tmp_path)
+    yield spawner
+    spawner.stop()

@@ -31,6 +31,7 @@ from typing import Any
 import msgspec
 
 from facesynth.app.nodes import NODE_TYPES, PLUGIN_FIELDS, Node, stage_of
+from facesynth.app.toml_text import toml_value
 from facesynth.runtime import keys
 from facesynth.runtime.oneline import one_line
 from facesynth.runtime.plugins import PluginError, Registry
@@ -229,6 +230,11 @@ def select_node(graph: Graph, stage: str, name: str | None, where: str) -> Any:
     return next(iter(nodes.values()))
 
 
+def _toml(value: Any) -> str:
+    """One value of a graph file: inline tables with bare keys, their ``None`` entries left out."""
+    return toml_value(value, bare_keys=True, skip_none=True)
+
+
 def graph_to_toml(graph: Graph) -> str:
     """A graph as TOML text (as :func:`load_graph` reads it)."""
     lines = [f"rig = {_toml(graph.rig)}"]
@@ -244,19 +250,3 @@ def graph_to_toml(graph: Graph) -> str:
             ):
                 lines.append(f"{key} = {_toml(value)}")
     return "\n".join(lines) + "\n"
-
-
-def _toml(value: Any) -> str:
-    """One TOML value (strings, numbers, booleans, lists and inline tables)."""
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, str):
-        return msgspec.json.encode(value).decode()
-    if isinstance(value, int | float):
-        return repr(value)
-    if isinstance(value, list):
-        return "[" + ", ".join(_toml(v) for v in value) + "]"
-    if isinstance(value, dict):
-        items = [f"{k} = {_toml(v)}" for k, v in value.items() if v is not None]
-        return "{ " + ", ".join(items) + " }"
-    raise TypeError(f"cannot write {value!r} as TOML")

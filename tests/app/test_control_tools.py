@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import itertools
 import sys
-from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -13,6 +12,7 @@ import pytest
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "control"))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "firmware"))
 
+from board_fixtures import ssc32
 from fake_devices.maestro import FakeMaestro
 from fake_devices.ssc32 import FakeSSC32
 from profile_files import write_profile
@@ -21,15 +21,7 @@ from uno_rig import UnoRig, firmware_ready, near
 from facesynth.app.cli import main
 from services.control.drivers.arduino import protocol as proto
 
-__all__ = ["firmware_ready"]
-
-
-@pytest.fixture
-def ssc32(tmp_path: Path) -> Iterator[FakeSSC32]:
-    device = FakeSSC32(tmp_path / "ttySSC32")
-    device.plug()
-    yield device
-    device.close()
+__all__ = ["firmware_ready", "ssc32"]
 
 
 def test_one_servo_slowly_to_each_limit_and_back(

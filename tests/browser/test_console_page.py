@@ -10,7 +10,6 @@ import asyncio
 import re
 import shutil
 import sys
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -22,6 +21,7 @@ for folder in ("control", "firmware"):
     if str(TESTS / folder) not in sys.path:
         sys.path.insert(0, str(TESTS / folder))
 
+from board_fixtures import uno  # noqa: E402
 from facesynth_processes import Processes  # noqa: E402
 from uno_rig import UnoRig, firmware_ready  # noqa: E402
 
@@ -29,27 +29,12 @@ from facesynth.runtime.profiles import PACKAGE_DIR, load_profile  # noqa: E402
 from tests.browser.conftest import js, wait_js  # noqa: E402
 
 pytestmark = pytest.mark.browser
-__all__ = ["firmware_ready"]
+__all__ = ["firmware_ready", "uno"]
 
 JOG = (
     "const r = document.querySelector('tr[data-servo=\"0\"] input.jog');"
     " r.value = arguments[0]; r.dispatchEvent(new Event('input')); return r.value;"
 )
-
-
-@pytest.fixture
-def uno(firmware_ready: None, tmp_path: Path) -> Iterator[UnoRig]:
-    """The PCA9685 firmware on an emulated Uno, behind a cable at ``tmp_path/uno/ttyUno``."""
-    board = UnoRig(tmp_path / "uno", cable=True)
-    yield board
-    board.close()
-
-
-@pytest.fixture
-def processes(tmp_path: Path) -> Iterator[Processes]:
-    spawner = Processes(tmp_path)
-    yield spawner
-    spawner.stop()
 
 
 async def test_a_slider_moves_the_pulse_and_a_saved_profile_reloads_identically(
@@ -75,9 +60,12 @@ async def test_a_slider_moves_the_pulse_and_a_saved_profile_reloads_identically(
     await wait_js(browser, "window.facesynth.servos.length === 16")
     board = "document.getElementById('board').textContent"
     await wait_js(browser, f"{board}.includes('connected to ' + {str(uno.port)!r})")  # C's note
+    table = "document.querySelector('#stats tbody').textContent"
+    await wait_js(browser, f"{table}.includes('connected to ' + {str(uno.port)!r})")  # its column
     await js(browser, JOG, 1720)
     await uno.settle({first.channel: 1720.0}, timeout=10)  # the PCA9685's pulse, to a step
     await wait_js(browser, "window.facesynth.positions[0] === 1720")
+    await wait_js(browser, "document.querySelector('#bars .bar .value').textContent === '1720'")
     await js(browser, "document.querySelector('tr[data-servo=\"0\"] button.here-max').click()")
     await wait_js(browser, "window.facesynth.servos[0].max === 1720")
     await js(browser, "document.getElementById('save').click()")

@@ -14,6 +14,7 @@ from typing import Any
 
 import msgspec
 
+from facesynth.app.toml_text import toml_value
 from facesynth.runtime.atomic import write_atomic
 from facesynth.runtime.profiles import (
     PACKAGE_DIR,
@@ -36,22 +37,6 @@ def _defaults(struct: type[msgspec.Struct]) -> dict[str, Any]:
         elif field.default_factory is not msgspec.NODEFAULT:
             values[field.name] = field.default_factory()
     return values
-
-
-def toml_value(value: Any) -> str:
-    """One TOML value: strings, numbers, booleans, lists and inline tables (keys quoted)."""
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, str):
-        return msgspec.json.encode(value).decode()
-    if isinstance(value, int | float):
-        return repr(value)
-    if isinstance(value, list):
-        return "[" + ", ".join(toml_value(v) for v in value) + "]"
-    if isinstance(value, dict):
-        items = [f"{toml_value(str(k))} = {toml_value(v)}" for k, v in value.items()]
-        return "{ " + ", ".join(items) + " }"
-    raise TypeError(f"cannot write {value!r} as TOML")
 
 
 def _pairs(data: dict[str, Any], defaults: dict[str, Any], keep: tuple[str, ...] = ()) -> list[str]:

@@ -23,7 +23,6 @@ import logging
 import secrets
 import time
 from collections.abc import Callable
-from importlib import resources
 from typing import Any
 
 import msgspec
@@ -31,10 +30,10 @@ from aiohttp import WSCloseCode, WSMsgType, web
 
 from facesynth.app.console import protocol as p
 from facesynth.app.console.calibration import CalibrationRun
-from facesynth.app.console.outbox import Outbox, Page
+from facesynth.app.console.page import Page
 from facesynth.app.console.rig import ConsoleError
 from facesynth.app.console.session import ConsoleSession
-from facesynth.runtime.web_app import serve_app
+from facesynth.runtime.web_app import add_page_files, close_sockets, serve_app, static_files
 from services.control.drivers.virtual import wire
 
 log = logging.getLogger("facesynth.console")
@@ -43,6 +42,14 @@ STATIC = {
     "/": ("index.html", "text/html"),
     "/console.js": ("console.js", "text/javascript"),
     "/console.css": ("console.css", "text/css"),
+}
+#: The live face page's files the console's page uses too (its WebSocket, the performer's
+#: frames, the servos' bars, the stage table).
+FACE_PAGE_STATIC = {
+    "/link.js": ("link.js", "text/javascript"),
+    "/frames.js": ("frames.js", "text/javascript"),
+    "/bars.js": ("bars.js", "text/javascript"),
+    "/stages.js": ("stages.js", "text/javascript"),
 }
 LOOPBACK = {"127.0.0.1", "localhost", "::1"}
 TOKEN_HEADER = "X-Facesynth-Token"
@@ -77,8 +84,9 @@ class ConsoleServer:
         self._notes: dict[tuple[str, str], str] = {}
         self._runner: web.AppRunner | None = None
         self._tasks: list[asyncio.Task[Any]] = []
-        folder = resources.files("facesynth.app.console") / "static"
-        self._files = {k: (folder.joinpath(n).read_bytes(), t) for k, (n, t) in STATIC.items()}
+        self._files = static_files("facesynth.app.console", STATIC) | static_files(
+            "services.control.drivers.virtual", FACE_PAGE_STATIC
+        )
 
     @property
     def url(self) -> str:
@@ -89,9 +97,7 @@ class ConsoleServer:
     async def start(self) -> None:
         """Listen (``OSError`` if the address cannot be used) and relay what the session sees."""
         app = web.Application(client_max_size=p.MAX_MESSAGE)
-        for path in self._files:
-            app.router.add_get(path, self._static)
-        app.router.add_get("/favicon.ico", self._no_icon)
+        add_page_files(app, self._files)
         app.router.add_get("/ws", self._websocket)
         app.router.add_get("/state", self._state)
         app.router.add_post("/api/stop", self._http_stop)
@@ -106,10 +112,7 @@ class ConsoleServer:
             self.calibrating.cancel()
         for task in self._tasks:
             task.cancel()
-        for ws in list(self.pages):
-            with contextlib.suppress(Exception):
-                async with asyncio.timeout(1.0):
-                    await ws.close(code=WSCloseCode.GOING_AWAY, message=b"console stopping")
+        await close_sockets(self.pages, b"console stopping")
         if self._runner is not None:
             await self._runner.cleanup()
             self._runner = None
@@ -130,14 +133,6 @@ class ConsoleServer:
         return secrets.compare_digest(given.encode(), self.token.encode())
 
     # --- HTTP -------------------------------------------------------------------------------
-
-    async def _static(self, request: web.Request) -> web.Response:
-        body, kind = self._files[request.path]
-        headers = {"Cache-Control": "no-store", "X-Content-Type-Options": "nosniff"}
-        return web.Response(body=body, content_type=kind, charset="utf-8", headers=headers)
-
-    async def _no_icon(self, request: web.Request) -> web.Response:
-        return web.Response(status=204)
 
     async def _state(self, request: web.Request) -> web.Response:
         return web.json_response(
@@ -200,16 +195,13 @@ class ConsoleServer:
         page = Page()
         self.pages[ws] = page
         self.session.watch(True)
-        writer = asyncio.create_task(self._write(ws, page.outbox), name="console-writer")
         try:
-            page.outbox.say(self._hello())
-            await self._read(ws, page)
+            async with page.outbox.sending(ws, "console-writer"):
+                page.outbox.say(self._hello())
+                await self._read(ws, page)
         except (ConnectionError, RuntimeError):
             pass
         finally:
-            writer.cancel()
-            with contextlib.suppress(asyncio.CancelledError):
-                await writer
             del self.pages[ws]
             self.session.watch(any(other.outbox.frames for other in self.pages.values()))
             if self.owner is page:  # the page that held the servos is gone: let go
@@ -391,14 +383,3 @@ class ConsoleServer:
         while True:
             await asyncio.sleep(1.0)
             self._offer("stats", self.table(time.time_ns()))
-
-    async def _write(self, ws: web.WebSocketResponse, outbox: Outbox) -> None:
-        try:
-            while not ws.closed:
-                for item in await outbox.take():
-                    if isinstance(item, bytes):
-                        await ws.send_bytes(item)
-                    else:
-                        await ws.send_str(item)
-        except (ConnectionError, RuntimeError):
-            pass

@@ -18,7 +18,6 @@ import asyncio
 import contextlib
 import logging
 import secrets
-import socket
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -27,6 +26,7 @@ from typing import Any
 from facesynth.app.chain import node_context
 from facesynth.app.console.profile_file import save_profile
 from facesynth.app.console.rig import ConsoleError, ConsoleRig
+from facesynth.app.servo_sender import ServoSender
 from facesynth.app.wiring import StageParts
 from facesynth.runtime import codec
 from facesynth.runtime.bus.base import Bus
@@ -73,10 +73,8 @@ class ConsoleSession:
         self.stats_interval = stats_interval
         self.robot = robot
         self.control_state = "starting"
-        self.sent = 0
         self.listener: Listener = lambda kind, payload: None
-        self._sender = f"console/{secrets.token_hex(3)}"
-        self._host = socket.gethostname()
+        self.commands = ServoSender(f"console/{secrets.token_hex(3)}")
         self._c: asyncio.Task[Any] | None = None
         self._tasks: list[asyncio.Task[Any]] = []
         self._saving = asyncio.Lock()
@@ -139,7 +137,7 @@ class ConsoleSession:
             "holding": self.core.holding,
             "dirty": self.core.dirty,
             "control": self.control_state,
-            "sent": self.sent,
+            "sent": self.commands.sent,
         }
 
     def driven_elsewhere(self) -> str | None:
@@ -209,7 +207,13 @@ class ConsoleSession:
                         "let go of the servos",
                     )
                 if self.core.holding and self.control_state == "running":
-                    self._command(ctx, started)
+                    self.commands.send(
+                        ctx,
+                        self.core.commands(),
+                        face=True,
+                        profile=self.core.active.name,
+                        started_ns=started,
+                    )
                 self.listener("state", self.state())
                 await ctx.clock.sleep(1 / RATE_HZ)
         finally:
@@ -217,25 +221,6 @@ class ConsoleSession:
                 follower.cancel()
                 with contextlib.suppress(asyncio.CancelledError):
                     await follower
-
-    def _command(self, ctx: ServiceContext, started_ns: int) -> None:
-        self.sent += 1
-        now_ns = ctx.clock.time_ns()
-        ctx.publish(
-            "servo_commands",
-            ServoCommands(
-                seq=self.sent,
-                t_capture_ns=now_ns,
-                t_media_ns=max(0, ctx.clock.monotonic_ns() - started_ns),
-                face=True,
-                profile=self.core.active.name,
-                positions=self.core.commands(),
-                sender=self._sender,
-                sender_seq=self.sent,
-                sent_ns=now_ns,
-                sender_host=self._host,
-            ),
-        )
 
     async def _follow_states(self, subscription: Any) -> None:
         async for sample in subscription:
@@ -246,7 +231,7 @@ class ConsoleSession:
     async def _follow_senders(self, subscription: Any) -> None:
         async for sample in subscription:
             command = sample.message
-            if isinstance(command, ServoCommands) and command.sender != self._sender:
+            if isinstance(command, ServoCommands) and command.sender != self.commands.sender:
                 self._elsewhere = (command.sender or "another service", self._monotonic_ns())
 
     async def _follow_stats(self, view: RigView) -> None:

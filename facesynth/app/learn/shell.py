@@ -23,7 +23,6 @@ import contextlib
 import logging
 import secrets
 import signal
-import socket
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -35,6 +34,7 @@ from facesynth.app.learn.progress import Progress
 from facesynth.app.learn.session import SessionFile
 from facesynth.app.learn.settle import StalledError
 from facesynth.app.recording.recorder import Recorder, RecordOptions
+from facesynth.app.servo_sender import ServoSender
 from facesynth.app.wiring import StageParts
 from facesynth.runtime import codec, keys
 from facesynth.runtime.bus.base import Bus, Subscription
@@ -85,15 +85,13 @@ class BabbleShell:
         self.seed = seed
         self.progress = progress
         self.on_neutral = on_neutral
-        self.sender = ""
-        self.host = socket.gethostname()
-        self.sent = 0
+        self.commands = ServoSender()
         self.samples = 0
         self._started_ns = 0
 
     async def serve(self, ctx: ServiceContext) -> None:
         """Babble until the core is done (its budget spent, or stopped)."""
-        self.sender = f"{ctx.instance}/{secrets.token_hex(3)}"
+        self.commands.sender = f"{ctx.instance}/{secrets.token_hex(3)}"
         clock = ctx.clock
         states = ctx.subscribe("servo_state", 1, ServoCommands)
         features = ctx.subscribe("features", 16, Features)
@@ -116,7 +114,13 @@ class BabbleShell:
                         f"{self.babbler.profile.name!r}?"
                     ) from None
                 if step.phase != "done":
-                    self._command(ctx, step.targets, step.phase == "babbling")
+                    self.commands.send(
+                        ctx,
+                        step.targets,
+                        face=step.phase == "babbling",
+                        profile=self.babbler.profile.name,
+                        started_ns=self._started_ns,
+                    )
                 if step.sample is not None:
                     self._publish(ctx, step.sample)
                 if self.babbler.at_neutral and neutral_started is None:
@@ -159,25 +163,6 @@ class BabbleShell:
                 age = max(0, ctx.clock.time_ns() - message.t_capture_ns)
                 taken = ctx.clock.monotonic_ns() - age
                 self.babbler.features(message.face, message.raw, message.neutral_ready, taken)
-
-    def _command(self, ctx: ServiceContext, targets: dict[str, float], face: bool) -> None:
-        self.sent += 1
-        now_ns = ctx.clock.time_ns()
-        ctx.publish(
-            "servo_commands",
-            ServoCommands(
-                seq=self.sent,
-                t_capture_ns=now_ns,
-                t_media_ns=max(0, ctx.clock.monotonic_ns() - self._started_ns),
-                face=face,
-                profile=self.babbler.profile.name,
-                positions=targets,
-                sender=self.sender,
-                sender_seq=self.sent,
-                sent_ns=now_ns,
-                sender_host=self.host,
-            ),
-        )
 
     def _publish(self, ctx: ServiceContext, sample: Sample) -> None:
         message = BabbleSample(

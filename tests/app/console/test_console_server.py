@@ -156,6 +156,25 @@ async def test_while_another_service_sends_servo_commands_the_console_lets_go(
         )
         assert response.status == 409
     assert not console.session.core.holding
+async def test_the_page_and_its_files_are_served(console: ConsoleServer) -> None:
+    url = f"http://127.0.0.1:{console.port}/"
+    async with aiohttp.ClientSession() as http:
+        for path, kind, needle in (
+            ("", "text/html", '<script src="frames.js">'),
+            ("console.js", "text/javascript", "pageLink(state"),
+            ("link.js", "text/javascript", "new WebSocket"),  # these four: the
+            ("frames.js", "text/javascript", "createImageBitmap"),  # live face page's
+            ("bars.js", "text/javascript", "function servoBar"),
+            ("stages.js", "text/javascript", "function showStages"),
+            ("console.css", "text/css", "banner"),
+        ):
+            async with http.get(url + path) as response:
+                assert response.status == 200
+                assert response.content_type == kind
+                assert response.headers["Cache-Control"] == "no-store"
+                assert needle in await response.text()
+        async with http.get(url + "favicon.ico") as response:
+            assert response.status == 204  # no icon, and no 404 logged for it
 
 
 async def test_other_origins_and_host_names_are_refused(console: ConsoleServer) -> None:

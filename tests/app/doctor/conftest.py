@@ -13,25 +13,17 @@ import pytest
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "control"))
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "firmware"))
 
+from board_fixtures import ssc32
 from facesynth_processes import Processes, free_port
-from fake_devices.ssc32 import FakeSSC32
 from uno_rig import UnoRig, firmware_ready
 
-__all__ = ["firmware_ready"]
-
-
-@pytest.fixture
-def ssc32(tmp_path: Path) -> Iterator[FakeSSC32]:
-    """A fake SSC-32U, plugged in at ``tmp_path/ttySSC32``."""
-    device = FakeSSC32(tmp_path / "ttySSC32")
-    device.plug()
-    yield device
-    device.close()
+__all__ = ["firmware_ready", "ssc32"]
 
 
 @pytest.fixture
 def uno(firmware_ready: None, tmp_path: Path) -> Iterator[UnoRig]:
-    """Our firmware (PCA9685 build) on an emulated Uno, behind a cable at ``tmp_path/uno``."""
+    """Our firmware (PCA9685 build) on an emulated Uno, behind a cable at ``tmp_path/uno``,
+    booted (its PCA9685 set up) before doctor looks at it."""
     rig = UnoRig(tmp_path / "uno", cable=True)
     booted = lambda: any(e[1] == "PRE_SCALE" for e in rig.board.events("reg"))  # noqa: E731
     rig.board.wait_for(booted, timeout=20)

@@ -1,10 +1,11 @@
-"""services.control.drivers.virtual.fanout: latest-only mailboxes, one per page."""
+"""services.control.drivers.virtual.fanout: latest-only mailboxes, one per page (with the
+console's replies in order)."""
 
 from __future__ import annotations
 
 import asyncio
 
-from services.control.drivers.virtual.fanout import Fanout, Mailbox
+from services.control.drivers.virtual.fanout import MAX_REPLIES, Fanout, Mailbox
 
 
 async def test_a_mailbox_keeps_the_newest_message_of_each_channel() -> None:
@@ -57,3 +58,68 @@ async def test_fanout_offers_to_every_page_and_never_waits() -> None:
     assert fanout.dropped == 99 + 99  # a page that left keeps its count
     fanout.remove(stuck)  # twice is harmless
     assert fanout.offered == 100
+
+
+async def test_replies_keep_their_order_and_the_rest_only_its_newest() -> None:
+    box = Mailbox(order=())
+    box.offer("state", "s1")
+    box.say("r1")
+    box.offer("state", "s2")
+    box.say("r2")
+    assert await box.take() == ["r1", "r2", "s2"]
+
+
+async def test_a_final_reply_supersedes_its_channels_progress() -> None:
+    box = Mailbox(order=())
+    box.offer("calibration", "running")
+    box.say("done", replaces="calibration")
+    assert await box.take() == ["done"]
+
+
+async def test_frames_only_for_a_page_that_shows_them_and_replies_are_bounded() -> None:
+    box = Mailbox(order=())
+    box.frames = False
+    box.offer("frame", b"jpeg")
+    box.offer("points", "p")
+    for i in range(MAX_REPLIES + 5):
+        box.say(str(i))
+    taken = await box.take()
+    assert taken == [str(i) for i in range(5, MAX_REPLIES + 5)]
+
+
+async def test_channels_outside_the_order_follow_in_the_order_they_came() -> None:
+    box = Mailbox()
+    for channel in ("state", "stats", "control", "face"):
+        box.offer(channel, channel)
+    assert await box.take() == ["face", "stats", "state", "control"]
+    unordered = Mailbox(order=())
+    for channel in ("state", "stats", "control", "face"):
+        unordered.offer(channel, channel)
+    assert await unordered.take() == ["state", "stats", "control", "face"]
+
+
+class _Socket:
+    """What a writer sends to, recorded (aiohttp's WebSocket in the servers)."""
+
+    def __init__(self) -> None:
+        self.closed = False
+        self.sent: list[str | bytes] = []
+
+    async def send_str(self, data: str) -> None:
+        self.sent.append(data)
+
+    async def send_bytes(self, data: bytes) -> None:
+        self.sent.append(data)
+
+
+async def test_a_writer_sends_while_sending_and_stops_after() -> None:
+    box, ws = Mailbox(), _Socket()
+    async with box.sending(ws, "writer"):
+        box.say("hello")
+        box.offer("frame", b"jpeg")
+        await asyncio.sleep(0.01)
+        assert ws.sent == ["hello", b"jpeg"]
+    assert not [t for t in asyncio.all_tasks() if t.get_name() == "writer"]
+    box.offer("face", "late")
+    await asyncio.sleep(0.01)
+    assert ws.sent == ["hello", b"jpeg"] and box.pending() == 1

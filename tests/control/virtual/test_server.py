@@ -36,13 +36,19 @@ async def test_the_page_and_its_files_are_served(page_driver: VirtualDriver) -> 
     async with aiohttp.ClientSession() as session:
         for path, kind, needle in (
             ("", "text/html", "face.js"),
-            ("face.js", "text/javascript", "new WebSocket"),
+            ("face.js", "text/javascript", "pageLink(state"),
+            ("link.js", "text/javascript", "new WebSocket"),
+            ("frames.js", "text/javascript", "createImageBitmap"),
+            ("bars.js", "text/javascript", "function servoBar"),
+            ("stages.js", "text/javascript", "function showStages"),
             ("face.css", "text/css", "canvas"),
         ):
             async with session.get(page_driver.url + path) as response:
                 assert response.status == 200
                 assert response.content_type == kind
                 assert needle in await response.text()
+        async with session.get(page_driver.url + "favicon.ico") as response:
+            assert response.status == 204
         for path in ("nope", "../../etc/passwd", "static/face.js"):
             async with session.get(page_driver.url + path) as response:
                 assert response.status == 404

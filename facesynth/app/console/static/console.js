@@ -21,15 +21,12 @@ window.facesynth = state;
 
 const $ = (id) => document.getElementById(id);
 const token = new URLSearchParams(location.hash.slice(1)).get("token") || "";
-const frameCanvas = $("frame");
-const frameCtx = frameCanvas.getContext("2d");
-let socket = null;
-let retryMs = 250;
+const onFrame = frameView(state);
 let rows = [];
 
 function send(message) {
-  if (socket && socket.readyState === WebSocket.OPEN) {
-    socket.send(JSON.stringify(message));
+  if (link.open()) {
+    link.send(message);
     return true;
   }
   showError("not connected: the console is not reachable (is `facesynth console` running?)");
@@ -55,32 +52,6 @@ function showError(text) {
   $("error").hidden = false;
 }
 $("error-close").onclick = () => { $("error").hidden = true; };
-
-function connect() {
-  setStatus("connecting");
-  const scheme = location.protocol === "https:" ? "wss://" : "ws://";
-  const ws = new WebSocket(scheme + location.host + "/ws");
-  ws.binaryType = "arraybuffer";
-  socket = ws;
-  ws.onopen = () => {
-    state.connects += 1;
-    retryMs = 250;
-    setStatus("open");
-    ws.send(JSON.stringify({ type: "hello", token }));
-  };
-  ws.onmessage = (event) => {
-    if (typeof event.data === "string") onText(JSON.parse(event.data));
-    else onFrame(event.data);
-  };
-  ws.onclose = () => {
-    if (socket !== ws) return;
-    setStatus("closed");
-    state.trusted = false;
-    state.heldBy = null;
-    setTimeout(connect, retryMs);
-    retryMs = Math.min(retryMs * 2, 2000);
-  };
-}
 
 function onText(m) {
   switch (m.type) {
@@ -176,14 +147,9 @@ function onHello(m) {
     rev.checked = s.reversed;
     rev.onchange = () => send({ type: "reverse", servo: s.index, reversed: rev.checked });
     body.appendChild(row);
-    const bar = document.createElement("div");
-    bar.className = "bar";
-    bar.innerHTML = '<span class="name"></span><span class="track"><span class="fill"></span><span class="mark"></span></span><span class="value"></span>';
-    bar.querySelector(".name").textContent = s.name;
-    const span = s.max - s.min || 1;
-    bar.querySelector(".mark").style.left = `${(100 * (s.neutral - s.min)) / span}%`;
-    bars.appendChild(bar);
-    return { s, jog, target, at, limits, bar, span };
+    const bar = servoBar(s.name, s.min, s.neutral, s.max);
+    bars.appendChild(bar.element);
+    return { s, jog, target, at, limits, bar };
   });
 }
 
@@ -205,13 +171,7 @@ function onState(m) {
     r.target.textContent = m.holding ? t.toFixed(0) : "–";
     r.at.textContent = p.toFixed(0);
     if (document.activeElement !== r.jog && m.holding) r.jog.value = t;
-    const v = Math.min(r.s.max, Math.max(r.s.min, p));
-    const a = (100 * (Math.min(v, r.s.neutral) - r.s.min)) / r.span;
-    const b = (100 * (Math.max(v, r.s.neutral) - r.s.min)) / r.span;
-    const fill = r.bar.querySelector(".fill");
-    fill.style.left = `${a}%`;
-    fill.style.width = `${b - a}%`;
-    r.bar.querySelector(".value").textContent = p.toFixed(0);
+    r.bar.show(p);
   });
 }
 
@@ -234,80 +194,10 @@ function onCalibration(m) {
   }
 }
 
-let pendingFrame = null;
-let decoding = false;
-function onFrame(buffer) {
-  pendingFrame = buffer;
-  if (!decoding) decodeFrames();
-}
-
-async function decodeFrames() {
-  decoding = true;
-  try {
-    while (pendingFrame !== null) {
-      const buffer = pendingFrame;
-      pendingFrame = null;
-      const view = new DataView(buffer);
-      const length = view.getUint32(0);
-      const header = JSON.parse(new TextDecoder().decode(new Uint8Array(buffer, 4, length)));
-      const pixels = new Uint8Array(buffer, 4 + length);
-      if (frameCanvas.width !== header.width || frameCanvas.height !== header.height) {
-        frameCanvas.width = header.width;
-        frameCanvas.height = header.height;
-      }
-      if (header.encoding === "jpeg") {
-        const bitmap = await createImageBitmap(new Blob([pixels], { type: "image/jpeg" }));
-        frameCtx.drawImage(bitmap, 0, 0);
-        bitmap.close();
-      } else {
-        const image = frameCtx.createImageData(header.width, header.height);
-        for (let i = 0, j = 0; i < pixels.length; i += 3, j += 4) {
-          image.data[j] = pixels[i + 2]; image.data[j + 1] = pixels[i + 1];
-          image.data[j + 2] = pixels[i]; image.data[j + 3] = 255;
-        }
-        frameCtx.putImageData(image, 0, 0);
-      }
-      drawPoints(header.width);
-      state.framesDrawn += 1;
-      $("no-frames").hidden = true;
-      $("frame-info").textContent = `frame ${header.seq}`;
-    }
-  } catch (error) {
-    console.warn("frame not drawn", error);
-  } finally {
-    decoding = false;
-  }
-}
-
-function drawPoints(width) {
-  const p = state.points;
-  if (!p || !p.face) return;
-  const r = Math.max(1.5, width / 320);
-  frameCtx.fillStyle = "#50ff78";
-  for (let i = 0; i + 1 < p.ibug68.length; i += 2) {
-    frameCtx.beginPath();
-    frameCtx.arc(p.ibug68[i], p.ibug68[i + 1], r, 0, 2 * Math.PI);
-    frameCtx.fill();
-  }
-}
-
 function onStats(services) {
   const c = services.find((s) => s.service === "control");
   $("board").textContent = c ? `board: ${c.note || "–"}${c.status === "running" ? "" : ` (C ${c.status})`}` : "";
-  const body = document.querySelector("#stats tbody");
-  body.replaceChildren();
-  const fmt = (v) => (v === null ? "–" : v.toFixed(2));
-  for (const s of services) {
-    const row = document.createElement("tr");
-    const cells = [s.service, s.instance, s.status, s.rate_hz.toFixed(1), fmt(s.p50_ms),
-      fmt(s.p99_ms), s.received, s.published, s.dropped, s.rejected, s.note || ""];
-    cells.forEach((value, i) => {
-      const td = cell(row);
-      td.textContent = String(value);
-      if (i === 2) td.className = s.status;
-    });
-    body.appendChild(row);
-  }
+  showStages(services, true);
 }
 
 $("take").onclick = () => send({ type: "take" });
@@ -318,13 +208,16 @@ $("stop").onclick = () => send({ type: "stop" });
 $("save").onclick = () => send({ type: "save" });
 $("calibrate").onclick = () => send({ type: "calibrate", name: $("calib-name").value });
 
-setInterval(() => {
-  if (socket && socket.readyState === WebSocket.OPEN) {
-    socket.send(JSON.stringify({ type: "ping", t: performance.now() }));
-  }
-}, 2000);
-
 // A token pasted into the address bar (a new #fragment) does not reload a page: reload it.
 window.addEventListener("hashchange", () => location.reload());
 
-connect();
+const link = pageLink(state, {
+  status: setStatus,
+  hello: () => ({ type: "hello", token }),
+  text: onText,
+  binary: onFrame,
+  closed: () => {
+    state.trusted = false;
+    state.heldBy = null;
+  },
+});

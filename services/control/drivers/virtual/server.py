@@ -14,7 +14,6 @@ import asyncio
 import contextlib
 import logging
 import time
-from importlib import resources
 from typing import Any
 
 from aiohttp import WSCloseCode, WSMsgType, web
@@ -22,7 +21,7 @@ from aiohttp import WSCloseCode, WSMsgType, web
 from facesynth.runtime import codec, keys
 from facesynth.runtime.bus.base import Subscription
 from facesynth.runtime.rig_view import RigView
-from facesynth.runtime.web_app import serve_app
+from facesynth.runtime.web_app import add_page_files, close_sockets, serve_app, static_files
 from schemas.messages import Frame, Points, ServiceStats
 from services.control.drivers.virtual import wire
 from services.control.drivers.virtual.fanout import Fanout, Mailbox
@@ -32,17 +31,14 @@ log = logging.getLogger("facesynth.control.virtual")
 STATIC = {
     "/": ("index.html", "text/html"),
     "/face.js": ("face.js", "text/javascript"),
+    "/link.js": ("link.js", "text/javascript"),  # these four: the rig console's too
+    "/frames.js": ("frames.js", "text/javascript"),
+    "/bars.js": ("bars.js", "text/javascript"),
+    "/stages.js": ("stages.js", "text/javascript"),
     "/face.css": ("face.css", "text/css"),
 }
 #: Seconds between the page's status updates.
 STATS_EVERY_S = 1.0
-
-
-def _static_files() -> dict[str, tuple[bytes, str]]:
-    folder = resources.files("services.control.drivers.virtual") / "static"
-    return {
-        path: (folder.joinpath(name).read_bytes(), kind) for path, (name, kind) in STATIC.items()
-    }
 
 
 class PageServer:
@@ -76,7 +72,7 @@ class PageServer:
         self._tasks: list[asyncio.Task[None]] = []
         self._following: dict[str, Subscription] = {}
         self._runner: web.AppRunner | None = None
-        self._files = _static_files()
+        self._files = static_files("services.control.drivers.virtual", STATIC)
 
     @property
     def url(self) -> str:
@@ -87,11 +83,9 @@ class PageServer:
     async def start(self) -> None:
         """Listen (``OSError`` if the address cannot be used) and start following the rig."""
         app = web.Application()
-        for path in self._files:
-            app.router.add_get(path, self._static)
+        add_page_files(app, self._files)
         app.router.add_get("/ws", self._websocket)
         app.router.add_get("/state", self._state)
-        app.router.add_get("/favicon.ico", self._no_icon)
         self._runner, self.port = await serve_app(app, self.host, self.port)
         if self.rig is not None:
             self._tasks.append(asyncio.create_task(self._follow_stats(), name="page-stats"))
@@ -110,10 +104,7 @@ class PageServer:
             with contextlib.suppress(asyncio.CancelledError):
                 await task
         self._tasks.clear()
-        for ws in list(self._sockets):
-            with contextlib.suppress(Exception):
-                async with asyncio.timeout(1.0):
-                    await ws.close(code=WSCloseCode.GOING_AWAY, message=b"server stopping")
+        await close_sockets(self._sockets, b"server stopping")
         if self._runner is not None:
             await self._runner.cleanup()
             self._runner = None
@@ -124,18 +115,6 @@ class PageServer:
         self.fanout.offer("face", message)
 
     # --- HTTP --------------------------------------------------------------------------------
-
-    async def _static(self, request: web.Request) -> web.Response:
-        body, kind = self._files[request.path]
-        return web.Response(
-            body=body,
-            content_type=kind,
-            charset="utf-8",
-            headers={"Cache-Control": "no-store", "X-Content-Type-Options": "nosniff"},
-        )
-
-    async def _no_icon(self, request: web.Request) -> web.Response:
-        return web.Response(status=204)
 
     async def _state(self, request: web.Request) -> web.Response:
         return web.json_response(self.state())
@@ -169,19 +148,16 @@ class PageServer:
         self._sockets.add(ws)
         mailbox = self.fanout.add(self.frames)
         self._update_demand()
-        writer = asyncio.create_task(self._write(ws, mailbox), name="page-writer")
         try:
-            await ws.send_str(self.hello)
-            for channel, last in (("face", self._last_face), ("stats", self._last_stats)):
-                if last is not None:
-                    mailbox.offer(channel, last)
-            await self._read(ws, mailbox)
+            async with mailbox.sending(ws, "page-writer"):
+                await ws.send_str(self.hello)
+                for channel, last in (("face", self._last_face), ("stats", self._last_stats)):
+                    if last is not None:
+                        mailbox.offer(channel, last)
+                await self._read(ws, mailbox)
         except (ConnectionError, RuntimeError):
             pass
         finally:
-            writer.cancel()
-            with contextlib.suppress(asyncio.CancelledError):
-                await writer
             self.fanout.remove(mailbox)
             self._sockets.discard(ws)
             self._update_demand()
@@ -217,18 +193,6 @@ class PageServer:
         self.refused += 1
         if self.refused <= 10 or self.refused % 100 == 0:
             log.warning("refused a page's message (%d so far): %s", self.refused, reason)
-
-    async def _write(self, ws: web.WebSocketResponse, mailbox: Mailbox) -> None:
-        """Send a page what its mailbox holds; only this task waits on a slow page."""
-        try:
-            while not ws.closed:
-                for item in await mailbox.take():
-                    if isinstance(item, bytes):
-                        await ws.send_bytes(item)
-                    else:
-                        await ws.send_str(item)
-        except (ConnectionError, RuntimeError):
-            pass
 
     # --- following the rig ---------------------------------------------------------------
 

@@ -18,11 +18,8 @@ window.facesynth = state;
 const $ = (id) => document.getElementById(id);
 const faceCanvas = $("face");
 const faceCtx = faceCanvas.getContext("2d");
-const frameCanvas = $("frame");
-const frameCtx = frameCanvas.getContext("2d");
+const onFrame = frameView(state);
 const showFrames = $("show-frames");
-let socket = null;
-let retryMs = 250;
 let bars = new Map();
 
 function setStatus(status) {
@@ -32,36 +29,12 @@ function setStatus(status) {
   el.textContent = { open: "live", closed: "reconnecting…", connecting: "connecting…" }[status];
 }
 
-function connect() {
-  setStatus("connecting");
-  const scheme = location.protocol === "https:" ? "wss://" : "ws://";
-  const ws = new WebSocket(scheme + location.host + "/ws");
-  ws.binaryType = "arraybuffer";
-  socket = ws;
-  ws.onopen = () => {
-    state.connects += 1;
-    retryMs = 250;
-    setStatus("open");
-    ws.send(JSON.stringify({ type: "hello", frames: showFrames.checked }));
-  };
-  ws.onmessage = (event) => {
-    if (typeof event.data === "string") onText(JSON.parse(event.data));
-    else onFrame(event.data);
-  };
-  ws.onclose = () => {
-    if (socket !== ws) return;
-    setStatus("closed");
-    setTimeout(connect, retryMs);
-    retryMs = Math.min(retryMs * 2, 2000);
-  };
-}
-
 function onText(message) {
   switch (message.type) {
     case "hello": return onHello(message);
     case "face": return onFace(message);
     case "points": state.points = message; return;
-    case "stats": return onStats(message.services);
+    case "stats": return showStages(message.services, false);
     case "pong": state.rttMs = performance.now() - message.t;
       $("rtt").textContent = `page round trip ${state.rttMs.toFixed(1)} ms`; return;
   }
@@ -76,15 +49,9 @@ function onHello(message) {
   box.replaceChildren();
   bars = new Map();
   for (const c of message.controls) {
-    const row = document.createElement("div");
-    row.className = "bar";
-    row.innerHTML = '<span class="name"></span><span class="track"><span class="fill"></span>' +
-      '<span class="mark"></span></span><span class="value"></span>';
-    row.querySelector(".name").textContent = c.name;
-    const span = c.high - c.low || 1;
-    row.querySelector(".mark").style.left = `${(100 * (c.neutral - c.low)) / span}%`;
-    box.appendChild(row);
-    bars.set(c.name, { row, c, span });
+    const bar = servoBar(c.name, c.low, c.neutral, c.high);
+    box.appendChild(bar.element);
+    bars.set(c.name, bar);
   }
 }
 
@@ -96,14 +63,7 @@ function onFace(message) {
   $("face-info").textContent = message.seq === null ? "" : `frame ${message.seq}`;
   for (const [name, value] of Object.entries(message.controls)) {
     const bar = bars.get(name);
-    if (!bar) continue;
-    const v = Math.min(bar.c.high, Math.max(bar.c.low, value));
-    const a = (100 * (Math.min(v, bar.c.neutral) - bar.c.low)) / bar.span;
-    const b = (100 * (Math.max(v, bar.c.neutral) - bar.c.low)) / bar.span;
-    const fill = bar.row.querySelector(".fill");
-    fill.style.left = `${a}%`;
-    fill.style.width = `${b - a}%`;
-    bar.row.querySelector(".value").textContent = value.toFixed(0);
+    if (bar) bar.show(value);
   }
   if (message.shapes) drawShapes(faceCtx, message.shapes);
   state.drawn += 1;
@@ -128,96 +88,14 @@ function drawShapes(ctx, shapes) {
   }
 }
 
-// Frames: the newest one is decoded; any that arrive meanwhile replace each other.
-let pendingFrame = null;
-let decoding = false;
-
-function onFrame(buffer) {
-  pendingFrame = buffer;
-  if (!decoding) decodeFrames();
-}
-
-async function decodeFrames() {
-  decoding = true;
-  try {
-    while (pendingFrame !== null) {
-      const buffer = pendingFrame;
-      pendingFrame = null;
-      const view = new DataView(buffer);
-      const length = view.getUint32(0);
-      const header = JSON.parse(new TextDecoder().decode(new Uint8Array(buffer, 4, length)));
-      const pixels = new Uint8Array(buffer, 4 + length);
-      if (frameCanvas.width !== header.width || frameCanvas.height !== header.height) {
-        frameCanvas.width = header.width;
-        frameCanvas.height = header.height;
-      }
-      if (header.encoding === "jpeg") {
-        const bitmap = await createImageBitmap(new Blob([pixels], { type: "image/jpeg" }));
-        frameCtx.drawImage(bitmap, 0, 0);
-        bitmap.close();
-      } else {
-        const image = frameCtx.createImageData(header.width, header.height);
-        for (let i = 0, j = 0; i < pixels.length; i += 3, j += 4) {
-          image.data[j] = pixels[i + 2];
-          image.data[j + 1] = pixels[i + 1];
-          image.data[j + 2] = pixels[i];
-          image.data[j + 3] = 255;
-        }
-        frameCtx.putImageData(image, 0, 0);
-      }
-      drawPoints(header.width);
-      state.framesDrawn += 1;
-      $("no-frames").hidden = true;
-      $("frame-info").textContent = `frame ${header.seq}`;
-    }
-  } catch (error) {
-    console.warn("frame not drawn", error);
-  } finally {
-    decoding = false;
-  }
-}
-
-function drawPoints(width) {
-  const p = state.points;
-  if (!p || !p.face) return;
-  const r = Math.max(1.5, width / 320);
-  frameCtx.fillStyle = "#50ff78";
-  for (let i = 0; i + 1 < p.ibug68.length; i += 2) {
-    frameCtx.beginPath();
-    frameCtx.arc(p.ibug68[i], p.ibug68[i + 1], r, 0, 2 * Math.PI);
-    frameCtx.fill();
-  }
-}
-
-function onStats(services) {
-  const body = document.querySelector("#stats tbody");
-  body.replaceChildren();
-  const fmt = (v) => (v === null ? "–" : v.toFixed(2));
-  for (const s of services) {
-    const row = document.createElement("tr");
-    const cells = [s.service, s.instance, s.status, s.rate_hz.toFixed(1), fmt(s.p50_ms),
-      fmt(s.p99_ms), s.received, s.published, s.dropped, s.rejected];
-    cells.forEach((value, i) => {
-      const td = document.createElement("td");
-      td.textContent = String(value);
-      if (i === 2) td.className = s.status;
-      row.appendChild(td);
-    });
-    body.appendChild(row);
-  }
-}
-
 showFrames.addEventListener("change", () => {
   $("performer-panel").classList.toggle("off", !showFrames.checked);
-  if (socket && socket.readyState === WebSocket.OPEN) {
-    socket.send(JSON.stringify({ type: "hello", frames: showFrames.checked }));
-  }
+  if (link.open()) link.send({ type: "hello", frames: showFrames.checked });
 });
 
-setInterval(() => {
-  if (socket && socket.readyState === WebSocket.OPEN) {
-    socket.send(JSON.stringify({ type: "ping", t: performance.now() }));
-  }
-}, 2000);
-
-connect();
+const link = pageLink(state, {
+  status: setStatus,
+  hello: () => ({ type: "hello", frames: showFrames.checked }),
+  text: onText,
+  binary: onFrame,
+});
