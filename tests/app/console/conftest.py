@@ -8,6 +8,7 @@ from pathlib import Path
 
 import msgspec
 import pytest
+from console_token import TOKEN
 
 from facesynth.app.console.rig import ConsoleRig
 from facesynth.app.console.server import ConsoleServer
@@ -18,8 +19,6 @@ from facesynth.app.wiring import StageParts, build_node
 from facesynth.runtime.bus.memory import MemoryNetwork
 from facesynth.runtime.profiles import PACKAGE_DIR, load_profile
 from services.control.drivers.record import RecordConfig
-
-TOKEN = "test-token"
 
 
 @pytest.fixture

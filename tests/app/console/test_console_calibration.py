@@ -8,7 +8,7 @@ from pathlib import Path
 from typing import Any
 
 import aiohttp
-from conftest import TOKEN
+from console_token import TOKEN
 
 from facesynth.app.cli import build_parser
 from facesynth.app.console.calibration import CalibrationRun

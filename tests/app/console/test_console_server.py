@@ -14,7 +14,7 @@ from typing import Any
 
 import aiohttp
 import pytest
-from conftest import TOKEN
+from console_token import TOKEN
 
 from facesynth.app.console.protocol import MAX_MESSAGE
 from facesynth.app.console.server import TOKEN_HEADER, ConsoleServer
