@@ -10,7 +10,7 @@ import abc
 from collections.abc import Iterator
 from dataclasses import dataclass
 from types import ModuleType
-from typing import ClassVar
+from typing import ClassVar, overload
 
 import numpy as np
 
@@ -62,6 +62,25 @@ class FrameSource(abc.ABC):
 
     def close(self) -> None:  # noqa: B027 - an optional hook: most sources hold nothing
         """Release the device or file (nothing to release by default)."""
+
+
+@overload
+def pixels(image: np.ndarray | JpegImage) -> np.ndarray: ...
+@overload
+def pixels(image: None) -> None: ...
+def pixels(image: Image) -> np.ndarray | None:
+    """A source's image as BGR pixels: a camera's JPEG decoded, pixels as they are.
+
+    Raises:
+        SourceError: a camera's JPEG that does not decode.
+    """
+    if not isinstance(image, JpegImage):
+        return image
+    cv2 = opencv()
+    decoded = cv2.imdecode(np.frombuffer(image.data, dtype=np.uint8), cv2.IMREAD_COLOR)
+    if decoded is None or decoded.shape[:2] != (image.height, image.width):
+        raise SourceError(f"a {image.width}x{image.height} camera JPEG that does not decode")
+    return decoded
 
 
 def opencv() -> ModuleType:
