@@ -57,7 +57,7 @@ broken_pieces = st.sampled_from(
 @st.composite
 def streams(draw: st.DrawFn) -> tuple[bytes, list[bytes] | None]:
     """A stream, and the bodies it must give when it is well-formed (else None)."""
-    parts = draw(st.lists(good_parts, max_size=5))
+    parts = draw(st.lists(good_parts, max_size=4))
     # A part without a length ends at the next boundary: only a following part completes it.
     stream = b"".join(framed(body, length) for body, length in parts) + b"--frame\r\n"
     expected = [body for body, _ in parts]
@@ -68,7 +68,7 @@ def streams(draw: st.DrawFn) -> tuple[bytes, list[bytes] | None]:
         pieces = draw(st.lists(st.one_of(good_parts.map(lambda p: framed(*p)), broken_pieces)))
         return b"".join(pieces), None
     if kind == "random":
-        return draw(st.binary(max_size=2000)), None
+        return draw(st.binary(max_size=600)), None
     return draw(damaged(stream)), None
 
 
