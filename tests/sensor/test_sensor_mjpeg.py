@@ -20,6 +20,7 @@ from facesynth.app.simhead.server import SimHeadServer
 from facesynth.runtime.frames import decode_frame
 from facesynth.runtime.opencv import import_cv2
 from facesynth.runtime.testing import StageRun
+from services.points.backends.tracker import TrackerBackend, TrackerConfig
 from services.sensor.service import SensorOptions, SensorService
 from services.sensor.sources import FrameSource, JpegImage, SourceError, SourceInfo
 from services.sensor.sources.base import Image, pixels
@@ -93,6 +94,23 @@ async def test_the_simulated_heads_jpegs_arrive_byte_for_byte(tmp_path: Path) ->
     assert {(j.width, j.height) for j in jpegs} == {(320, 320)}
     assert all(j.data in server.rendered for j in jpegs)
     assert pixels(jpegs[0]).shape == (320, 320, 3)
+
+
+async def test_the_points_stage_tracks_the_passed_through_frames(tmp_path: Path) -> None:
+    server = SimHeadServer(SimHead(load_head("simhead16")), Maestro(), tmp_path / "tty", fps=30)
+    await server.start()
+    try:
+        images, _ = await asyncio.to_thread(read, server.url, 3)
+    finally:
+        await server.stop()
+    run = sensor_run([image for image in images if isinstance(image, JpegImage)], "jpeg")
+    async with run:
+        await run.finish(timeout=10.0)
+        frames = run.messages("input")
+    backend = TrackerBackend(TrackerConfig(model="full", blendshapes=False))
+    points = [backend.process(frame) for frame in frames]
+    assert [p.face for p in points] == [True] * 3
+    assert {(p.image_width, p.image_height) for p in points} == {(320, 320)}
 
 
 async def test_no_passthrough_decodes_as_before(tmp_path: Path) -> None:
