@@ -39,7 +39,11 @@ def framed(body: bytes, length: bool) -> bytes:
     return head + b"\r\n" + body + b"\r\n"
 
 
-bodies = st.one_of(st.just(JPEG), damaged(JPEG), st.binary(max_size=300))
+#: A part's bytes: the JPEG, the JPEG cut short (cheap to draw; damage comes with the stream
+#: kind "damaged"), or any bytes.
+bodies = st.one_of(
+    st.just(JPEG), st.integers(0, len(JPEG)).map(lambda n: JPEG[:n]), st.binary(max_size=300)
+)
 good_parts = st.tuples(bodies, st.booleans())
 broken_pieces = st.sampled_from(
     [
@@ -57,18 +61,19 @@ broken_pieces = st.sampled_from(
 @st.composite
 def streams(draw: st.DrawFn) -> tuple[bytes, list[bytes] | None]:
     """A stream, and the bodies it must give when it is well-formed (else None)."""
-    parts = draw(st.lists(good_parts, max_size=4))
-    # A part without a length ends at the next boundary: only a following part completes it.
-    stream = b"".join(framed(body, length) for body, length in parts) + b"--frame\r\n"
-    expected = [body for body, _ in parts]
     kind = draw(st.sampled_from(["valid", "broken", "damaged", "random"]))
-    if kind == "valid" and all(length for _, length in parts):
-        return stream, expected
+    if kind == "random":
+        return draw(st.binary(max_size=600)), None
     if kind == "broken":
         pieces = draw(st.lists(st.one_of(good_parts.map(lambda p: framed(*p)), broken_pieces)))
         return b"".join(pieces), None
-    if kind == "random":
-        return draw(st.binary(max_size=600)), None
+    parts = draw(st.lists(good_parts, max_size=4))
+    # A part without a length ends at the next boundary line: the final one completes it.
+    stream = b"".join(framed(body, length) for body, length in parts) + b"--frame\r\n"
+    if kind == "valid":
+        # A body without a length holding a boundary line of its own is cut there.
+        cut = any(not length and b"\n--frame" in body for body, length in parts)
+        return stream, None if cut else [body for body, _ in parts]
     return draw(damaged(stream)), None
 
 
