@@ -247,7 +247,7 @@ async def test_an_answer_that_is_not_mjpeg_goes_to_ffmpeg() -> None:
 
 
 async def test_a_silent_server_times_out(monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr("services.sensor.sources.camera.STREAM_TIMEOUT_MS", 300)
+    monkeypatch.setattr("services.sensor.sources.camera.STREAM_TIMEOUT_MS", 500)
     async with serving(streaming([])) as url:
         with pytest.raises(SourceError, match="stopped delivering frames \\(timed out\\)"):
             await asyncio.to_thread(read, url, 1)

@@ -71,6 +71,7 @@ class MultipartParser:
         self._state = "boundary"
         self._headers: dict[str, str] = {}
         self._length: int | None = None
+        self._scanned = 0  # bytes of a part without a length already searched for a boundary
         self.ended = False
 
     def feed(self, data: bytes) -> list[Part]:
@@ -153,11 +154,14 @@ class MultipartParser:
             body = bytes(buffer[: self._length])
             del buffer[: self._length]
         else:
-            end = buffer.find(b"\n" + self._delimiter)
+            marker = b"\n" + self._delimiter
+            end = buffer.find(marker, max(0, self._scanned - len(marker)))
             if end < 0:
                 if len(buffer) > self._max_part:
                     raise MultipartError(f"a part longer than {self._max_part} bytes")
+                self._scanned = len(buffer)  # search only the new bytes next time
                 return None
+            self._scanned = 0
             cut = end - 1 if end > 0 and buffer[end - 1] == 0x0D else end
             body = bytes(buffer[:cut])
             del buffer[: end + 1]
