@@ -2,10 +2,14 @@
 
 from __future__ import annotations
 
+import asyncio
 import re
+import threading
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
+from aiohttp import web
 
 from facesynth.app.cli import build_parser, main
 from facesynth.app.data import sample_openface_csv, sample_video
@@ -850,3 +854,62 @@ def test_profile_show_has_a_header(capsys: pytest.CaptureFixture[str]) -> None:
     header, first = capsys.readouterr().out.splitlines()[:2]
     assert header.split() == ["ch", "servo", "min_us", "neutral", "max_us", "reversed", "source"]
     assert first.split()[:5] == ["0", "right_eyebrow", "1000", "1500", "2000"]
+
+
+async def _mjpeg_cases(request: web.Request) -> web.StreamResponse:
+    """A camera server answering each way the sensor refuses: by the request's path."""
+    if request.path == "/no-boundary.mjpg":
+        return web.Response(body=b"", headers={"Content-Type": "multipart/x-mixed-replace"})
+    if request.path != "/wrong-boundary.mjpg":
+        raise web.HTTPNotFound()
+    response = web.StreamResponse(
+        headers={"Content-Type": "multipart/x-mixed-replace; boundary=frame"}
+    )
+    await response.prepare(request)
+    await response.write(b"--other\r\nContent-Length: 0\r\n\r\n\r\n")
+    return response
+
+
+@pytest.fixture
+def camera_server() -> Iterator[str]:
+    """``http://127.0.0.1:PORT``: :func:`_mjpeg_cases` served from a thread of its own."""
+    loop = asyncio.new_event_loop()
+    app = web.Application()
+    app.router.add_get("/{name}", _mjpeg_cases)
+    runner = web.AppRunner(app)
+    loop.run_until_complete(runner.setup())
+    site = web.TCPSite(runner, "127.0.0.1", 0)
+    loop.run_until_complete(site.start())
+    port = runner.addresses[0][1]
+    thread = threading.Thread(target=loop.run_forever, daemon=True)
+    thread.start()
+    try:
+        yield f"http://127.0.0.1:{port}"
+    finally:
+        asyncio.run_coroutine_threadsafe(runner.cleanup(), loop).result(timeout=10)
+        loop.call_soon_threadsafe(loop.stop)
+        thread.join(timeout=10)
+        loop.close()
+
+
+@pytest.mark.parametrize(
+    ("path", "expected"),
+    [
+        ("/gone.mjpg", "cannot open the camera stream {url} (HTTP 404 Not Found)"),
+        ("/no-boundary.mjpg", "camera:{url}: not an MJPEG stream: the multipart content type"),
+        (
+            "/wrong-boundary.mjpg",
+            "camera:{url}: not an MJPEG stream: expected the boundary '--frame', got '--other'",
+        ),
+    ],
+)
+def test_a_camera_url_that_is_not_mjpeg_is_one_error_line(
+    path: str, expected: str, camera_server: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    url = camera_server + path
+    argv = ["sensor", "--camera", url, "--mode", "peer", "--listen", "tcp/127.0.0.1:0"]
+    argv += ["--wait-timeout", "0"]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert f"facesynth sensor: error: {expected.format(url=url)}" in err
+    assert "Traceback" not in err

@@ -36,6 +36,7 @@ from services.features.calibrate import (
 )
 from services.features.expressions import raw_features
 from services.sensor.service import TICK_SIZE
+from services.sensor.sources.base import pixels
 
 #: Seconds skipped at the start of each live step: the performer is still changing expression.
 LIVE_SETTLE_S = 0.7
@@ -114,7 +115,7 @@ def run_calibration(args: argparse.Namespace, out: TextIO | None = None) -> Path
                 print(
                     f"\n>>> {step.replace('_', ' ').upper()}: {PROMPTS[step]}", file=out, flush=True
                 )
-            recorder.add(step, t_in_step, backend.process(_frame(image, seq, t_media_ns)))
+            recorder.add(step, t_in_step, backend.process(_frame(pixels(image), seq, t_media_ns)))
     finally:
         source.close()
     created = datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds")

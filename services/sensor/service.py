@@ -13,11 +13,12 @@ import contextlib
 from dataclasses import dataclass, field
 
 from facesynth.runtime import keys
+from facesynth.runtime.frames import FrameError
 from facesynth.runtime.service import ServiceContext
 from schemas.messages import Frame
 from services.sensor.core import Pacer
 from services.sensor.credit import CreditGate, ack_stage
-from services.sensor.sources import FrameSource
+from services.sensor.sources import FrameSource, JpegImage
 
 #: A nominal image size for frames without pixels (ticks).
 TICK_SIZE = (640, 480)
@@ -58,6 +59,23 @@ async def wait_for_services(ctx: ServiceContext, services: list[str], timeout: f
         await clock.sleep(0.05)
 
 
+def jpeg_pixels(image: JpegImage) -> object:
+    """The pixels of a camera's JPEG (for ``--encoding raw``); :class:`FrameError` if corrupt."""
+    from facesynth.runtime.frames import decode_frame
+
+    return decode_frame(
+        Frame(
+            seq=0,
+            t_capture_ns=0,
+            t_media_ns=0,
+            width=image.width,
+            height=image.height,
+            encoding="jpeg",
+            data=image.data,
+        )
+    )
+
+
 class SensorService:
     """Publishes the frames of one source; ``last_seq`` is the last frame sent."""
 
@@ -76,6 +94,20 @@ class SensorService:
         from facesynth.runtime.frames import encode_frame  # OpenCV only where pixels exist
 
         info = self.source.info
+        if isinstance(image, JpegImage):
+            if self.options.encoding == "jpeg":  # the camera's own JPEG, as it is
+                return Frame(
+                    seq=seq,
+                    t_capture_ns=now,
+                    t_media_ns=t_media_ns,
+                    width=image.width,
+                    height=image.height,
+                    encoding="jpeg",
+                    data=image.data,
+                    source=info.name,
+                    fps=info.fps,
+                )
+            image = jpeg_pixels(image)
         if image is None:
             width, height = TICK_SIZE
             return Frame(
@@ -135,7 +167,12 @@ class SensorService:
                         await ctx.clock.sleep(delay / 1e9)
                 previous_media = t_media_ns
                 ctx.stats.received += 1
-                ctx.publish("input", self._frame(image, seq, t_media_ns, ctx.clock.time_ns()))
+                try:
+                    frame = self._frame(image, seq, t_media_ns, ctx.clock.time_ns())
+                except FrameError as exc:  # e.g. a camera's JPEG that does not decode (raw)
+                    ctx.reject(f"frame {seq}: {exc}")
+                    continue
+                ctx.publish("input", frame)
                 self.last_seq = seq
                 await asyncio.sleep(0)
         finally:

@@ -13,7 +13,7 @@ import pytest
 from facesynth.app.simhead import SimHead, load_head
 from facesynth.app.simhead.maestro import Maestro
 from facesynth.app.simhead.server import SimHeadServer
-from services.sensor.sources.base import SourceError
+from services.sensor.sources.base import SourceError, pixels
 from services.sensor.sources.camera import CameraConfig, CameraSource, camera_target
 
 
@@ -87,7 +87,7 @@ def _read(url: str, count: int) -> list[tuple[tuple[int, ...], int]]:
         out = []
         for image, t_ns in source.frames():
             assert image is not None
-            out.append((image.shape, t_ns))
+            out.append((pixels(image).shape, t_ns))
             if len(out) == count:
                 return out
         raise AssertionError("the stream ended")

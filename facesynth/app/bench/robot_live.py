@@ -39,7 +39,7 @@ from services.control.core import MAX_STEP_S, Arrival, ControlCore, Move
 from services.control.drivers.base import ServoDriver
 from services.features.core import FeatureProcessor
 from services.points.backends.base import PointsBackend
-from services.sensor.sources.base import FrameSource, SourceError
+from services.sensor.sources.base import FrameSource, SourceError, pixels
 from services.translator.core import Translator
 
 from .robot import (
@@ -92,7 +92,7 @@ class CameraFeed:
                     continue
                 number += 1
                 with self._lock:
-                    self._latest = CameraFrame(image, number, self._clock())
+                    self._latest = CameraFrame(pixels(image), number, self._clock())
             raise SourceError(f"{self.source.info.name}: the camera stopped delivering frames")
         except BaseException as exc:  # handed to the reader of the frames
             with self._lock:

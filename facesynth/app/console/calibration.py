@@ -54,6 +54,7 @@ class CalibrationRun:
         from facesynth.app.wiring import build_backend, build_source
         from facesynth.runtime.frames import encode_frame
         from services.features.expressions import raw_features
+        from services.sensor.sources.base import pixels
 
         _, backend_config = apply_arguments("points", PointsNode(), self.args)
         _, source_config = apply_arguments("sensor", SensorNode(), self.args)
@@ -81,7 +82,7 @@ class CalibrationRun:
                 if image is None:
                     raise CalibrationStepError("the tracker needs images: give --camera or --video")
                 frame = encode_frame(
-                    image, seq=seq, t_capture_ns=time.time_ns(), t_media_ns=t_media_ns,
+                    pixels(image), seq=seq, t_capture_ns=time.time_ns(), t_media_ns=t_media_ns,
                     encoding="jpeg", quality=80,
                 )  # fmt: skip
                 points = backend.process(frame)

@@ -41,7 +41,7 @@ def video_devices(dev: Path = Path("/dev")) -> list[tuple[int, Path]]:
 
 def open_camera(target: int | str) -> CameraResult:
     """Open ``target`` as the sensor would and read one frame."""
-    from services.sensor.sources.base import SourceError
+    from services.sensor.sources.base import SourceError, pixels
     from services.sensor.sources.camera import CameraConfig, CameraSource
 
     try:
@@ -56,7 +56,7 @@ def open_camera(target: int | str) -> CameraResult:
         source.close()
     if image is None:
         return CameraResult(target, problem="no frame")
-    height, width = image.shape[:2]
+    height, width = pixels(image).shape[:2]
     return CameraResult(target, size=(int(width), int(height)))
 
 

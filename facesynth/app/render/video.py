@@ -44,7 +44,7 @@ from services.control.core import Arrival, ControlCore
 from services.control.drivers.virtual.geometry import FACE_HEIGHT, FACE_WIDTH, face_geometry
 from services.features.core import FeatureError, FeatureProcessor, ibug_points
 from services.points.backends.base import PointsBackend
-from services.sensor.sources.base import FrameSource
+from services.sensor.sources.base import FrameSource, pixels
 from services.translator.core import Translator
 
 #: Containers the renderer writes, with their codec.
@@ -227,7 +227,7 @@ def _frames(source: FrameSource, max_frames: int | None) -> Iterator[tuple[np.nd
             return
         if image is None:
             raise RenderError("the renderer needs frames with pixels (a video file)")
-        yield image, t_media_ns
+        yield pixels(image), t_media_ns
 
 
 def render_video(

@@ -1,6 +1,7 @@
 """The frame source seam: where frames come from, and what every source tells about itself.
 
-Every source yields ``(image or None, t_media_ns)``; ``None`` images are ticks (no pixels).
+Every source yields ``(image, t_media_ns)``: BGR pixels, a camera's own JPEG
+(:class:`JpegImage`, sent on as is), or ``None`` for a tick (no pixels).
 """
 
 from __future__ import annotations
@@ -9,7 +10,7 @@ import abc
 from collections.abc import Iterator
 from dataclasses import dataclass
 from types import ModuleType
-from typing import ClassVar
+from typing import ClassVar, overload
 
 import numpy as np
 
@@ -18,6 +19,23 @@ from facesynth.runtime.opencv import import_cv2
 
 class SourceError(ValueError):
     """A source that cannot be opened or read (missing file, not a video, no camera)."""
+
+
+@dataclass(frozen=True)
+class JpegImage:
+    """A frame a camera delivered already JPEG-encoded, passed on as its bytes.
+
+    ``width`` and ``height`` come from the JPEG's frame header
+    (:func:`facesynth.runtime.jpeg.jpeg_size`), not from decoding it.
+    """
+
+    data: bytes
+    width: int
+    height: int
+
+
+#: What a source yields as a frame's image: pixels (BGR), a camera's JPEG, or none (a tick).
+Image = np.ndarray | JpegImage | None
 
 
 @dataclass
@@ -39,11 +57,30 @@ class FrameSource(abc.ABC):
     needs_extra: ClassVar[str | None] = None
 
     @abc.abstractmethod
-    def frames(self) -> Iterator[tuple[np.ndarray | None, int]]:
+    def frames(self) -> Iterator[tuple[Image, int]]:
         """Yield frames until the source ends."""
 
     def close(self) -> None:  # noqa: B027 - an optional hook: most sources hold nothing
         """Release the device or file (nothing to release by default)."""
+
+
+@overload
+def pixels(image: np.ndarray | JpegImage) -> np.ndarray: ...
+@overload
+def pixels(image: None) -> None: ...
+def pixels(image: Image) -> np.ndarray | None:
+    """A source's image as BGR pixels: a camera's JPEG decoded, pixels as they are.
+
+    Raises:
+        SourceError: a camera's JPEG that does not decode.
+    """
+    if not isinstance(image, JpegImage):
+        return image
+    cv2 = opencv()
+    decoded = cv2.imdecode(np.frombuffer(image.data, dtype=np.uint8), cv2.IMREAD_COLOR)
+    if decoded is None or decoded.shape[:2] != (image.height, image.width):
+        raise SourceError(f"a {image.width}x{image.height} camera JPEG that does not decode")
+    return decoded
 
 
 def opencv() -> ModuleType:
