@@ -156,6 +156,8 @@ async def test_while_another_service_sends_servo_commands_the_console_lets_go(
         )
         assert response.status == 409
     assert not console.session.core.holding
+
+
 async def test_the_page_and_its_files_are_served(console: ConsoleServer) -> None:
     url = f"http://127.0.0.1:{console.port}/"
     async with aiohttp.ClientSession() as http:
