@@ -11,6 +11,9 @@ from __future__ import annotations
 
 import math
 
+#: Above this many ``dt·step`` units of distance, :func:`braking_speed` solves in closed form.
+EXACT_BUDGET = 2.0**50
+
 
 def braking_speed(distance: float, max_accel: float, dt_s: float) -> float:
     """The largest speed ``v`` from which steps of ``dt_s`` at ``v, v - a·dt, v - 2a·dt, …``
@@ -25,6 +28,11 @@ def braking_speed(distance: float, max_accel: float, dt_s: float) -> float:
     budget = distance / (dt_s * step)
     if not math.isfinite(budget):  # (denormal steps) far below any speed that moves a servo
         return 0.0
+    if budget > EXACT_BUDGET:
+        # k(k + 1)/2 is past the floats' whole numbers, so stepping k by 1 would not change it
+        # (the loops below would never end): the continuous bound, covering at most an eighth
+        # of a step less than the exact one, which is as good at this many steps.
+        return max(0.0, math.sqrt(2.0 * distance * max_accel) - step / 2.0)
     k = math.floor((math.sqrt(8.0 * budget + 1.0) - 1.0) / 2.0)
     while k * (k + 1) / 2 > budget:
         k -= 1

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from fractions import Fraction
 
 import numpy as np
 import pytest
@@ -215,6 +216,31 @@ def test_braking_speed_stops_within_the_distance(distance: float, accel: float, 
         covered += v * dt
         v -= accel * dt
     assert covered <= distance + 1e-9
+
+
+@pytest.mark.timeout(10)
+@pytest.mark.parametrize(
+    ("distance", "accel", "dt"),
+    [
+        # So many steps of speed change that k(k+1)/2 is past the floats' whole numbers: the
+        # exact search never ended (found by the fuzz suite through a learned profile).
+        (1.0, 1e-200, 0.03),
+        (1e10, 1.0, 0.001),
+        (500.0, 1e-20, 1 / 30),
+        (1e300, 1e-10, 0.03),
+    ],
+)
+def test_braking_speed_of_very_many_steps_is_found_and_stops_within_the_distance(
+    distance: float, accel: float, dt: float
+) -> None:
+    speed = braking_speed(distance, accel, dt)
+    assert 0.0 <= speed < math.inf
+    v, step, t = Fraction(speed), Fraction(accel) * Fraction(dt), Fraction(dt)
+    steps = math.ceil(v / step)  # the positive speeds v, v - step, …
+    covered = t * (steps * v - step * steps * (steps - 1) / 2)
+    assert covered <= Fraction(distance) * (1 + Fraction(1, 10**9))
+    if distance < 1e300:  # and it is no needless crawl: within a step of the exact bound
+        assert speed >= math.sqrt(2.0 * distance * accel) - 2 * accel * dt
 
 
 # --- RateLimiter --------------------------------------------------------------------------------
