@@ -32,12 +32,14 @@ test-faults: $(BIN)/.installed
 
 ## Fuzz: 10,000 hypothesis cases for every decoder, loader and protocol parser, in two shards
 ## of about equal time run side by side (one per core); each prints its own tally, then the other's.
+## A test past its timeout ends its shard with every thread's stack (pytest-timeout's thread
+## method): hypothesis would run a hanging case again to report it, past a signal's one alarm.
 FUZZ_SHARD_A := tests/fuzz/test_fuzz_loaders.py tests/fuzz/test_fuzz_files.py \
 	tests/fuzz/test_fuzz_translator.py tests/fuzz/test_fuzz_text_inputs.py tests/fuzz/test_fuzz_console.py
 test-fuzz: $(BIN)/.installed
 	@mkdir -p build; \
-	$(BIN)/python -m pytest -q -s -p no:cacheprovider -m fuzz $(FUZZ_SHARD_A) >build/fuzz-a.log 2>&1 & a=$$!; \
-	$(BIN)/python -m pytest -q -s -p no:cacheprovider -m fuzz tests/fuzz \
+	$(BIN)/python -m pytest -q -s -p no:cacheprovider --timeout-method=thread -m fuzz $(FUZZ_SHARD_A) >build/fuzz-a.log 2>&1 & a=$$!; \
+	$(BIN)/python -m pytest -q -s -p no:cacheprovider --timeout-method=thread -m fuzz tests/fuzz \
 		$(addprefix --ignore=,$(FUZZ_SHARD_A)) >build/fuzz-b.log 2>&1 & b=$$!; \
 	ra=0; wait $$a || ra=$$?; rb=0; wait $$b || rb=$$?; \
 	cat build/fuzz-a.log build/fuzz-b.log; \
