@@ -42,3 +42,15 @@ async def test_stray_bytes_and_abandoned_requests() -> None:
     with pytest.raises(ValueError):
         queue.expect()
     await asyncio.sleep(0)
+
+
+async def test_an_answer_too_long_in_pieces_is_refused_and_the_next_one_read() -> None:
+    # Each piece short of the limit, the whole past it (found by the fuzz suite: accepted).
+    queue = ReplyQueue(limit=8)
+    version = queue.expect(until=b"\r")
+    moving = queue.expect(size=1)
+    queue.feed(b"SSC32-")
+    queue.feed(b"V2.50\r+")
+    with pytest.raises(ValueError, match="too long"):
+        version.result()
+    assert moving.result() == b"+" and queue.stray == 12

@@ -70,6 +70,12 @@ class ReplyQueue:
                         self._buffer.clear()
                     return
                 end = index + len(head.until)
+                if end > self.limit:  # it came in pieces each short of the limit
+                    self._waiting.popleft()
+                    head.future.set_exception(ValueError("answer too long"))
+                    self.stray += end
+                    del self._buffer[:end]
+                    continue
             self._waiting.popleft()
             head.future.set_result(bytes(self._buffer[:end]))
             del self._buffer[:end]
