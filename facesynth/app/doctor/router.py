@@ -30,6 +30,7 @@ class RouterResult:
     security: str
     router: str | None = None
     problem: str | None = None
+    occupied: bool = False  # something accepts TCP connections there, router or not
 
 
 def security_mode(endpoints: Sequence[str], tls: Mapping[str, Any], side: str = "connect") -> str:
@@ -83,37 +84,40 @@ def probe_router(need: RouterNeed, timeout: float = 2.0) -> RouterResult:
         except ZenohConfigError as exc:
             return RouterResult(endpoints, "unknown", problem=str(exc))
         security = security_mode(endpoints, _json(own, "transport/link/tls") or {}, "listen")
-    if endpoints and all(_refused(endpoint, timeout) for endpoint in endpoints):
+    listening = [_listens(endpoint, timeout) for endpoint in endpoints]
+    if endpoints and not any(state is not False for state in listening):
         return RouterResult(endpoints, security, problem="nothing listens there")
+    occupied = any(listening)
     try:
         session = open_session(options)
     except ZenohConfigError as exc:
-        return RouterResult(endpoints, security, problem=str(exc))
+        return RouterResult(endpoints, security, problem=str(exc), occupied=occupied)
     try:
         routers = [str(zid) for zid in session.info.routers_zid()]
     finally:
         session.close()
     if not routers:
-        return RouterResult(endpoints, security, problem="no router answered")
-    return RouterResult(endpoints, security, router=routers[0][:8])
+        return RouterResult(endpoints, security, problem="no router answered", occupied=occupied)
+    return RouterResult(endpoints, security, router=routers[0][:8], occupied=True)
 
 
-def _refused(endpoint: str, timeout: float) -> bool:
-    """Whether a ``tcp/HOST:PORT`` endpoint refuses a TCP connection (at once, without the
-    Zenoh session's retries); False for other protocols and for anything less certain."""
+def _listens(endpoint: str, timeout: float) -> bool | None:
+    """Whether something accepts TCP connections on a ``tcp/`` or ``tls/`` ``HOST:PORT``
+    endpoint (asked at once, without the Zenoh session's retries or a TLS handshake): True,
+    False when refused, None for other protocols and for anything less certain."""
     protocol, _, rest = endpoint.partition("/")
-    if protocol != "tcp":
-        return False
+    if protocol not in ("tcp", "tls"):
+        return None
     host, _, port = rest.split("#", 1)[0].rpartition(":")
     if not port.isdigit():
-        return False
+        return None
     try:
         with socket.create_connection((host.strip("[]"), int(port)), timeout=min(timeout, 1.0)):
-            return False
+            return True
     except ConnectionRefusedError:
-        return True
-    except OSError:
         return False
+    except OSError:
+        return None
 
 
 def router_findings(result: RouterResult, need: RouterNeed) -> list[Finding]:
@@ -131,6 +135,19 @@ def router_findings(result: RouterResult, need: RouterNeed) -> list[Finding]:
                     needed=True,
                     fix="stop it, choose another endpoint with --listen, or use it with "
                     f"--mode client --connect {result.endpoints[0] if result.endpoints else '…'}",
+                )
+            ]
+        if result.occupied:
+            return [
+                Finding(
+                    FAMILY,
+                    where,
+                    f"something already listens there ({result.security}), where run's own "
+                    f"router would: no session opens to it ({_cause(result.problem)})",
+                    good=False,
+                    needed=True,
+                    fix="stop what listens there (another router, perhaps of a secured rig), or "
+                    "choose another endpoint with --listen",
                 )
             ]
         return [

@@ -112,3 +112,27 @@ def unused_tcp() -> str:
         probe.bind(("127.0.0.1", 0))
         port = probe.getsockname()[1]
     return f"tcp/127.0.0.1:{port}"
+
+
+def test_runs_own_router_sees_a_secured_router_on_its_endpoint(tmp_path: Path) -> None:
+    """A mutual-TLS router on the endpoint run's own router would listen on takes it, although
+    no session opens to it with the router's own config (it has no client certificate)."""
+    from facesynth.app.certs import CertRequest, make_certs
+    from facesynth.runtime.bus.zenoh_bus import ZenohOptions, open_session, router_locators
+
+    make_certs(CertRequest(rig="lab", out=tmp_path))
+    config = str(tmp_path / "router.json5")
+    running = open_session(
+        ZenohOptions(mode="router", config_file=config, listen=["tls/127.0.0.1:0"])
+    )
+    try:
+        (locator,) = router_locators(running)
+        port = locator.rpartition(":")[2]
+        taken = need("--zenoh-config", config, "--listen", f"tls/localhost:{port}")
+        result = probe_router(taken, timeout=1.0)
+        (finding,) = router_findings(result, taken)
+    finally:
+        running.close()
+    assert result.security == "mutual TLS"
+    assert finding.status.value == "fix", finding.line()
+    assert finding.text.startswith("something already listens there (mutual TLS)"), finding.text
