@@ -196,7 +196,8 @@ def _shape_problems(model: Model, n_in: int, n_out: int) -> list[str]:
             return [f"degree {model.degree} is outside 1..4"]
         if np.any(powers < 0) or np.any(powers != np.round(powers)):
             return ["powers must be whole numbers >= 0"]
-        if np.any(powers.sum(axis=1) > model.degree):
+        # Each power first: a sum of huge powers would overflow (to inf, with a warning).
+        if np.any(powers > model.degree) or np.any(powers.sum(axis=1) > model.degree):
             return [f"a term's powers add up to more than the degree {model.degree}"]
         if coef.shape != (n_out, powers.shape[0]) or intercept.shape != (n_out,):
             return [

@@ -255,6 +255,17 @@ def test_malformed_files_are_one_profile_error(data: bytes, detail: str, tmp_pat
     assert detail in message
 
 
+@pytest.mark.filterwarnings("error::RuntimeWarning")
+def test_huge_powers_are_refused_without_overflowing(tmp_path: Path) -> None:
+    """Found by the fuzz suite: powers near the largest float overflowed their sum (a numpy
+    warning) before the file was refused; each power is now held against the degree first."""
+    huge = _array(np.full((3, 3), np.finfo(np.float64).max))
+    path = tmp_path / "robot.learned"
+    path.write_bytes(_bytes(_document(inverse=_inverse(powers=huge))))
+    with pytest.raises(ProfileError, match="a term's powers add up to more than the degree 1"):
+        load_profile(str(path))
+
+
 def test_every_activation_a_file_may_name_runs() -> None:
     from facesynth.runtime.profiles.learned import ACTIVATION_NAMES
 
