@@ -19,6 +19,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
+from host_requirements import require_root_and_tools
 
 ROOT = Path(__file__).resolve().parents[2]
 BASE_IMAGE = os.environ.get("FACESYNTH_TEST_ARM64_BASE", "localhost/facesynth-base:bookworm-arm64")
@@ -56,14 +57,13 @@ def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
 
 def _require() -> None:
     """Fail (never skip) with what is missing."""
-    missing = [t for t in ("podman", "runc", "debootstrap", "arch-test") if shutil.which(t) is None]
-    if missing:
-        pytest.fail(
-            f"the arm64 tests need {', '.join(missing)} (apt-get install podman runc debootstrap "
-            "arch-test qemu-user-static binfmt-support; .ci/run does)"
-        )
-    if os.geteuid() != 0:
-        pytest.fail("the arm64 tests run a rootful Podman: run them as root")
+    require_root_and_tools(
+        "the arm64 tests",
+        ("podman", "runc", "debootstrap", "arch-test"),
+        "apt-get install podman runc debootstrap arch-test qemu-user-static binfmt-support; "
+        ".ci/run does",
+        "run a rootful Podman",
+    )
     probe = subprocess.run(["arch-test", "arm64"], capture_output=True, text=True, timeout=60)
     if probe.returncode != 0:
         pytest.fail(

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import os
-import shutil
 import socket
 import subprocess
 import uuid
@@ -11,7 +9,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
-import pytest
+from host_requirements import require_root_and_tools
 
 ROOT = Path(__file__).resolve().parents[2]
 #: The user whose clone the tests run compose in: an ordinary first user, neither root nor the
@@ -21,14 +19,13 @@ CLONE_USER = (1000, 1000)
 
 def require(*tools: str) -> None:
     """Fail (never skip) with the missing tools named."""
-    missing = [tool for tool in tools if shutil.which(tool) is None]
-    if missing:
-        pytest.fail(
-            f"the container tests need {', '.join(missing)} (apt-get install podman runc "
-            "docker-compose debootstrap uidmap slirp4netns fuse-overlayfs; .ci/run does)"
-        )
-    if os.geteuid() != 0:
-        pytest.fail("the container tests run a rootful Podman: run them as root")
+    require_root_and_tools(
+        "the container tests",
+        tools,
+        "apt-get install podman runc docker-compose debootstrap uidmap slirp4netns "
+        "fuse-overlayfs; .ci/run does",
+        "run a rootful Podman",
+    )
 
 
 def free_port() -> int:

@@ -11,13 +11,11 @@ every packet silently (``iptables -j DROP`` in the router's FORWARD chain).
 
 from __future__ import annotations
 
-import os
-import shutil
 import subprocess
 import uuid
 from dataclasses import dataclass, field
 
-import pytest
+from host_requirements import require_root_and_tools as require
 
 TRACKER_IP = "10.233.1.2"
 BOARD_IP = "10.233.2.2"
@@ -25,14 +23,12 @@ BOARD_IP = "10.233.2.2"
 
 def require_root_and_tools() -> None:
     """Fail (never skip) naming what is missing."""
-    missing = [tool for tool in ("ip", "iptables") if shutil.which(tool) is None]
-    if missing:
-        pytest.fail(
-            f"the separate-hosts tests need {', '.join(missing)} "
-            "(apt-get install iproute2 iptables; .ci/run does)"
-        )
-    if os.geteuid() != 0:
-        pytest.fail("the separate-hosts tests create network namespaces: run them as root")
+    require(
+        "the separate-hosts tests",
+        ("ip", "iptables"),
+        "apt-get install iproute2 iptables; .ci/run does",
+        "create network namespaces",
+    )
 
 
 def _ip(*args: str) -> None:
