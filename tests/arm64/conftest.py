@@ -57,19 +57,13 @@ def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
 
 def _require() -> None:
     """Fail (never skip) with what is missing."""
-    require_root_and_tools(
-        "the arm64 tests",
-        ("podman", "runc", "debootstrap", "arch-test"),
-        "apt-get install podman runc debootstrap arch-test qemu-user-static binfmt-support; "
-        ".ci/run does",
-        "run a rootful Podman",
-    )
+    require_root_and_tools("the arm64 tests", "arm64", "run a rootful Podman")
     probe = subprocess.run(["arch-test", "arm64"], capture_output=True, text=True, timeout=60)
     if probe.returncode != 0:
         pytest.fail(
-            "this machine cannot run arm64 programs: apt-get install qemu-user-static "
-            "binfmt-support, and mount -t binfmt_misc binfmt_misc /proc/sys/fs/binfmt_misc "
-            f"(.ci/run does): {probe.stdout}{probe.stderr}"
+            "this machine cannot run arm64 programs: make test-arm64 registers qemu-aarch64 "
+            "in binfmt_misc (tools/system-packages.sh arm64), as root: "
+            f"{probe.stdout}{probe.stderr}"
         )
 
 

@@ -22,6 +22,7 @@ from pathlib import Path
 
 import pytest
 import zenoh
+from host_requirements import require_packages
 
 from facesynth.app.certs import CertRequest, make_certs
 from facesynth.runtime import codec, keys
@@ -78,8 +79,7 @@ def test_the_board_install_has_no_opencv_or_inference_runtime(board_venv: Path) 
 
 
 def test_systemd_accepts_the_unit(board_venv: Path, tmp_path: Path) -> None:
-    if shutil.which("systemd-analyze") is None:
-        pytest.fail("systemd-analyze is missing (apt-get install systemd; .ci/run does)")
+    require_packages("the board's unit test", "board")
     unit = tmp_path / "facesynth-control.service"
     unit.write_text(UNIT.read_text().replace("/opt/facesynth", str(board_venv)))
     result = subprocess.run(

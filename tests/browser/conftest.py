@@ -14,6 +14,7 @@ from collections.abc import Iterator
 from typing import Any
 
 import pytest
+from host_requirements import require_packages
 
 CHROMIUM = os.environ.get("FACESYNTH_CHROMIUM", "/usr/bin/chromium")
 CHROMEDRIVER = os.environ.get("FACESYNTH_CHROMEDRIVER", "/usr/bin/chromedriver")
@@ -33,12 +34,9 @@ FLAGS = (
 @pytest.fixture(scope="module")
 def browser() -> Iterator[Any]:
     """One Chromium for a test module, with a fresh profile folder."""
-    for path, package in ((CHROMIUM, "chromium"), (CHROMEDRIVER, "chromium-driver")):
-        if not (os.path.isfile(path) and os.access(path, os.X_OK)):
-            pytest.fail(
-                f"{path} is missing: the browser tests need Debian's {package} "
-                "(apt-get install chromium chromium-driver; .ci/run installs them)"
-            )
+    require_packages(
+        "the browser tests", "browser", ((CHROMIUM, "chromium"), (CHROMEDRIVER, "chromium-driver"))
+    )
     from selenium import webdriver
     from selenium.webdriver.chrome.service import Service
 

@@ -59,7 +59,7 @@ def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
 
 @pytest.fixture(scope="session")
 def engine(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Engine]:
-    require("podman", "runc", "docker-compose", "debootstrap")
+    require()
     folder = tmp_path_factory.mktemp("podman")
     socket_path = folder / "podman.sock"
     env = {

@@ -17,15 +17,9 @@ ROOT = Path(__file__).resolve().parents[2]
 CLONE_USER = (1000, 1000)
 
 
-def require(*tools: str) -> None:
-    """Fail (never skip) with the missing tools named."""
-    require_root_and_tools(
-        "the container tests",
-        tools,
-        "apt-get install podman runc docker-compose debootstrap uidmap slirp4netns "
-        "fuse-overlayfs; .ci/run does",
-        "run a rootful Podman",
-    )
+def require() -> None:
+    """Fail (never skip) with the missing packages named, or when not root."""
+    require_root_and_tools("the container tests", "containers", "run a rootful Podman")
 
 
 def free_port() -> int:

@@ -13,7 +13,8 @@ from pathlib import Path
 
 import pytest
 from fake_devices.cable import Cable
-from uno_emulator import EmulatedUno, Pulse, build_firmware, missing_packages
+from host_requirements import FIRMWARE_NEEDS, require_packages
+from uno_emulator import EmulatedUno, Pulse, build_firmware
 
 from services.control.drivers.arduino import protocol as proto
 
@@ -27,13 +28,7 @@ def firmware_ready() -> None:
     """The firmware and the simavr harness, built once; fails (never skips) without the
     toolchain, naming the Debian packages."""
     global _built
-    missing = missing_packages()
-    if missing:
-        pytest.fail(
-            "the emulated-Uno driver tests need the Debian package(s) "
-            f"{' '.join(missing)}: apt-get install {' '.join(missing)} (.ci/run does this)",
-            pytrace=False,
-        )
+    require_packages("the emulated-Uno driver tests", "test", FIRMWARE_NEEDS)
     if not _built:
         build_firmware()
         _built = True

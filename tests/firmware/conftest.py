@@ -6,7 +6,8 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
-from uno_emulator import EmulatedUno, build_firmware, missing_packages
+from host_requirements import FIRMWARE_NEEDS, require_packages
+from uno_emulator import EmulatedUno, build_firmware
 
 from services.control.drivers.arduino import protocol as proto
 
@@ -18,13 +19,7 @@ def firmware_build() -> str:
     Fails (never skips) without the toolchain: CI installs it (.ci/run), so a missing package
     is a broken environment, named in the message.
     """
-    missing = missing_packages()
-    if missing:
-        pytest.fail(
-            "the firmware tests need the Debian package(s) "
-            f"{' '.join(missing)}: apt-get install {' '.join(missing)} (.ci/run does this)",
-            pytrace=False,
-        )
+    require_packages("the firmware tests", "test", FIRMWARE_NEEDS)
     return build_firmware()
 
 

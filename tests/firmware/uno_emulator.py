@@ -7,14 +7,13 @@ and reads that log back.
 
 from __future__ import annotations
 
-import os
-import shutil
 import subprocess
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
+import host_requirements
 import serial
 
 from services.control.drivers.arduino import protocol as proto
@@ -28,29 +27,9 @@ ELF = {
 }
 HARNESS = BUILD / "emulator" / "fs_emulator"
 
-# What the firmware build and the harness need, and the Debian package that provides it.
-_NEEDED: tuple[tuple[str, str], ...] = (
-    ("make", "make"),
-    ("gcc", "gcc"),
-    ("avr-gcc", "gcc-avr"),
-    ("avr-g++", "gcc-avr"),
-    ("avr-objcopy", "binutils-avr"),
-    ("avr-size", "binutils-avr"),
-    ("/usr/lib/avr/include/avr/io.h", "avr-libc"),
-    ("/usr/share/arduino/hardware/arduino/avr/cores/arduino/Arduino.h", "arduino-core-avr"),
-    ("/usr/include/simavr/sim_avr.h", "libsimavr-dev"),
-    ("/usr/include/libelf.h", "libelf-dev"),
-)
-
-
 def missing_packages() -> list[str]:
     """Debian packages whose files the firmware tests need but cannot find."""
-    missing: list[str] = []
-    for thing, package in _NEEDED:
-        found = os.path.exists(thing) if thing.startswith("/") else shutil.which(thing) is not None
-        if not found and package not in missing:
-            missing.append(package)
-    return missing
+    return host_requirements.missing_packages(host_requirements.FIRMWARE_NEEDS)
 
 
 def build_firmware() -> str:

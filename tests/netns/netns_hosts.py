@@ -23,12 +23,7 @@ BOARD_IP = "10.233.2.2"
 
 def require_root_and_tools() -> None:
     """Fail (never skip) naming what is missing."""
-    require(
-        "the separate-hosts tests",
-        ("ip", "iptables"),
-        "apt-get install iproute2 iptables; .ci/run does",
-        "create network namespaces",
-    )
+    require("the separate-hosts tests", "netns", "create network namespaces")
 
 
 def _ip(*args: str) -> None:
