@@ -243,6 +243,9 @@ class FeatureProcessor:
         #: The search for the brows' neutral while the measured one's brows were not at rest, or
         #: only with the eyes shut.
         self.brows: BrowRest | None = None
+        #: What the processor decided that a person should hear of (the shell logs and clears
+        #: them): the brows' rest search, its outcome.
+        self.notes: list[str] = []
 
     @classmethod
     def from_calibration(
@@ -258,6 +261,7 @@ class FeatureProcessor:
         rest = window_at_rest(self.window.samples)
         if self._brows_may_move and rest in ("moved", "shut"):
             self.brows = BrowRest(self.window.window_ns / 1e9, provisional=rest == "shut")
+            self.notes.append(self.brows.waiting_for())
         self.window.samples = []
         self.frame_neutral = neutral.frame
         self.reference = neutral.reference
@@ -297,7 +301,9 @@ class FeatureProcessor:
         elif self.brows is not None:
             found = self.brows.add(t, sample)
             if found is not None:
-                self._rebase_brows(found.samples)
+                if found.samples:
+                    self._rebase_brows(found.samples)
+                self.notes.append(found.note(t))
                 if found.final:
                     self.brows = None
         distance_neutral = self.estimator.neutral if ready else None

@@ -150,15 +150,16 @@ async def serve_features(
             keeper = _Keeper(ctx, processor, keeping)
         except StateError as exc:
             ctx.log.warning("the learned neutral is not kept: %s", exc)
-    transform = processor.process
-    if keeper is not None:
 
-        def transform_and_keep(points: Points) -> Features:
-            features = processor.process(points)
+    def transform(points: Points) -> Features:
+        features = processor.process(points)
+        for note in processor.notes:
+            ctx.log.info("%s", note)
+        processor.notes.clear()
+        if keeper is not None:
             keeper.after_frame()
-            return features
+        return features
 
-        transform = transform_and_keep
     try:
         await serve_transform(ctx, "points", Points, "features", transform, queue)
     finally:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from facesynth.runtime import blendshapes
 from services.features.brow_rest import BrowRest, Found, brows_at_rest, eyes_open, window_at_rest
@@ -81,3 +82,36 @@ def test_moving_brows_restart_the_search() -> None:
     assert [(i, f.final) for i, f in found] == [(16, True)]
     assert len(found[0][1].samples) == 10  # the rest frames after the raise
     assert _feed(BrowRest(1.0), [SHUT] * 5 + [None] + [SHUT] * 9) == []  # no scores: moved
+
+
+#: A performer whose brows read high at rest (a held-out clip's neutral face: browInnerUp 0.43,
+#: browOuterUpLeft 0.25), never at most REST_SCORE.
+HIGH_REST = _scores(browInnerUp=0.43, browOuterUpLeft=0.25)
+HIGH_RAISED = _scores(browInnerUp=0.8, browOuterUpLeft=0.7, browOuterUpRight=0.6)
+
+
+def test_a_search_that_finds_no_rest_takes_the_performers_quietest_second() -> None:
+    search = BrowRest(1.0, give_up_s=5.0)
+    frames = ([HIGH_RAISED] * 10 + [HIGH_REST] * 15 + [HIGH_RAISED] * 10) * 2
+    found = _feed(search, frames)
+    assert len(found) == 1, found
+    at, result = found[0]
+    assert at == 50  # 5 s of media time: the search is bounded
+    assert result.final and result.quietest and result.level == pytest.approx(0.43)
+    assert all(s.blendshapes is HIGH_REST for s in result.samples)
+    assert search.done and search.known
+    assert "quietest second" in result.note(at * STEP) and "0.43" in result.note(at * STEP)
+
+
+def test_a_search_with_the_eyes_always_shut_ends_with_the_neutrals_own_brows() -> None:
+    search = BrowRest(1.0, give_up_s=3.0)
+    found = _feed(search, [_scores(browInnerUp=0.5, eyeBlinkLeft=0.9, eyeBlinkRight=0.9)] * 40)
+    assert [(i, f.final, f.quietest, f.samples) for i, f in found] == [(30, True, True, [])]
+    assert "neutral's own second" in found[0][1].note(30 * STEP)
+
+
+def test_a_rest_found_in_time_is_not_the_fallback() -> None:
+    search = BrowRest(1.0, give_up_s=5.0)
+    found = _feed(search, [HIGH_RAISED] * 10 + [REST] * 15)
+    assert [(i, f.final, f.quietest) for i, f in found] == [(20, True, False)]
+    assert "waiting for a 1 s" in search.waiting_for()

@@ -41,14 +41,15 @@ right / left / middle, before -> after:
 
 from __future__ import annotations
 
+import msgspec
 import numpy as np
 import pytest
 from sample_points import track_sample
 
 from facesynth.runtime import blendshapes
 from facesynth.runtime.profiles import Profile, load_profile
-from schemas.messages import Points
-from services.features.brow_rest import BROW_SHAPES, OPEN_EYES_SCORE, REST_SCORE
+from schemas.messages import Points, ScoreSet
+from services.features.brow_rest import BROW_SHAPES, GIVE_UP_S, OPEN_EYES_SCORE, REST_SCORE
 from services.features.core import FeatureProcessor, blendshape_scores
 from services.translator.core import Translator
 
@@ -167,3 +168,36 @@ def test_the_brows_hold_neutral_until_they_rest(tracked) -> None:
     assert processor.brows is not None and processor.brows.known  # provisional: still looking
     assert all(out.named["brow_lower_right"] != 0.0 for out in outs[50:])
     assert all(out.deltas[17:27] != [0.0] * 10 for out in outs[50:])
+
+
+def _with_high_resting_brows(points: Points) -> Points:
+    """The frame as a performer whose brows read high at rest would give it: browInnerUp and
+    browOuterUpLeft raised by a held-out clip's resting levels (0.43 and 0.25), capped at 1."""
+    raised = blendshape_scores(points)
+    assert raised is not None
+    raised = raised.copy()
+    raised[blendshapes.INDEX["browInnerUp"]] += 0.43
+    raised[blendshapes.INDEX["browOuterUpLeft"]] += 0.25
+    scores = [ScoreSet(scheme=blendshapes.BLENDSHAPES52, values=np.minimum(raised, 1.0).tolist())]
+    return msgspec.structs.replace(points, scores=scores)
+
+
+def test_brows_that_rest_high_are_not_held_for_the_whole_clip(tracked) -> None:
+    """No second has every brow blendshape at most 0.2: the search gives up after GIVE_UP_S of
+    media time, takes her quietest second, says so, and the brows follow her from then on (they
+    were held at exactly 0 for the whole clip), reading her laugh's resting brows near neutral
+    against her own rest."""
+    processor = FeatureProcessor()
+    outs, notes = [], []
+    for points in tracked:
+        outs.append(processor.process(_with_high_resting_brows(points)))
+        notes += processor.notes
+        processor.notes.clear()
+    assert processor.brows is None, "the brows are still waiting at the end of the clip"
+    assert any("waiting for" in note for note in notes), notes
+    assert any("quietest second" in note for note in notes), notes
+    fps = len(tracked) / ((tracked[-1].t_media_ns - tracked[0].t_media_ns) / 1e9)
+    after = outs[int((1 + GIVE_UP_S) * fps) + 2 :]
+    inner = np.array([out.named["browInnerUp"] for out in after])
+    assert np.all(inner != 0.0), "the brows are still held after the search gave up"
+    assert abs(float(np.median(inner))) <= BAND, "her resting brows read away from neutral"
