@@ -1,0 +1,3 @@
+"""What the smart serial-bus servo drivers share (``dynamixel``, ``feetech``): µs to native
+positions (:mod:`.native`), the vendor SDK on a bus thread (:mod:`.worker`, :mod:`.sdk_port`),
+bus time from bytes (:mod:`.budget`) and the async driver (:mod:`.driver`)."""

@@ -1,0 +1,147 @@
+"""A Feetech bus through Feetech's ``scservo_sdk`` (STS and SCS servos), on the bus thread.
+
+Packets are the SDK's (``FF FF ID LEN INST … CHK``). Poses go out as one ``GroupSyncWrite``
+of Goal Position; the read-back is one Sync Read (``syncReadTx``, then each servo's status
+packet through the SDK's ``rxPacket``, which checks the checksum) when every servo read is an
+STS, one READ per servo otherwise. Words are packed here in each servo's byte order: the
+SDK's own word helpers follow one process-wide setting, which a bus of both series breaks.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+from services.control.drivers.bus_servo.bus import Ping, ServoBus, Status
+from services.control.drivers.bus_servo.native import Model, NativeServo
+from services.control.drivers.bus_servo.sdk_port import port_class
+from services.control.drivers.feetech import models as m
+
+
+class FeetechBus(ServoBus):
+    """STS and SCS servos on one port (``sdk`` is the ``scservo_sdk`` module)."""
+
+    name = "Feetech"
+
+    def __init__(self, sdk: Any, port: str, baud: int, *, latency_ms: float) -> None:
+        self.sdk = sdk
+        self.baud = baud
+        self.port = port_class(sdk.PortHandler)(port)
+        self.port.latency_ms = latency_ms
+        self.ph = sdk.PacketHandler(m.STS)
+        self.series: dict[int, int] = {}  # id -> byte order, from its model
+        self.garbled = 0
+
+    def open(self) -> None:
+        self.port.setBaudRate(self.baud)
+
+    def close(self) -> None:
+        if self.port.is_open:
+            self.port.closePort()
+
+    def model(self, number: int) -> Model | None:
+        return m.MODELS.get(number)
+
+    def ping(self, servo_id: int) -> Ping | None:
+        data, result, error = self.ph.readTxRx(self.port, servo_id, m.MODEL_ADDR, 2)
+        if result != self.sdk.COMM_SUCCESS or len(data) != 2:
+            return None
+        number = m.model_from_bytes(bytes(data))
+        model = m.MODELS.get(number)
+        if model is not None:
+            self.series[servo_id] = model.protocol
+        return Ping(number, m.hardware_errors(error))
+
+    def prepare(self, servo: NativeServo, speed: float, accel: float) -> None:
+        i, series = servo.bus_id, servo.model.protocol
+        self.series[i] = series
+        velocity = _units(servo.units_per_s(speed), m.SPEED_UNIT, m.SPEED_LIMIT)
+        if series == m.STS:
+            self._write(
+                i, m.ACCEL, bytes((_units(servo.units_per_s(accel), m.ACCEL_UNIT, m.ACCEL_LIMIT),))
+            )
+        self._write(i, m.SPEED, m.word(velocity, series))
+        self._write(i, m.TORQUE, b"\x01")
+
+    def write_goals(self, goals: Mapping[int, int]) -> int:
+        if not goals:
+            return 0
+        group = self.sdk.GroupSyncWrite(self.port, self.ph, m.GOAL, 2)
+        for servo_id, goal in sorted(goals.items()):
+            group.addParam(servo_id, list(m.word(int(goal), self.series.get(servo_id, m.STS))))
+        result = group.txPacket()
+        if result != self.sdk.COMM_SUCCESS:
+            raise OSError(f"Sync Write not sent: {self.ph.getTxRxResult(result)}")
+        return self.write_bytes(len(goals))
+
+    def read(self, ids: Sequence[int]) -> dict[int, Status | None]:
+        if any(self.series.get(i) == m.SCS for i in ids):
+            return {i: self._read_one(i) for i in ids}
+        out: dict[int, Status | None] = dict.fromkeys(ids)
+        result = self.ph.syncReadTx(self.port, m.READ, m.READ_SIZE, list(ids), len(ids))
+        if result != self.sdk.COMM_SUCCESS:
+            raise OSError(f"Sync Read not sent: {self.ph.getTxRxResult(result)}")
+        waiting = set(ids)
+        for _ in range(len(ids) + 4):
+            packet, result = self.ph.rxPacket(self.port)
+            if result == self.sdk.COMM_RX_TIMEOUT:
+                break
+            parsed = parse_status(packet, m.READ_SIZE) if result == self.sdk.COMM_SUCCESS else None
+            if parsed is None or parsed[0] not in waiting:
+                self.garbled += 1
+                continue
+            servo_id, error, data = parsed
+            waiting.discard(servo_id)
+            out[servo_id] = m.decode(data, error, m.STS)
+            if not waiting:
+                break
+        return out
+
+    def relax(self, ids: Sequence[int]) -> None:
+        for servo_id in ids:
+            self.ph.writeTxRx(self.port, servo_id, m.TORQUE, 1, [0])
+
+    def write_bytes(self, count: int) -> int:
+        return 8 + count * 3  # FF FF FE LEN INST address length … checksum; id + 2 each
+
+    def read_bytes(self, count: int) -> int:
+        if any(s == m.SCS for s in self.series.values()):
+            return count * (8 + 6 + m.READ_SIZE)
+        return 8 + count + count * (6 + m.READ_SIZE)
+
+    def _read_one(self, servo_id: int) -> Status | None:
+        data, result, error = self.ph.readTxRx(self.port, servo_id, m.READ, m.READ_SIZE)
+        if result != self.sdk.COMM_SUCCESS:
+            return None
+        try:
+            return m.decode(bytes(data), error, self.series.get(servo_id, m.STS))
+        except ValueError:
+            self.garbled += 1
+            return None
+
+    def _write(self, servo_id: int, address: int, data: bytes) -> None:
+        for _ in range(3):  # a lost confirmation: write again (it is idempotent)
+            result, _ = self.ph.writeTxRx(self.port, servo_id, address, len(data), list(data))
+            if result == self.sdk.COMM_SUCCESS:
+                break
+        if result != self.sdk.COMM_SUCCESS:
+            raise TimeoutError(f"id {servo_id} did not confirm a write to {address}")
+
+
+def parse_status(packet: list[int] | bytes, size: int) -> tuple[int, int, bytes] | None:
+    """A status packet as the SDK's ``rxPacket`` returns it (header and checksum checked):
+    (id, error byte, the ``size`` data bytes), or None when it does not carry exactly
+    ``size`` bytes."""
+    if len(packet) < 6 or packet[0] != 0xFF or packet[1] != 0xFF:
+        return None
+    if packet[3] != size + 2 or len(packet) < size + 6:
+        return None
+    return packet[2], packet[4], bytes(packet[5 : 5 + size])
+
+
+def _units(native_per_s: float, unit: float, limit: int) -> int:
+    """A speed in the servo's units: 0 stays 0 (no limit), others 1..``limit``."""
+    if native_per_s <= 0 or not math.isfinite(native_per_s):
+        return 0
+    return max(1, min(limit, round(native_per_s / unit)))
