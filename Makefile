@@ -4,8 +4,8 @@ VENV ?= .venv
 PYTHON ?= python3
 BIN := $(VENV)/bin
 
-.PHONY: demo test test-browser lint bench bench-drivers install clean firmware-test test-deploy \
-	test-containers test-netns test-board test-faults test-fuzz test-arm64
+.PHONY: system-packages-test demo test test-browser lint bench bench-drivers install clean firmware-test test-deploy \
+	test-containers test-netns test-board test-faults test-fuzz test-arm64 test-ros2
 
 $(BIN)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -15,19 +15,28 @@ $(BIN)/.installed: pyproject.toml
 
 install: $(BIN)/.installed
 
+system-packages-test:
+	@$(SYSTEM_PACKAGES) test browser
+
 ## The bundled performer video through S -> P -> F -> T -> C; servo commands in facesynth-commands.jsonl,
 ## then the side-by-side video to watch (performer | virtual face | paper16's servos) in facesynth-demo.mp4.
 demo: $(BIN)/.installed
 	$(BIN)/facesynth run --render facesynth-demo.mp4
 
-## Lint, type-check, schema freshness, and the whole test suite (the browser group last).
-test: $(BIN)/.installed lint
-	$(BIN)/python -m pytest -q -m "not browser and not containers and not netns and not board and not faults and not fuzz and not arm64"
+## Each test group's Debian packages (tools/system-packages.txt): installed with apt as root,
+## else one line naming them. Every target that runs a group asks for its own first.
+SYSTEM_PACKAGES := bash tools/system-packages.sh
+
+## The Debian packages the tests need (installed as root), then lint, type-check, schema
+## freshness, and the whole test suite (the browser group last).
+test: system-packages-test $(BIN)/.installed lint
+	$(BIN)/python -m pytest -q -m "not browser and not containers and not netns and not board and not faults and not fuzz and not arm64 and not ros2"
 	$(BIN)/python -m pytest -q -m browser
 
 ## Faults: each process and the router killed and restarted mid-stream, a flood on every key,
 ## oversized messages; the servos' speed limits checked on the record file.
 test-faults: $(BIN)/.installed
+	@$(SYSTEM_PACKAGES) faults
 	$(BIN)/python -m pytest -q -s -m faults tests/faults
 
 ## Fuzz: 10,000 hypothesis cases for every decoder, loader and protocol parser, in two shards
@@ -37,6 +46,7 @@ test-faults: $(BIN)/.installed
 FUZZ_SHARD_A := tests/fuzz/test_fuzz_loaders.py tests/fuzz/test_fuzz_files.py \
 	tests/fuzz/test_fuzz_translator.py tests/fuzz/test_fuzz_text_inputs.py tests/fuzz/test_fuzz_console.py
 test-fuzz: $(BIN)/.installed
+	@$(SYSTEM_PACKAGES) fuzz
 	@mkdir -p build; \
 	$(BIN)/python -m pytest -q -s -p no:cacheprovider --timeout-method=thread -m fuzz $(FUZZ_SHARD_A) >build/fuzz-a.log 2>&1 & a=$$!; \
 	$(BIN)/python -m pytest -q -s -p no:cacheprovider --timeout-method=thread -m fuzz tests/fuzz \
@@ -47,6 +57,7 @@ test-fuzz: $(BIN)/.installed
 
 ## The live face page in a real headless Chromium (Debian's chromium and chromium-driver).
 test-browser: $(BIN)/.installed
+	@$(SYSTEM_PACKAGES) browser
 	$(BIN)/python -m pytest -q -m browser
 
 ## The deployment groups (root; .ci/run installs what they need): docker-compose on Podman,
@@ -54,19 +65,32 @@ test-browser: $(BIN)/.installed
 test-deploy: test-board test-netns test-containers
 
 test-containers: $(BIN)/.installed
+	@$(SYSTEM_PACKAGES) containers
 	$(BIN)/python -m pytest -q -s -m containers tests/containers
 
 test-netns: $(BIN)/.installed
+	@$(SYSTEM_PACKAGES) netns
 	$(BIN)/python -m pytest -q -s -m netns tests/netns
 
 test-board: $(BIN)/.installed
+	@$(SYSTEM_PACKAGES) board
 	$(BIN)/python -m pytest -q -s -m board tests/board
 
 ## The board side on arm64 (a Raspberry Pi) under qemu-user emulation (root; qemu-user-static with
 ## binfmt_misc, which .ci/run installs and mounts): the arm64 board image runs the board graph fed
 ## from this machine, a plain `pip install .` in an arm64 venv, the tracker on a few frames.
 test-arm64: $(BIN)/.installed
+	@$(SYSTEM_PACKAGES) arm64
 	$(BIN)/python -m pytest -q -s -m arm64 tests/arm64
+
+## ROS 2 (root): installs the [ros2] extra (rclpy, Fast DDS, ~250 MB), then real rclpy nodes in
+## other processes against facesynth, in a network namespace with only loopback (DDS discovery
+## never leaves the machine; each test also sets ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST and a
+## ROS_DOMAIN_ID of its own).
+test-ros2: $(BIN)/.installed
+	@$(SYSTEM_PACKAGES) ros2
+	$(BIN)/python -m pip install -q -e '.[ros2]'
+	unshare -n sh -c 'ip link set lo up && exec $(BIN)/python -m pytest -q -s -m ros2 tests/ros2'
 
 lint: $(BIN)/.installed
 	$(BIN)/ruff check .
@@ -76,6 +100,7 @@ lint: $(BIN)/.installed
 
 ## The servo firmware: host unit tests, Uno build with size report, simavr harness, tests/firmware.
 firmware-test: $(BIN)/.installed
+	@$(SYSTEM_PACKAGES) test
 	$(MAKE) -C firmware host-test build emulator
 	$(BIN)/python -m pytest -q tests/firmware
 

@@ -142,6 +142,12 @@ class ServoCommands(msgspec.Struct, tag="servo_commands", tag_field=TAG_FIELD, k
     shutdown) or ``"report"`` (nothing moved: where the servos are, while idle). For its own
     moves ``seq``, ``t_capture_ns`` and ``t_media_ns`` are those of the last command it applied
     (0 before any): flow control and drain checks count ``"command"`` states only.
+
+    Read back (added with the smart bus servos; empty from drivers that cannot read their
+    servos, and on ``…/servo_commands``): ``measured`` is each servo's measured position in
+    µs, beside the commanded one in ``positions``; ``loads`` its signed load as a fraction of
+    its maximum, ``temperatures_c`` its temperature, ``faults`` one line per servo reporting a
+    hardware error (overload, overheating, voltage). Servos that report nothing are absent.
     """
 
     seq: int
@@ -155,6 +161,10 @@ class ServoCommands(msgspec.Struct, tag="servo_commands", tag_field=TAG_FIELD, k
     sent_ns: int = 0
     sender_host: str = ""
     move: str = "command"
+    measured: dict[str, float] = {}
+    loads: dict[str, float] = {}
+    temperatures_c: dict[str, float] = {}
+    faults: dict[str, str] = {}
 
 
 class ServiceStats(msgspec.Struct, tag="service_stats", tag_field=TAG_FIELD, kw_only=True):
@@ -187,6 +197,9 @@ class ServiceStats(msgspec.Struct, tag="service_stats", tag_field=TAG_FIELD, kw_
     router_losses: int = 0
     #: Seconds the service spent without a router since it first had one.
     router_offline_s: float = 0.0
+    #: Seconds since the service last published a message (``None``: none yet, or a service
+    #: older than this field); ``rate_hz`` is 0 once it has been idle for a second.
+    idle_s: float | None = None
 
 
 class BabbleSample(msgspec.Struct, tag="babble_sample", tag_field=TAG_FIELD, kw_only=True):
@@ -202,6 +215,11 @@ class BabbleSample(msgspec.Struct, tag="babble_sample", tag_field=TAG_FIELD, kw_
     ``settled`` is false when the face never held still within the longest wait (the last
     frames were taken). ``t_capture_ns`` is the wall clock when the pose settled,
     ``t_media_ns`` the time since babbling started.
+
+    Where the driver reads the servos back, ``measured`` is where they reported themselves when
+    the pose settled, and ``reached`` how they were known to be there: ``"measured"`` (read back
+    within the tolerance), ``"measured timeout"`` (not within it in time) or ``"commanded"``
+    (C reported the command, then a fixed wait); empty from older senders.
     """
 
     seq: int
@@ -216,6 +234,8 @@ class BabbleSample(msgspec.Struct, tag="babble_sample", tag_field=TAG_FIELD, kw_
     frames: int = 0
     settled: bool = True
     seed: int = 0
+    measured: dict[str, float] = {}
+    reached: str = ""
 
 
 #: Every message struct, in tag order, for schema export and generic decoding.

@@ -3,7 +3,10 @@
 from __future__ import annotations
 
 import asyncio
+import os
 import re
+import subprocess
+import sys
 import threading
 from collections.abc import Iterator
 from pathlib import Path
@@ -68,6 +71,7 @@ def _files(tmp: Path) -> dict[str, Path]:
         'driver = { driver = "vmc" }\n',
         "features.toml": '[nodes.f]\nstage = "features"\n',
         "robotgraph.toml": '[nodes.t]\nstage = "translator"\nrobot = "a b"\n',
+        "servotable.toml": 'name = "t"\n\n[servos.jaw]\nchannel = 0\n',
         "noavatar.toml": (
             'name = "noavatar"\n[[servos]]\nname = "tail"\nchannel = 0\nfeature = "jaw_open"\n'
             "min_us = 1000\nneutral_us = 1500\nmax_us = 2000\n"
@@ -227,6 +231,11 @@ CASES = [
         "--motion-time",
     ),
     ("profile check broken", ["profile", "check", "{bad.toml}"], "not valid TOML"),
+    (
+        "profile servos as a table",
+        ["profile", "check", "{servotable.toml}"],
+        "line 3: servos are written as [[servos]] tables",
+    ),
     ("missing graph", ["run", "/nonexistent/g.toml"], "graph /nonexistent/g.toml does not exist"),
     ("broken graph", ["features", "--graph", "{badgraph.toml}"], "not valid TOML"),
     ("node without graph", ["features", "--node", "f"], "--node needs --graph"),
@@ -275,6 +284,21 @@ CASES = [
         "control status without a board",
         ["control", "status", "--driver", "maestro", "--port", "/nonexistent/tty"],
         "/nonexistent/tty: cannot open it: No such file or directory",
+    ),
+    (
+        "control status without an I2C bus",
+        ["control", "status", "--driver", "pca9685", "--i2c-bus", "/dev/i2c-99"],
+        "/dev/i2c-99: cannot open it: No such file or directory",
+    ),
+    (
+        "a PCA9685 address that is not one",
+        ["control", "--driver", "pca9685", "--i2c-address", "0x99"],
+        "--i2c-address: 0x99 is outside the 7-bit device addresses 0x03..0x77",
+    ),
+    (
+        "a PCA9685 frame rate it cannot make",
+        ["control", "--driver", "pca9685", "--pca9685-frequency", "2000"],
+        "--pca9685-frequency: 2000 Hz needs PRE_SCALE 2, outside 3..255",
     ),
     (
         "malformed port URL",
@@ -436,6 +460,22 @@ CASES = [
         "the settle waits need 0 <= minimum <= maximum",
     ),
     (
+        "learn measured tolerance",
+        [
+            *("learn", "--profile", "paper16", "--out", "s.mcap", "--video", "x"),
+            *("--measured-tolerance", "0"),
+        ],
+        "the settle tolerances must be positive",
+    ),
+    (
+        "learn measured timeout",
+        [
+            *("learn", "--profile", "paper16", "--out", "s.mcap", "--video", "x"),
+            *("--measured-timeout", "-1"),
+        ],
+        "the measured-position timeout must be positive",
+    ),
+    (
         "learn neutral too often",
         [
             "learn",
@@ -557,9 +597,50 @@ CASES = [
         ["console", "--profile", "paper16", "--driver", "vmc"],
         "the vmc driver cannot show 15 of the 16 controls of profile paper16",
     ),
+    (
+        "console schedule without a video",
+        ["console", "--profile", "head16", "--driver", "virtual", "--schedule", "neutral=0-2"],
+        "--schedule needs --video FILE (or --camera N): without one the console cannot",
+    ),
+    (
+        "console schedule without neutral",
+        [
+            "console",
+            "--profile",
+            "head16",
+            "--driver",
+            "virtual",
+            "--video",
+            "{garbage.mp4}",
+            "--schedule",
+            "smile=0-2",
+        ],
+        "the schedule needs a neutral step",
+    ),
+    (
+        "run renders a looping video",
+        ["run", "--loop", "--max-frames", "2", "--render", "o.mp4", "--out", "x"],
+        "a looping video never ends",
+    ),
     ("camera name", ["sensor", "--camera", "front"], "--camera 'front': expected a device index"),
     ("camera file", ["sensor", "--camera", "{garbage.mp4}"], "a file, not a camera (use --video"),
     ("camera scheme", ["sensor", "--camera", "ftp://cam/x"], "--camera ftp://cam/x: cannot stream"),
+    (
+        "ros2 output",
+        ["control", "--driver", "ros2", "--ros2-output", "pose"],
+        "driver ros2: --ros2-output: Invalid enum value 'pose'",
+    ),
+    ("ros2 depth", ["control", "--driver", "ros2", "--ros2-depth", "0"], "--ros2-depth"),
+    (
+        "ros2 image type",
+        ["sensor", "--ros2-image-topic", "/cam", "--ros2-image-type", "jpeg"],
+        "--ros2-image-type: Invalid enum value 'jpeg'",
+    ),
+    (
+        "rosbag2 from landmarks",
+        ["convert", "{garbage.csv}", "--to", "rosbag2", "out"],
+        "--to rosbag2 converts a recording (.mcap)",
+    ),
 ]
 
 
@@ -912,4 +993,216 @@ def test_a_camera_url_that_is_not_mjpeg_is_one_error_line(
     assert main(argv) == 2
     err = capsys.readouterr().err
     assert f"facesynth sensor: error: {expected.format(url=url)}" in err
+    assert "Traceback" not in err
+
+
+LIBRARY_CHATTER = ("XNNPACK", "[ WARN:", "[ INFO:", "[h264 @")
+# A camera index no machine of this kind has; "run" also loads the tracker (LiteRT) first.
+CHATTY_ERRORS = [
+    ("sensor", ["sensor", "--camera", "97"]),
+    ("run", ["run", "--camera", "97", "--out", "x.jsonl", "--listen", "tcp/127.0.0.1:0"]),
+]
+
+
+def _facesynth(argv: list[str], folder: Path) -> subprocess.CompletedProcess[str]:
+    """``python -m facesynth ARGV`` as a real process, without OpenCV settings of the caller."""
+    env = {k: v for k, v in os.environ.items() if "OPENCV" not in k}
+    command = [sys.executable, "-m", "facesynth", *argv]
+    return subprocess.run(command, cwd=folder, env=env, capture_output=True, text=True, timeout=120)
+
+
+@pytest.mark.parametrize(("command", "argv"), CHATTY_ERRORS, ids=[c[0] for c in CHATTY_ERRORS])
+def test_a_one_line_error_is_the_only_line(command: str, argv: list[str], tmp_path: Path) -> None:
+    """Without --log-level DEBUG, OpenCV's and LiteRT's own lines stay out of the terminal."""
+    done = _facesynth(argv, tmp_path)
+    assert done.returncode == 2
+    assert done.stderr == f"facesynth {command}: error: cannot open camera 97\n"
+
+
+@pytest.mark.parametrize(("command", "argv"), CHATTY_ERRORS, ids=[c[0] for c in CHATTY_ERRORS])
+def test_library_chatter_is_shown_with_log_level_debug(
+    command: str, argv: list[str], tmp_path: Path
+) -> None:
+    done = _facesynth([*argv, "--log-level", "DEBUG"], tmp_path)
+    assert done.returncode == 2
+    assert done.stderr.splitlines()[-1] == f"facesynth {command}: error: cannot open camera 97"
+    assert "[ WARN:" in done.stderr  # OpenCV: the camera index does not open
+    if command == "run":  # LiteRT's line, as a DEBUG log line of the runtime that made it
+        assert "litert DEBUG INFO: Created TensorFlow Lite XNNPACK delegate" in done.stderr
+
+
+def test_a_truncated_video_is_one_line_without_ffmpeg_lines(tmp_path: Path) -> None:
+    video = sample_video().read_bytes()
+    (tmp_path / "short.mp4").write_bytes(video[: len(video) // 20])
+    done = _facesynth(["track", "short.mp4", "--out", "t.jsonl"], tmp_path)
+    assert done.returncode == 2
+    assert done.stderr.startswith("facesynth track: error: video truncated or corrupt")
+    assert len(done.stderr.splitlines()) == 1
+    assert not any(chatter in done.stderr for chatter in LIBRARY_CHATTER)
+
+
+# Issue 29: how commands meet their router (facesynth.app.router_wait), in a block of their own.
+
+NO_ROUTER = "tcp/127.0.0.1:9"  # nothing listens on loopback's discard port: refused at once
+ROUTER_CASES = [
+    (
+        "status, no router, no wait",
+        ["status", "--connect", NO_ROUTER, "--router-timeout", "0"],
+        f"cannot open a Zenoh client session ({NO_ROUTER}): ",
+    ),
+    (
+        "record, no router, no wait",
+        ["record", "--out", "s.mcap", "--connect", NO_ROUTER, "--router-timeout", "0"],
+        "start one with: facesynth router; or --connect another",
+    ),
+    (
+        "inspect, no router, no wait",
+        ["inspect", "--foxglove", "127.0.0.1:0", "--connect", NO_ROUTER, "--router-timeout", "0"],
+        f"cannot open a Zenoh client session ({NO_ROUTER}): ",
+    ),
+    (
+        "status, no router within 1 s",
+        ["status", "--connect", NO_ROUTER, "--router-timeout", "1"],
+        "none answered within 1 s, --router-timeout S waits longer",
+    ),
+]
+
+
+@pytest.mark.parametrize(
+    ("argv", "expected"), [c[1:] for c in ROUTER_CASES], ids=[c[0] for c in ROUTER_CASES]
+)
+def test_no_router_gives_one_clear_error(
+    argv: list[str],
+    expected: str,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    test_bad_input_gives_one_clear_error(argv, expected, tmp_path, capsys, monkeypatch)
+
+
+def test_a_one_shot_tool_waits_its_default_then_fails(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """replay (a one-shot tool) waits 2 s for its router by default, then one line, exit 2."""
+    import time
+
+    from facesynth.app.recording.convert import landmarks_to_mcap
+
+    session = tmp_path / "points.mcap"
+    landmarks_to_mcap(sample_openface_csv(), session)
+    started = time.monotonic()
+    assert main(["replay", str(session), "--connect", NO_ROUTER, "--log-level", "ERROR"]) == 2
+    assert time.monotonic() - started >= 2.0
+    err = capsys.readouterr().err
+    assert err.startswith(
+        f"facesynth replay: error: cannot open a Zenoh client session ({NO_ROUTER})"
+    )
+    assert "none answered within 2 s" in err and len(err.splitlines()) == 1
+
+
+def test_health_without_a_router_is_unhealthy_after_router_timeout(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    argv = ["health", "--router", "--connect", NO_ROUTER, "--router-timeout", "0.5"]
+    assert main(argv) == 1  # a health check: 1, whatever the reason
+    out = capsys.readouterr().out
+    assert out.startswith("unhealthy: cannot open a Zenoh client session")
+    assert "none answered within 0.5 s" in out
+
+
+def test_run_keeps_an_explicit_listen_it_cannot_have(capsys: pytest.CaptureFixture[str]) -> None:
+    """run's default endpoint falls back to a free port; one given with --listen does not
+    (other hosts may be told it): one line, exit 2, as facesynth doctor says (fix router)."""
+    import socket
+
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        endpoint = f"tcp/127.0.0.1:{taken.getsockname()[1]}"
+        argv = ["run", "--listen", endpoint, "--openface-csv", str(sample_openface_csv())]
+        assert main([*argv, "--out", os.devnull]) == 2
+    err = capsys.readouterr().err
+    assert f"facesynth run: error: cannot open a Zenoh router session ({endpoint})" in err
+    assert "Address already in use" in err and "Traceback" not in err
+
+
+# Issue 26: a smart servo bus that does not match the profile (the emulated Dynamixel bus).
+
+BUS_PROFILE = """name = "bus2"
+[bus]
+baud = 1000000
+[[servos]]
+name = "jaw"
+channel = 0
+bus_id = 1
+model = "{model}"
+min_us = 1000
+neutral_us = 1500
+max_us = 2000
+[[servos]]
+name = "brow"
+channel = 1
+bus_id = 2
+min_us = 1000
+neutral_us = 1500
+max_us = 2000
+"""
+
+
+@pytest.mark.parametrize(
+    ("ids", "model", "expected"),
+    [
+        (
+            [1, 2],
+            "XM430-W350",
+            "servo 'jaw' (id 1) is a XL430-W250 (model number 1060), but profile 'bus2' "
+            "expects a XM430-W350",
+        ),
+        ([1], "XL430-W250", "servo 'brow' (id 2) does not answer on "),
+    ],
+    ids=["model number wrong", "servo missing"],
+)
+def test_a_bus_that_does_not_match_the_profile_is_one_error_line(
+    ids: list[int], model: str, expected: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    sys.path.insert(0, str(Path(__file__).parent / "control"))
+    from fake_devices.dynamixel import FakeDynamixelBus
+
+    profile = tmp_path / "bus2.toml"
+    profile.write_text(BUS_PROFILE.format(model=model))
+    bus = FakeDynamixelBus(tmp_path / "ttyDXL", ids)
+    bus.plug()
+    try:
+        argv = ["control", "test", "--servo", "jaw", "--driver", "dynamixel",
+                "--port", str(bus.link), "--profile", str(profile)]  # fmt: skip
+        assert main(argv) == 2
+    finally:
+        bus.close()
+    err = capsys.readouterr().err
+    assert f"facesynth control: error: {expected}" in err
+    assert "Traceback" not in err and len(err.strip().splitlines()) == 1
+
+
+@pytest.mark.parametrize(
+    ("argv", "plugin"),
+    [
+        (["control", "--driver", "ros2", "--profile", "paper16"], "ros2 driver"),
+        (["sensor", "--ros2-image-topic", "/camera/image_raw"], "ros2 source"),
+    ],
+    ids=["driver", "source"],
+)
+def test_ros2_without_its_extra_is_one_line(
+    argv: list[str],
+    plugin: str,
+    capsys: pytest.CaptureFixture[str],
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    monkeypatch.setitem(sys.modules, "rclpy", None)  # import rclpy: ImportError, as without it
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.strip().splitlines()[-1] == (
+        f"facesynth {argv[0]}: error: the {plugin} needs ROS 2 (rclpy), which is not "
+        "installed: pip install 'facesynth[ros2]'"
+    )
     assert "Traceback" not in err

@@ -283,3 +283,22 @@ def test_name_problems() -> None:
 def test_ignored_files_the_user_puts_in_place_count_as_named() -> None:
     assert _ignored("deploy/build-ca/ca.crt")
     assert not _ignored("facts.md")
+
+
+def test_the_learn_walk_through_writes_into_an_ignored_folder() -> None:
+    """Issue 29: the simulated head's walk-through left ``head.mcap`` (86 MB), ``head.learned``
+    and ``robot.mp4`` untracked in the clone. What its commands write (``--out``, and the
+    learned profile beside the session) goes into a folder that .gitignore ignores."""
+    text = readme_text()
+    section = text[text.index("### On the simulated head") :]
+    section = section[: section.index("\n#")]
+    commands = [c for c in command_lines(section) if c.split()[1] in ("learn", "render")]
+    outputs = [m for c in commands for m in re.findall(r"--out (\S+)", c)]
+    outputs += [str(Path(o).with_suffix(".learned")) for o in outputs if o.endswith(".mcap")]
+    assert len(outputs) == 3, commands
+    patterns = (ROOT / ".gitignore").read_text("utf-8").split()
+    anchored = [p[1:].rstrip("/") for p in patterns if p.startswith("/")]
+    for output in outputs:
+        folder = Path(output).parts[0]
+        assert len(Path(output).parts) > 1 and folder in anchored, output
+        assert f"`{folder}/`" in section  # the walk-through names the folder

@@ -57,8 +57,15 @@ def test_each_group_make_target_installs_its_packages_first(group: str) -> None:
     if shutil.which("make") is None:
         pytest.fail("make is missing")
     target = MAKE_TARGET[group]
+    # As from a shell: not as part of the make that may be running these tests.
+    env = {k: v for k, v in os.environ.items() if k not in ("MAKEFLAGS", "MFLAGS", "MAKELEVEL")}
     dry = subprocess.run(
-        ["make", "-n", target], cwd=ROOT, capture_output=True, text=True, timeout=60
+        ["make", "-n", "--no-print-directory", target],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=60,
+        env=env,
     )
     assert dry.returncode == 0, dry.stderr
     lines = dry.stdout.splitlines()

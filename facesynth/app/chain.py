@@ -142,19 +142,31 @@ def freeze_startup_objects() -> None:
     gc.freeze()
 
 
-def open_embedded(listen: list[str], options: ZenohOptions) -> tuple[Any, list[str]]:
-    """A router session for ``facesynth run``; falls back to a free port if ``listen`` is taken."""
+#: Where ``facesynth run``'s own router listens when not told (``--listen``).
+RUN_LISTEN = "tcp/127.0.0.1:7447"
+#: Where it listens instead when :data:`RUN_LISTEN` is taken: a free port on loopback.
+FREE_PORT_LISTEN = "tcp/127.0.0.1:0"
+
+
+def open_embedded(
+    listen: list[str], options: ZenohOptions, *, fallback: bool = True
+) -> tuple[Any, list[str]]:
+    """A router session for ``facesynth run`` listening on ``listen``.
+
+    With ``fallback`` (run's default endpoint, no ``--listen``) a taken endpoint is replaced by a
+    free port on loopback, and said; without it (an explicit ``--listen``: other hosts may be
+    told that address) a taken endpoint is an error, as ``facesynth doctor`` reports it."""
     try:
         session = open_session(
             ZenohOptions(**{**options.__dict__, "mode": "router", "listen": listen})
         )
     except ZenohConfigError as exc:
-        fallback = ["tcp/127.0.0.1:0"]
-        if listen == fallback:
+        fallback_listen = [FREE_PORT_LISTEN]
+        if not fallback or listen == fallback_listen:
             raise
         log.warning("cannot listen on %s (%s); using a free port instead", ", ".join(listen), exc)
         session = open_session(
-            ZenohOptions(**{**options.__dict__, "mode": "router", "listen": fallback})
+            ZenohOptions(**{**options.__dict__, "mode": "router", "listen": fallback_listen})
         )
     return session, router_locators(session)
 

@@ -15,11 +15,12 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 from facesynth import __version__
-from facesynth.app import status
+from facesynth.app import router_wait, status
 from facesynth.app.bench.command import add_bench_arguments, cmd_bench
 from facesynth.app.control_tools import add_tool_arguments
 from facesynth.app.firmware import add_firmware_arguments, cmd_firmware
 from facesynth.app.graph import graph_help
+from facesynth.app.library_logs import quiet_libraries
 from facesynth.app.recording.attach import add_attach_arguments
 from facesynth.app.stage_args import add_stage_arguments
 from facesynth.app.usage import parse_arguments
@@ -51,7 +52,9 @@ def _router_timeout(text: str) -> float:
 
 
 def _zenoh_arguments(parser: argparse.ArgumentParser) -> None:
-    group = parser.add_argument_group("Zenoh")
+    command = parser.prog.rsplit(" ", 1)[-1]
+    kind = router_wait.KINDS[command]  # every command with a Zenoh session has its kind
+    group = parser.add_argument_group("Zenoh", router_wait.group_description(kind))
     group.add_argument(
         "--rig",
         default=os.environ.get("FACESYNTH_RIG"),
@@ -78,13 +81,13 @@ def _zenoh_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="FILE",
         help="Zenoh JSON5 config file (default: $ZENOH_CONFIG); options above override it",
     )
-    group.add_argument(
-        "--router-timeout",
-        type=_router_timeout,
-        metavar="S",
-        help="services: seconds to wait for the router at start (default: as long as it "
-        "takes, retrying with backoff; 0: fail at once)",
-    )
+    if kind is not router_wait.RouterWait.OWN_ROUTER:
+        group.add_argument(
+            "--router-timeout",
+            type=_router_timeout,
+            metavar="S",
+            help=router_wait.timeout_help(kind, command),
+        )
     group.add_argument(
         "--scouting",
         action="store_true",
@@ -151,7 +154,8 @@ def build_parser() -> argparse.ArgumentParser:
         "--render",
         metavar="OUT.mp4",
         help="when the input ends, also write the side-by-side video of it (performer with "
-        "landmarks | virtual face | servo bars of the translator's profile); see render",
+        "landmarks | virtual face | servo bars of the translator's profile); after Ctrl-C, of "
+        "the frames played so far (Ctrl-C again skips it); see render",
     )
 
     for stage, help_text in STAGE_HELP.items():
@@ -422,6 +426,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         format="%(asctime)s %(name)s %(levelname)s %(message)s",
         stream=sys.stderr,
     )
+    quiet_libraries(getattr(args, "log_level", "INFO"))
     handler: Any = args.handler
     try:
         return int(handler(args))

@@ -36,6 +36,7 @@ from facesynth.runtime.bus.zenoh_bus import ZenohBus, endpoints, open_session, r
 from facesynth.runtime.outputs import check_output
 from facesynth.runtime.profiles.learned import Learned, command_range
 from facesynth.runtime.service import default_instance, run_async, until_signalled
+from services.control.drivers.record import RecordConfig, earlier_sessions, record_summary
 from services.control.drivers.registry import DRIVERS
 
 log = logging.getLogger("facesynth")
@@ -99,17 +100,22 @@ def cmd_run(args: argparse.Namespace) -> int:
         check_node(name, graph.nodes[name], args.graph or "command line")
     settle_profiles(graph, configs)
     rig = args.rig or graph.rig
-    check_run_outputs(args)
+    check_run_outputs(args, graph, configs)
     tune_process(graph.nodes.values())
     if not graph.of_stage("sensor"):
         return _serve_graph(args, graph, configs, rig)
+    records = {
+        c.out: earlier_sessions(c.out) for c in configs.values() if isinstance(c, RecordConfig)
+    }
     parts = build_chain(graph, configs)
     listen = endpoints(args.listen) or ["tcp/127.0.0.1:7447"]
     options = wiring.zenoh_options(args, default_mode="router")
     options.connect = endpoints(args.connect)
 
     async def main() -> ChainResult:
-        session, locators = await asyncio.to_thread(open_embedded, listen, options)
+        session, locators = await asyncio.to_thread(
+            open_embedded, listen, options, fallback=not args.listen
+        )
         bus = ZenohBus(session, mode="router")
         log.info("embedded Zenoh router on %s (rig %s)", ", ".join(locators), rig)
         freeze_startup_objects()
@@ -139,20 +145,27 @@ def cmd_run(args: argparse.Namespace) -> int:
         "dropped": result.dropped,
         "out": outs[0] if len(outs) == 1 else outs,
     }
-    if args.render and not result.interrupted:
-        from facesynth.app.render import render_graph
+    if records:  # each record file: created, or appended to (it is never truncated)
+        entries = [record_summary(out, earlier) for out, earlier in records.items()]
+        summary["record"] = entries[0] if len(entries) == 1 else entries
+    if args.render:  # after Ctrl-C too: the frames played so far, or one line why not
+        from facesynth.app.render import render_run
 
-        summary["render"] = render_graph(graph, configs, args.render)
+        summary["render"] = render_run(
+            graph, configs, args.render, frames=result.frames, interrupted=result.interrupted
+        )
     print(json.dumps(summary))
     return 130 if result.interrupted else 0
 
 
-def check_run_outputs(args: argparse.Namespace) -> None:
-    """``run --render`` and ``--record`` paths, checked before the chain starts."""
+def check_run_outputs(args: argparse.Namespace, graph: Graph, configs: dict[str, Any]) -> None:
+    """``run --render`` (path, graph input) and ``--record``, checked before the chain starts."""
     if args.render:
+        from facesynth.app.render import video_input
         from facesynth.app.render.video import check_render_out
 
         check_render_out(args.render)
+        video_input(graph, configs)
     record = getattr(args, "record", None)
     if record:
         if Path(record).exists():
@@ -349,6 +362,10 @@ def cmd_profile(args: argparse.Namespace) -> int:
     for spec in profile.servos:
         if learned is None:
             source = describe_source(spec)
+        elif spec.name in learned.report.not_exercised:
+            source = "learned: not exercised (never moved while babbling), kept at neutral"
+        elif spec.name in learned.report.one_way:
+            source = "learned: swept one way only, kept at neutral"
         elif spec.name in learned.dead:
             source = "learned: dead, kept at neutral"
         else:

@@ -51,7 +51,8 @@ def cmd_status(args: argparse.Namespace) -> int:
 
 
 def format_status(alive: list[str], stats: dict[str, Any]) -> str:
-    """A table of live services with their latest stats."""
+    """A table of live services with their latest stats; the state column is
+    :func:`describe_state`."""
     by_instance = {keys.parse_service_key(k): s for k, s in stats.items()}
     header = (
         f"{'rig':<12} {'service':<11} {'instance':<28} {'rate Hz':>8} {'p50 ms':>8} "
@@ -72,7 +73,7 @@ def format_status(alive: list[str], stats: dict[str, Any]) -> str:
         lines.append(
             f"{parsed[0]:<12} {parsed[1]:<11} {parsed[2]:<28} {s.rate_hz:>8.1f} {p50:>8} {p99:>8} "
             f"{s.received:>7} {s.published:>7} {s.dropped:>5} {s.rejected:>5} "
-            f"{describe_link(s):<21} {s.rss_mb:>7.1f}" + (f"  {s.note}" if s.note else "")
+            f"{describe_link(s):<21} {s.rss_mb:>7.1f}  {describe_state(s)}"
         )
     if len(lines) == 1:
         lines.append("(no live services)")
@@ -88,11 +89,9 @@ def cmd_health(args: argparse.Namespace) -> int:
     from facesynth.runtime.bus.zenoh_bus import ZenohConfigError
     from facesynth.runtime.service import host_id
 
+    # A one-shot tool: it gives up on an absent router after --router-timeout (default 2 s),
+    # whatever the config file says (facesynth.app.router_wait).
     options = wiring.zenoh_options(args)
-    # Give up on an absent router within the timeout, whatever the config file says.
-    options.overrides.update(
-        {"connect/timeout_ms": round(args.timeout * 1000), "connect/exit_on_failure": True}
-    )
     host = args.host or host_id()
 
     async def main() -> tuple[bool, str]:
@@ -121,6 +120,21 @@ def cmd_health(args: argparse.Namespace) -> int:
     healthy, reason = run_async(main())
     print(f"{'healthy' if healthy else 'unhealthy'}: {reason}")
     return 0 if healthy else 1
+
+
+def describe_state(stats: Any) -> str:
+    """What a service is doing, from its stats: publishing, idle (for how long) or without
+    output yet, then its own note (a driver's link, ``stopped``) if it has one."""
+    idle = getattr(stats, "idle_s", None)
+    if stats.published == 0:
+        state = "no output yet"
+    elif stats.rate_hz > 0:
+        state = "publishing"
+    elif idle is not None:
+        state = f"idle {idle:.0f} s"
+    else:  # a service older than idle_s
+        state = "idle"
+    return f"{state}; {stats.note}" if stats.note else state
 
 
 def describe_link(stats: Any) -> str:

@@ -27,6 +27,7 @@ from facesynth.app.nodes import (
     stage_of,
 )
 from facesynth.app.profile_choice import check_fit
+from facesynth.app.router_wait import ONE_SHOT_WAIT_S, RouterWait, kind_of
 from facesynth.runtime.bus.zenoh_bus import DEFAULT_ROUTER, ZenohOptions, endpoints
 from facesynth.runtime.calibration import Calibration, load_calibration, resolve_calibration
 from facesynth.runtime.feature_names import BLENDSHAPE_NAMES
@@ -70,10 +71,12 @@ def zenoh_options(
     Clients send everything through the router: one fixed path per message, so nothing is lost
     while peers would be opening direct links to each other mid-stream.
 
-    With ``wait_for_router`` (the services), a client started before its router waits for it,
-    retrying with backoff (0.1 s, doubling up to 1 s), as ``timeout_ms: -1`` does in the
-    ``deploy/`` configs; ``--router-timeout S`` bounds the wait (0: fail at once), and also
-    applies over a config file's own setting.
+    How long a client waits for its router follows the command's kind
+    (:mod:`facesynth.app.router_wait`, from ``args.command``; ``wait_for_router``: a service):
+    a service started before its router waits for it, retrying with backoff (0.1 s, doubling up
+    to 1 s), as ``timeout_ms: -1`` does in the ``deploy/`` configs; a one-shot tool waits at
+    most :data:`~facesynth.app.router_wait.ONE_SHOT_WAIT_S`. ``--router-timeout S`` bounds
+    either wait (0: fail at once), and also applies over a config file's own setting.
     """
     options = ZenohOptions(
         mode=args.mode,
@@ -83,13 +86,16 @@ def zenoh_options(
         scouting=args.scouting,
     )
     timeout = getattr(args, "router_timeout", None)
+    kind = RouterWait.WAITS if wait_for_router else kind_of(getattr(args, "command", None))
     if options.config_file_path() is None:
         options.mode = options.mode or default_mode
         if options.mode != "router" and not options.connect and not options.listen:
             options.connect = [DEFAULT_ROUTER]
-        if wait_for_router and options.mode == "client" and timeout is None:
+        if kind is RouterWait.WAITS and options.mode == "client" and timeout is None:
             timeout = -1.0
-    if wait_for_router and timeout is not None:
+    if kind is RouterWait.ONE_SHOT and timeout is None and options.effective_mode() != "router":
+        timeout = ONE_SHOT_WAIT_S  # whatever a config file says: a one-shot tool never hangs
+    if kind in (RouterWait.WAITS, RouterWait.ONE_SHOT) and timeout is not None:
         options.overrides.update(
             {
                 "connect/timeout_ms": -1 if timeout < 0 else round(timeout * 1000),

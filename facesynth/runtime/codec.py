@@ -262,6 +262,25 @@ def validate_servo_commands(commands: ServoCommands) -> None:
         _finite(value, f"position of {name!r}", MAX_PULSE_US)
         if value < 0:
             raise MessageError(f"position of {name!r} is negative ({value})")
+    _check_readings(commands)
+
+
+def _check_readings(commands: ServoCommands) -> None:
+    """The read-back tables of ``…/servo_state``: at most one entry per possible servo, finite
+    numbers (loads within ±1, temperatures within ±1000 °C) and one-line faults."""
+    for what, table, limit in (
+        ("measured position", commands.measured, MAX_PULSE_US),
+        ("load", commands.loads, 1.0),
+        ("temperature", commands.temperatures_c, 1000.0),
+    ):
+        if len(table) > MAX_POSITIONS:
+            raise MessageError(f"{len(table)} {what}s: at most {MAX_POSITIONS}")
+        _finite_table(table, what, limit)
+    if len(commands.faults) > MAX_POSITIONS:
+        raise MessageError(f"{len(commands.faults)} faults: at most {MAX_POSITIONS}")
+    for name, fault in commands.faults.items():
+        if len(fault) > MAX_NAME or "\n" in fault:
+            raise MessageError(f"the fault of {name!r} is not one line of {MAX_NAME} characters")
 
 
 def validate_stats(stats: ServiceStats) -> None:
@@ -287,7 +306,13 @@ def validate_babble_sample(sample: BabbleSample) -> None:
             raise MessageError(f"{name} is longer than {MAX_NAME} characters")
     if sample.frames < 0:
         raise MessageError(f"frames is {sample.frames}: must be >= 0")
-    for what, positions in (("commanded", sample.commanded), ("reported", sample.reported)):
+    if len(sample.reached) > MAX_NAME:
+        raise MessageError(f"reached is longer than {MAX_NAME} characters")
+    for what, positions in (
+        ("commanded", sample.commanded),
+        ("reported", sample.reported),
+        ("measured", sample.measured),
+    ):
         if len(positions) > MAX_POSITIONS:
             raise MessageError(f"{len(positions)} {what} positions: at most {MAX_POSITIONS}")
         _finite_table(positions, f"{what} position", MAX_PULSE_US)

@@ -14,6 +14,9 @@ from facesynth.runtime.bus.link import LinkFigures
 from schemas.messages import ServiceStats
 
 RATE_WINDOW_NS = 5_000_000_000
+#: A service that has not published for this long (and for three of its recent intervals) is
+#: idle: its rate is 0, not the count of its last publications spread over the window.
+IDLE_NS = 1_000_000_000
 
 
 def memory_mb(pid: int | None = None) -> tuple[float, float]:
@@ -51,6 +54,7 @@ class StageStats:
         self.note = ""
         self.latencies_ms: collections.deque[float] = collections.deque(maxlen=window)
         self._published_at: collections.deque[int] = collections.deque()
+        self._last_published_ns: int | None = None
 
     def record_published(self, t_capture_ns: int, now_ns: int | None = None) -> None:
         """One message out; its latency is measured from its source frame's capture."""
@@ -59,13 +63,18 @@ class StageStats:
         if t_capture_ns > 0:
             self.latencies_ms.append((now - t_capture_ns) / 1e6)
         self._published_at.append(now)
+        self._last_published_ns = now
         while self._published_at and now - self._published_at[0] > RATE_WINDOW_NS:
             self._published_at.popleft()
 
     def rate_hz(self, now_ns: int) -> float:
-        """Publications per second over the last few seconds."""
+        """Publications per second over the last few seconds; 0 once the service is idle (no
+        publication for :data:`IDLE_NS` and for three of its recent intervals)."""
         times = [t for t in self._published_at if now_ns - t <= RATE_WINDOW_NS]
         if len(times) < 2:
+            return 0.0
+        interval = (times[-1] - times[0]) / (len(times) - 1)
+        if now_ns - times[-1] > max(IDLE_NS, 3 * interval):
             return 0.0
         span = max(now_ns - times[0], 1)
         return (len(times) - 1) * 1e9 / span
@@ -100,4 +109,11 @@ class StageStats:
             router_connected=None if link is None else link.connected,
             router_losses=0 if link is None else link.losses,
             router_offline_s=0.0 if link is None else round(link.offline_s, 3),
+            idle_s=self.idle_s(now),
         )
+
+    def idle_s(self, now_ns: int) -> float | None:
+        """Seconds since the last publication (``None`` before the first)."""
+        if self._last_published_ns is None:
+            return None
+        return round(max(now_ns - self._last_published_ns, 0) / 1e9, 3)

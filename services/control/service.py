@@ -15,8 +15,9 @@ import contextlib
 import dataclasses
 import itertools
 import logging
+import math
 import socket
-from collections.abc import Awaitable
+from collections.abc import Awaitable, Mapping
 
 from facesynth.runtime import codec
 from facesynth.runtime.bus.base import SubscriptionClosed
@@ -26,7 +27,7 @@ from facesynth.runtime.rig_view import RigView
 from facesynth.runtime.service import ServiceContext
 from schemas.messages import ServoCommands
 from services.control.core import RAMP_RATE_HZ, Arrival, ControlCore, MotionTime, Move
-from services.control.drivers.base import ServoDriver
+from services.control.drivers.base import ServoDriver, ServoReading
 
 __all__ = ["RAMP_RATE_HZ", "ControlService"]
 
@@ -143,6 +144,7 @@ class ControlService:
                 info = dataclasses.replace(move.info, t_ns=move.t_ns + offset)
                 await self._guarded(self.driver.send(move.positions, info))
         last = self.core.last_command
+        readings = self._readings()
         state = ServoCommands(
             seq=last.seq if last is not None else 0,
             t_capture_ns=last.t_capture_ns if last is not None else 0,
@@ -155,11 +157,28 @@ class ControlService:
             sent_ns=ctx.clock.time_ns(),
             sender_host=self.host,
             move=move.kind,
+            measured={name: r.position_us for name, r in readings.items()},
+            loads={n: r.load for n, r in readings.items() if r.load is not None},
+            temperatures_c={
+                n: r.temperature_c for n, r in readings.items() if r.temperature_c is not None
+            },
+            faults={name: r.fault for name, r in readings.items() if r.fault},
         )
         if move.command:
             ctx.publish("servo_state", state)
         else:  # the controller's own move: not a command applied, so not counted as one
             ctx.bus.publish(ctx.key("servo_state"), codec.encode(state))
+
+    def _readings(self) -> Mapping[str, ServoReading]:
+        """What the driver last read back from the servos (never waits on the device); a
+        reading that is not a finite number is left out rather than published."""
+        try:
+            readings = self.driver.readings()
+        except Exception as exc:  # a driver bug must not stop the face's controller
+            self.driver_errors += 1
+            log.warning("driver error reading the servos back: %s", exc)
+            return {}
+        return {name: r for name, r in readings.items() if _plausible(r)}
 
     async def _guarded(self, call: Awaitable[None]) -> None:
         try:
@@ -168,3 +187,10 @@ class ControlService:
             self.driver_errors += 1
             if self.driver_errors <= 10 or self.driver_errors % 100 == 0:
                 log.warning("driver error (%d so far): %s", self.driver_errors, exc)
+
+
+def _plausible(reading: ServoReading) -> bool:
+    """Whether a reading's numbers are finite (None: not reported) and its fault one line."""
+    numbers = (reading.position_us, reading.load, reading.temperature_c)
+    finite = all(value is None or math.isfinite(value) for value in numbers)
+    return finite and "\n" not in reading.fault

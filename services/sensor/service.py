@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+from collections.abc import AsyncIterator, Iterator
 from dataclasses import dataclass, field
 
 from facesynth.runtime import keys
@@ -19,6 +20,7 @@ from schemas.messages import Frame
 from services.sensor.core import Pacer
 from services.sensor.credit import CreditGate, ack_stage
 from services.sensor.sources import FrameSource, JpegImage
+from services.sensor.sources.base import Image
 
 #: A nominal image size for frames without pixels (ticks).
 TICK_SIZE = (640, 480)
@@ -76,6 +78,11 @@ def jpeg_pixels(image: JpegImage) -> object:
     )
 
 
+def _next_or_none(frames: Iterator[tuple[Image, int]]) -> tuple[Image, int] | None:
+    """The next frame of ``frames``, or None at their end."""
+    return next(frames, None)
+
+
 class SensorService:
     """Publishes the frames of one source; ``last_seq`` is the last frame sent."""
 
@@ -131,6 +138,19 @@ class SensorService:
             fps=info.fps,
         )
 
+    async def _frames(self) -> AsyncIterator[tuple[Image, int]]:
+        """The source's frames; taken in a worker thread when the source may wait long."""
+        frames = self.source.frames()
+        if not self.source.waits:
+            for item in frames:
+                yield item
+            return
+        while True:
+            taken: tuple[Image, int] | None = await asyncio.to_thread(_next_or_none, frames)
+            if taken is None:
+                return
+            yield taken
+
     async def serve(self, ctx: ServiceContext) -> int:
         """Send every frame of the source; return the last sequence number sent."""
         options = self.options
@@ -154,7 +174,9 @@ class SensorService:
         )
         try:
             previous_media = -1
-            for seq, (image, t_media_ns) in enumerate(self.source.frames()):
+            seq = -1
+            async for image, t_media_ns in self._frames():
+                seq += 1
                 if options.max_frames is not None and seq >= options.max_frames:
                     break
                 if options.fast:
@@ -168,7 +190,9 @@ class SensorService:
                 previous_media = t_media_ns
                 ctx.stats.received += 1
                 try:
-                    frame = self._frame(image, seq, t_media_ns, ctx.clock.time_ns())
+                    captured = self.source.capture_time_ns()
+                    now = captured if captured is not None else ctx.clock.time_ns()
+                    frame = self._frame(image, seq, t_media_ns, now)
                 except FrameError as exc:  # e.g. a camera's JPEG that does not decode (raw)
                     ctx.reject(f"frame {seq}: {exc}")
                     continue

@@ -28,3 +28,22 @@ def test_the_command_prints_the_table(capsys: pytest.CaptureFixture[str]) -> Non
     out = capsys.readouterr().out
     assert "one pose of profile paper16 (16 servos), per driver" in out
     assert "arduino  SET_ALL, CRC, ACK back       115200    39   10     3.39      295" in out
+
+
+def test_smart_bus_frames_fit_three_ms_at_one_mbps() -> None:
+    """Issue 26's goal: 16 servos, Sync Write plus read-back <= 3 ms of bus time a frame at
+    1 Mbps, from the bytes the vendors' SDKs write and the status packets' sizes."""
+    from facesynth.app.bench.bus_time import bus_frames
+    from facesynth.runtime.profiles import load_profile
+
+    frames = {(f.driver, f.how): f for f in bus_frames(load_profile("paper16"))}
+    x = frames["dynamixel", "2.0 XL430, Sync Read"]
+    # Sync Write: header 7 + INST + address 2 + length 2 + CRC 2 + 16 x (id + 4 bytes)
+    assert (x.write_bytes, x.request_bytes) == (14 + 16 * 5, 14 + x.servos_read)
+    assert x.answer_bytes == x.servos_read * (11 + 21) and x.servos_read == 5
+    sts = frames["feetech", "STS3215, Sync Read"]
+    assert sts.write_bytes == 8 + 16 * 3 and sts.answer_bytes == sts.servos_read * 14
+    for frame in frames.values():
+        if frame.baud == 1000000:
+            assert frame.bus_ms <= 3.0, frame
+    assert frames["dynamixel", "2.0 XL430, factory 57600"].bus_ms > 20

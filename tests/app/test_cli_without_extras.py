@@ -17,7 +17,12 @@ EXTRAS = (
     "mcap",
     "mcap_protobuf",
     "pythonosc",
+    "rclpy",
+    "rosbags",
     "scipy",
+    "sensor_msgs",
+    "std_msgs",
+    "trajectory_msgs",
     "sklearn",
     "uvloop",
 )

@@ -4,8 +4,11 @@ from __future__ import annotations
 
 import msgspec
 
-from facesynth.app.status import describe_link, format_status
+from facesynth.app.status import describe_link, describe_state, format_status
+from facesynth.runtime.stats import StageStats
 from schemas.messages import ServiceStats
+
+S = 1_000_000_000
 
 
 def stats(note: str) -> ServiceStats:
@@ -30,8 +33,9 @@ def test_the_state_note_ends_its_line() -> None:
     table = format_status(alive, {key: stats("disconnected from /dev/ttyACM0 (3 attempts)")})
     header, line = table.splitlines()
     assert header.endswith("RSS MB  state")
-    assert line.startswith("r1") and line.endswith("  disconnected from /dev/ttyACM0 (3 attempts)")
-    assert format_status(alive, {key: stats("")}).splitlines()[1].endswith("0.0")
+    assert line.startswith("r1")
+    assert line.endswith("0.0  publishing; disconnected from /dev/ttyACM0 (3 attempts)")
+    assert format_status(alive, {key: stats("")}).splitlines()[1].endswith("0.0  publishing")
 
 
 def test_the_router_column_says_how_the_link_fared() -> None:
@@ -42,7 +46,7 @@ def test_the_router_column_says_how_the_link_fared() -> None:
     )
     header, line = format_status(alive, {key: lost}).splitlines()
     assert header.index("router") == line.index("up, lost 4x (79.7 s)")
-    assert line.endswith("  driver ok")
+    assert line.endswith("  publishing; driver ok")
     fresh = msgspec.structs.replace(stats(""), router_connected=True)
     assert (
         format_status(alive, {key: fresh})
@@ -52,3 +56,36 @@ def test_the_router_column_says_how_the_link_fared() -> None:
     assert describe_link(stats("")) == "-"  # no router to lose (a router, an in-memory bus)
     down = msgspec.structs.replace(stats(""), router_connected=False, router_losses=1)
     assert describe_link(down) == "down, lost 1x (0.0 s)"
+
+
+def test_a_stage_that_stopped_publishing_shows_no_rate_and_how_long_it_is_idle() -> None:
+    """The sensor's video ended at 10 s: its figures, taken by the service at later times."""
+    sensor = StageStats("sensor", "host-1", "r1")
+    for frame in range(240):  # 24 fps for 10 s
+        sensor.record_published(0, now_ns=frame * S // 24)
+    last = 239 * S // 24
+    key = "facesynth/r1/stats/sensor/host-1"
+    alive = ["facesynth/r1/health/sensor/host-1"]
+    header = format_status(alive, {}).splitlines()[0]
+    rate_at = header.index("rate Hz")
+    for after_s, rate, state in [
+        (0.5, "21.6", "publishing"),
+        (1.5, "0.0", "idle 2 s"),
+        (3.5, "0.0", "idle 4 s"),
+        (30.0, "0.0", "idle 30 s"),
+    ]:
+        snapshot = sensor.snapshot(now_ns=last + int(after_s * S))
+        line = format_status(alive, {key: snapshot}).splitlines()[1]
+        assert line[rate_at : rate_at + 8].strip() == rate, after_s
+        assert line.endswith(f"  {state}"), line
+
+
+def test_the_state_column_is_never_empty() -> None:
+    fresh = msgspec.structs.replace(stats(""), published=0, rate_hz=0.0)
+    assert describe_state(fresh) == "no output yet"
+    idle = msgspec.structs.replace(stats(""), rate_hz=0.0, idle_s=12.4)
+    assert describe_state(idle) == "idle 12 s"
+    older = msgspec.structs.replace(stats(""), rate_hz=0.0)  # a service without idle_s
+    assert describe_state(older) == "idle"
+    stopped = msgspec.structs.replace(stats("stopped"), rate_hz=0.0, idle_s=0.2)
+    assert describe_state(stopped) == "idle 0 s; stopped"

@@ -197,3 +197,31 @@ def test_the_units_command_runs_the_board_side(
         control.send_signal(signal.SIGTERM)
         assert control.wait(timeout=15) == 0, log.read_text()
     assert read_record(record)[-1].frame is None, "stopping puts the face back to neutral"
+
+
+def test_the_pca9685_extra_adds_smbus2_and_no_opencv(board_venv: Path) -> None:
+    """A Pi driving a PCA9685 on its own I2C pins: ``pip install '.[pca9685]'`` on the board
+    install adds smbus2 only, and the driver's missing bus is one line, from the real smbus2.
+    (Runs last in this module: the venv gains smbus2, which the tests above never look for.)"""
+    install = subprocess.run(
+        [str(board_venv / "bin" / "pip"), "install", "-q", f"{ROOT}[pca9685]"],
+        capture_output=True,
+        text=True,
+        timeout=900,
+    )
+    assert install.returncode == 0, install.stdout + install.stderr
+    python = str(board_venv / "bin" / "python")
+    for module, present in (("smbus2", True), ("cv2", False), ("ai_edge_litert", False)):
+        probe = subprocess.run([python, "-c", f"import {module}"], capture_output=True, timeout=60)
+        assert (probe.returncode == 0) == present, module
+    status = subprocess.run(
+        [str(board_venv / "bin" / "facesynth"), "control", "status", "--driver", "pca9685",
+         "--i2c-bus", "/dev/i2c-99"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )  # fmt: skip
+    assert status.returncode == 2
+    assert status.stderr.strip() == (
+        "facesynth control: error: /dev/i2c-99: cannot open it: No such file or directory"
+    )

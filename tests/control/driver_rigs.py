@@ -18,13 +18,17 @@ from typing import Any
 
 import aiohttp
 import pytest
+from fake_devices.dynamixel import FakeDynamixelBus
+from fake_devices.feetech import FakeFeetechBus
 from fake_devices.maestro import FakeMaestro
+from fake_devices.pca9685 import FakeI2CAdapter, FakePCA9685
 from fake_devices.ssc32 import FakeSSC32
 from osc_receiver import Receiver, osc_receiver
 from uno_rig import TICK_US, UnoRig
 
 from facesynth.runtime.profiles import Profile, load_profile
 from services.control.drivers.base import ServoDriver
+from services.control.drivers.pca9685 import PCA9685Config, PCA9685Driver
 from services.control.drivers.record import read_record
 from services.control.drivers.registry import DRIVERS
 from services.control.drivers.virtual import VirtualDriver
@@ -323,6 +327,127 @@ class ArduinoRig(DriverRig):
         self.uno.close()
 
 
+class PCA9685Rig(DriverRig):
+    """The register-exact PCA9685 model behind smbus2's interface (fake_devices/pca9685.py),
+    read back as the pulse widths its registers make."""
+
+    can_unplug = has_device_path = True
+    tolerance_us = 122 / 25e6 * 1e6 + 1e-6  # one tick, (121 + 1) / 25 MHz (limits round inward)
+
+    def __init__(self, folder: Path) -> None:
+        super().__init__(folder)
+        self.chip = FakePCA9685()
+        self.adapter = FakeI2CAdapter(folder / "i2c-1", self.chip)
+
+    def config(self) -> dict[str, Any]:
+        return {"driver": "pca9685", "bus": str(self.adapter.path), "exit_hold_s": 0.01}
+
+    def make(self) -> ServoDriver:
+        config = DRIVERS.parse(self.config())
+        assert isinstance(config, PCA9685Config)
+        return PCA9685Driver(config, self.profile, open_bus=self.adapter.open)
+
+    async def observed(self, count: int) -> Any:
+        assert not self.chip.violations, self.chip.violations
+        widths = self.chip.widths_us()
+        return {s.name: widths[s.channel] for s in self.profile.servos if s.channel in widths}
+
+    def missing_device(self) -> dict[str, Any]:
+        return {**self.config(), "bus": str(self.folder / "no-such-port")}
+
+    def bad_configs(self) -> list[tuple[dict[str, Any], str]]:
+        bus = str(self.adapter.path)
+        return [
+            ({"driver": "pca9685", "bus": bus, "address": "0x80"}, "outside the 7-bit"),
+            ({"driver": "pca9685", "bus": bus, "address": "forty"}, "such as 0x40, got 'forty'"),
+            ({"driver": "pca9685", "bus": bus, "frequency_hz": 10}, "PRE_SCALE 609, outside"),
+            ({"driver": "pca9685", "bus": bus, "frequency_hz": 1000}, "outside what the PCA9685"),
+            ({"driver": "pca9685", "bus": ""}, "--i2c-bus: the bus is empty"),
+            ({"driver": "pca9685", "bus": bus, "oscillator_hz": 0}, "Expected `float` > 0.0"),
+        ]
+
+    def unplug(self) -> None:
+        self.adapter.unplug()
+
+    def plug(self) -> None:
+        self.adapter.plug()
+
+
+class DynamixelRig(DriverRig):
+    """An emulated Protocol 2.0 bus of 16 XL430-W250 (fake_devices/dynamixel.py), ids 1..16,
+    read back as the goal positions the servos hold, in µs (0.09° per µs, 1500 = centre)."""
+
+    can_unplug = has_device_path = True
+    tolerance_us = 0.5 / 1.024 + 1e-6  # half a native step (4096 per turn)
+
+    def __init__(self, folder: Path) -> None:
+        super().__init__(folder)
+        self.device = FakeDynamixelBus(folder / "ttyDXL", list(range(1, 17)))
+        self.device.plug()
+
+    def config(self) -> dict[str, Any]:
+        return {
+            "driver": "dynamixel",
+            "port": str(self.device.link),
+            "baud": 1000000,
+        }
+
+    async def observed(self, count: int) -> Any:
+        goals = self.device.goals()
+        torque = self.device.torque()
+        return {
+            s.name: 1500 + (goals[s.channel + 1] - 2048) / 1.024
+            for s in self.profile.servos
+            if torque[s.channel + 1]
+        }
+
+    def bad_configs(self) -> list[tuple[dict[str, Any], str]]:
+        port = str(self.device.link)
+        return [
+            ({"driver": "dynamixel"}, "missing required field `port`"),
+            ({"driver": "dynamixel", "port": ""}, "the port is empty"),
+            ({"driver": "dynamixel", "port": port, "protocol": 3}, "Invalid enum value 3"),
+            ({"driver": "dynamixel", "port": port, "at_exit": "limp"}, "Expected `str` matching"),
+            ({"driver": "dynamixel", "port": port, "read_budget_ms": 0}, "Expected `float` > 0"),
+            ({"driver": "dynamixel", "port": port, "baud": 0}, "Expected `int` >= 1"),
+        ]
+
+    def unplug(self) -> None:
+        self.device.unplug()
+
+    def plug(self) -> None:
+        self.device.plug()
+
+    async def aclose(self) -> None:
+        self.device.close()
+
+
+class FeetechRig(DynamixelRig):
+    """An emulated bus of 16 STS3215 (fake_devices/feetech.py), ids 1..16, read back as the
+    goal positions the servos hold, in µs (4096 per turn too)."""
+
+    def __init__(self, folder: Path) -> None:
+        self.folder = folder
+        self.device = FakeFeetechBus(folder / "ttySTS", list(range(1, 17)))  # type: ignore[assignment]
+        self.device.plug()
+
+    def config(self) -> dict[str, Any]:
+        return {"driver": "feetech", "port": str(self.device.link)}
+
+    def bad_configs(self) -> list[tuple[dict[str, Any], str]]:
+        port = str(self.device.link)
+        return [
+            ({"driver": "feetech"}, "missing required field `port`"),
+            ({"driver": "feetech", "port": "ftp://a:1"}, "unknown URL scheme 'ftp'"),
+            ({"driver": "feetech", "port": port, "at_exit": "limp"}, "Expected `str` matching"),
+            ({"driver": "feetech", "port": port, "latency_ms": -1}, "Expected `float` >= 0"),
+        ]
+
+
+#: Drivers whose rig runs the contract in a test group of its own, and where: the ros2 driver
+#: needs rclpy and a network namespace with only loopback (``make test-ros2``).
+ELSEWHERE: dict[str, str] = {"ros2": "tests/ros2/test_ros2_contract.py"}
+
 #: Driver name -> its rig.
 RIGS: dict[str, type[DriverRig]] = {
     "record": RecordRig,
@@ -331,4 +456,7 @@ RIGS: dict[str, type[DriverRig]] = {
     "maestro": MaestroRig,
     "ssc32": SSC32Rig,
     "arduino": ArduinoRig,
+    "dynamixel": DynamixelRig,
+    "feetech": FeetechRig,
+    "pca9685": PCA9685Rig,
 }

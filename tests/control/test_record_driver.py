@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import logging
 import re
 import time
 from pathlib import Path
@@ -18,8 +19,10 @@ from services.control.drivers.record import (
     RecordDriver,
     RecordError,
     RecordLine,
+    earlier_sessions,
     read_record,
     read_sessions,
+    record_summary,
 )
 from services.control.drivers.registry import DRIVERS
 
@@ -302,3 +305,37 @@ async def test_a_driver_is_an_async_context_manager_that_connects_and_closes(
         await driver.send({"jaw": 1500.0}, CommandInfo(1, 1, True))
     # Leaving does not move the face: only what was sent is on file.
     assert [line.servos for line in read_record(out)] == [{"jaw": 1600.0}]
+
+
+async def test_each_session_says_whether_it_created_or_appended_to_its_file(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    """`make demo` appended to facesynth-commands.jsonl without a word (issue 29)."""
+    caplog.set_level(logging.INFO, "facesynth.control")
+    out = tmp_path / "commands.jsonl"
+    for jaw in (1600.0, 1700.0, 1800.0):
+        await _session(out, jaw)
+    said = [r.getMessage() for r in caplog.records if r.getMessage().startswith("record file")]
+    assert said == [
+        f"record file {out}: created (one session)",
+        f"record file {out}: appended session 2 after 1 earlier session "
+        "(a record file is never truncated)",
+        f"record file {out}: appended session 3 after 2 earlier sessions "
+        "(a record file is never truncated)",
+    ]
+    assert earlier_sessions(out) == len(read_sessions(out)) == 3
+
+
+def test_earlier_sessions_counts_what_a_file_holds_without_decoding_it(tmp_path: Path) -> None:
+    out = tmp_path / "commands.jsonl"
+    assert earlier_sessions(out) == 0  # no file yet
+    out.write_bytes(b"")
+    assert earlier_sessions(out) == 0  # empty: the next session is its first
+    old = {"seq": 0, "frame": 0, "t_capture_ns": 1, "t_sent_ns": 2, "face": True, "servos": {}}
+    out.write_text(json.dumps(old) + "\n")  # commands from before session markers
+    assert earlier_sessions(out) == 1
+    marker = json.dumps({"session": {"started_ns": 1}})
+    out.write_text(json.dumps(old) + "\n" + marker + "\n" + json.dumps(old) + "\n" + marker)
+    assert earlier_sessions(out) == 3  # the last marker torn of its newline still counts
+    assert record_summary(out, 0) == {"out": str(out), "file": "created", "sessions": 1}
+    assert record_summary(out, 3) == {"out": str(out), "file": "appended", "sessions": 4}

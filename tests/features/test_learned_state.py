@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 from synthetic_face import MESH, S, move, points_message
 
+from facesynth.runtime.clock import FAKE_EPOCH_NS
 from facesynth.runtime.testing import StageRun
 from services.features.core import FeatureProcessor
 from services.features.expressions import BROW
@@ -182,6 +183,29 @@ async def test_a_restarted_features_service_picks_up_its_neutral(
     assert all(f.neutral_ready for f in second)
     assert second[0].named["brow_raise_inner_right"] > 0.3
     assert first[-1].named["brow_raise_inner_right"] == pytest.approx(0.0, abs=0.02)
+
+
+async def test_reusing_and_saving_the_neutral_are_each_one_line_with_where_and_how_old(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    """A neutral kept from an earlier run is never reused silently (issue 29)."""
+    keeping = StateKeeping(performer="alice", state_dir=str(tmp_path))
+    path = tmp_path / "lab" / "alice.json"
+    caplog.set_level(logging.INFO, "facesynth")
+    await run_features(FeatureProcessor(), keeping, neutral_then(MESH, 40))
+    saved = [r.getMessage() for r in caplog.records if "saved to" in r.getMessage()]
+    assert saved == [f"learned the neutral of performer alice: saved to {path}"]
+    kept = load_state(path)
+    assert kept is not None  # learned three hours before the next start (the fake clock's 0)
+    path.write_bytes(
+        msgspec.json.encode(msgspec.structs.replace(kept, updated_ns=FAKE_EPOCH_NS - 3 * 3600 * S))
+    )
+    caplog.clear()
+    await run_features(FeatureProcessor(), keeping, neutral_then(RAISED, 5, start=200))
+    reused = [r.getMessage() for r in caplog.records if "restored" in r.getMessage()]
+    assert reused == [
+        f"restored the neutral and ranges of performer alice on rig lab from {path} (3 h old)"
+    ]
 
 
 async def test_relearn_ignores_the_kept_neutral_and_replaces_it(

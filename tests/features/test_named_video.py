@@ -13,8 +13,6 @@ synthetic faces (tests/integration/test_face_sections_synthetic.py).
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
 import pytest
 from sample_points import track_sample
@@ -32,14 +30,9 @@ def tracked() -> list[Points]:
 
 
 @pytest.fixture(scope="module")
-def run(tracked: list[Points]) -> tuple[FeatureProcessor, list[Features], np.ndarray]:
+def run(tracked: list[Points]) -> tuple[FeatureProcessor, list[Features]]:
     processor = FeatureProcessor()
-    outs, times = [], []
-    for points in tracked:
-        start = time.perf_counter()
-        outs.append(processor.process(points))
-        times.append(time.perf_counter() - start)
-    return processor, outs, np.asarray(times)
+    return processor, [processor.process(points) for points in tracked]
 
 
 def _series(outs: list[Features], name: str) -> np.ndarray:
@@ -51,7 +44,7 @@ def _mean(outs: list[Features], name: str, first: int, last: int) -> float:
 
 
 def test_every_feature_once_the_neutral_is_known(run) -> None:
-    _, outs, _ = run
+    _, outs = run
     ready = [i for i, o in enumerate(outs) if o.named]
     assert ready[0] == 24 and len(ready) == 472 - 24  # 23.98 fps: the first second is 24 frames
     for out in outs[24:]:
@@ -60,7 +53,7 @@ def test_every_feature_once_the_neutral_is_known(run) -> None:
 
 
 def test_the_neutral_second_reads_about_zero(run, tracked) -> None:
-    processor, _, _ = run
+    processor, _ = run
     assert processor.named_neutral is not None and processor.reference is not None
     rows = []
     for points in tracked[:24]:
@@ -74,7 +67,7 @@ def test_the_neutral_second_reads_about_zero(run, tracked) -> None:
 
 def test_smile_and_laugh_pull_the_lip_corners(run) -> None:
     """Measured: laugh (290-400) +0.076 / +0.054, closed smile (440-472) +0.117 / +0.111."""
-    _, outs, _ = run
+    _, outs = run
     for side in ("right", "left"):
         assert _mean(outs, f"lip_corner_pull_{side}", 290, 400) > 0.035
         assert _mean(outs, f"lip_corner_pull_{side}", 440, 472) > 0.08
@@ -85,7 +78,7 @@ def test_smile_and_laugh_pull_the_lip_corners(run) -> None:
 
 def test_laughing_opens_the_jaw_and_parts_the_lips(run) -> None:
     """Measured in the laugh: jaw_open +0.112, lips_part +0.115; closed smile: jaw -0.01."""
-    _, outs, _ = run
+    _, outs = run
     assert _mean(outs, "jaw_open", 290, 400) > 0.07
     assert _mean(outs, "lips_part", 290, 400) > 0.07
     assert np.nanmax(_series(outs, "jaw_open")) > 0.12
@@ -94,7 +87,7 @@ def test_laughing_opens_the_jaw_and_parts_the_lips(run) -> None:
 
 def test_vertical_gaze_follows_the_eyes(run) -> None:
     """Measured: looking up (160-210) +0.036 / +0.094, looking down (440-472) -0.041 / -0.044."""
-    _, outs, _ = run
+    _, outs = run
     for side in ("right", "left"):
         assert _mean(outs, f"gaze_{side}_y", 160, 210) > 0.02
         assert _mean(outs, f"gaze_{side}_y", 440, 472) < -0.02
@@ -104,13 +97,8 @@ def test_vertical_gaze_follows_the_eyes(run) -> None:
 
 def test_head_pose_follows_the_head(run) -> None:
     """Measured: yaw in the laugh +21 degrees, pitch looking up +11, roll at 400-432 -22."""
-    _, outs, _ = run
+    _, outs = run
     assert _mean(outs, "head_yaw", 290, 400) > 12.0
     assert _mean(outs, "head_pitch", 160, 210) > 6.0
     assert _mean(outs, "head_roll", 400, 432) < -12.0
 
-
-def test_feature_time_per_frame(run) -> None:
-    """Measured on this machine kind: about 0.23 ms per frame (median), 0.4 ms p99."""
-    _, _, times = run
-    assert np.median(times) < 1e-3

@@ -87,3 +87,28 @@ def test_killed_service_disappears(spawn: Any, rig: str) -> None:
     deadline = time.monotonic() + 20
     while "features" in _status(locator, rig).stdout:
         assert time.monotonic() < deadline, "a killed service's token should vanish"
+
+
+def test_stages_behind_a_stopped_sensor_show_no_rate(spawn: Any, rig: str) -> None:
+    """The sensor sends 2 s of video and exits; points and features stay alive, idle."""
+    from facesynth.app.data import sample_openface_csv
+
+    spawn("router", "--listen", "tcp/127.0.0.1:0", name="router")
+    locator = _locator(spawn, "router")
+    common = ["--connect", locator, "--rig", rig, "--stats-interval", "0.2"]
+    spawn("points", *common, "--openface-csv", str(sample_openface_csv()), name="points")
+    spawn("features", *common, name="features")
+    sensor = spawn(
+        "sensor", *common, "--max-frames", "48", "--wait-for", "points,features", name="sensor"
+    )
+    assert sensor.wait(timeout=60) == 0, spawn.log("sensor")
+    time.sleep(2.0)  # longer than the idle threshold (1 s)
+    result = _status(locator, rig)
+    header, *lines = result.stdout.splitlines()
+    rows = {line.split()[1]: line for line in lines if line.split()[0] == rig}
+    assert set(rows) == {"points", "features"}, result.stdout + result.stderr
+    rate = header.index("rate Hz")
+    for service, line in rows.items():
+        assert line[rate : rate + 8].strip() == "0.0", (service, result.stdout)
+        assert re.search(r"  idle \d+ s$", line), (service, result.stdout)
+        assert int(line.split()[7]) > 0, (service, result.stdout)  # it did publish ("sent")

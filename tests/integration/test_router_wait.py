@@ -53,3 +53,34 @@ def test_with_a_router_timeout_a_service_gives_up_with_one_line(tmp_path: Path) 
     assert "facesynth features: error: cannot open a Zenoh client session" in result.stderr
     assert "Traceback" not in result.stderr
     assert 1.4 < elapsed < 20
+
+
+def test_a_recorder_started_before_its_router_waits_then_records(
+    spawn: Processes, tmp_path: Path
+) -> None:
+    """record is a long-running recorder: it waits for its router as the services do (issue
+    29: it used to fail at once), and records what is published once the router is up."""
+    import json
+    import signal
+
+    from facesynth.app.recording.reader import Recording
+
+    router = f"tcp/127.0.0.1:{free_port()}"
+    session = tmp_path / "s.mcap"
+    common = ["--connect", router, "--rig", "records"]
+    recorder = spawn("record", "--out", str(session), *common, name="record")
+    spawn.wait_for_line("record", f"waiting for the Zenoh router at {router}", timeout=30)
+    time.sleep(2.5)  # past a one-shot tool's wait: still waiting
+    assert recorder.poll() is None, spawn.log("record")
+    spawn("router", "--listen", router, name="router")
+    spawn.wait_for_line("record", "connected to the router after", timeout=30)
+    spawn.wait_for_line("record", "recording", timeout=30)
+    sensor = run_facesynth("sensor", "--ticks", "5", "--fps", "30", *common)
+    assert sensor.returncode == 0, sensor.stderr
+    time.sleep(1.0)
+    recorder.send_signal(signal.SIGINT)
+    assert recorder.wait(timeout=30) == 0, spawn.log("record")
+    summary = json.loads(spawn.log("record").strip().splitlines()[-1])
+    assert summary["by_key"].get("facesynth/records/input") == 5, summary
+    with Recording(session) as recording:
+        assert "input" in recording.stages()

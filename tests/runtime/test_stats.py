@@ -53,6 +53,27 @@ def test_rate_forgets_publications_older_than_the_window() -> None:
     assert len(s._published_at) == 2  # the old ones were pruned
 
 
+def test_rate_is_zero_once_the_stage_stops_publishing() -> None:
+    """Not the last publications spread over the window (a stopped sensor showed 3.6-7 Hz)."""
+    s = _stats()
+    for i in range(240):  # 24 Hz for 10 s
+        s.record_published(0, now_ns=i * S // 24)
+    last = 239 * S // 24
+    assert s.rate_hz(last + S // 2) == pytest.approx(21.6, abs=0.1)
+    assert s.rate_hz(last + stats.IDLE_NS + 1) == 0.0
+    assert s.rate_hz(last + 3 * S) == 0.0
+    assert s.snapshot(now_ns=last + 3 * S).idle_s == pytest.approx(3.0)
+
+
+def test_a_slow_stage_is_idle_only_after_three_of_its_intervals() -> None:
+    s = _stats()
+    for i in range(10):  # 2 Hz, the last at 4.5 s
+        s.record_published(0, now_ns=i * S // 2)
+    assert s.rate_hz(5_900 * MS) == pytest.approx(7 / 4.9)  # 1.4 s since the last: not yet
+    assert s.rate_hz(6 * S + 1) == 0.0  # three intervals (1.5 s) since the last
+    assert _stats().snapshot(now_ns=S).idle_s is None  # nothing published yet
+
+
 def test_latency_is_measured_from_capture() -> None:
     s = _stats()
     for latency_ms in range(1, 101):  # 1..100 ms

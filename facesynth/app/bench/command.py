@@ -190,9 +190,12 @@ def cmd_bench(args: argparse.Namespace) -> int:
 
         return bench_robot_command(args)
     if args.what == "drivers":
+        from facesynth.app.bench.bus_time import bus_frames, format_bus_frames
         from facesynth.app.bench.drivers import bench_drivers, format_drivers
 
-        print(format_drivers(*bench_drivers(_one_profile(args))))
+        profile, costs = bench_drivers(_one_profile(args))
+        print(format_drivers(profile, costs))
+        print(format_bus_frames(profile, bus_frames(profile)))
         return 0
     if args.what == "smoothing":
         from facesynth.app.bench.smoothing import bench_smoothing, format_smoothing

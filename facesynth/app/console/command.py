@@ -37,6 +37,7 @@ from facesynth.runtime.outputs import check_output
 from facesynth.runtime.profiles import load_profile, resolve_profile
 from facesynth.runtime.service import run_async, until_signalled
 from services.control.drivers.registry import DRIVERS
+from services.features.calibrate import parse_schedule
 
 log = logging.getLogger("facesynth.console")
 
@@ -98,7 +99,14 @@ def _calibration_factory(args: argparse.Namespace) -> Any:
         hasattr(args, flag.dest) for flag in sensor_flags.flags() if flag.selects
     )
     if not chosen:
+        if args.schedule:
+            raise OptionError(
+                "--schedule needs --video FILE (or --camera N): without one the console "
+                "cannot calibrate"
+            )
         return None
+    if args.schedule:
+        parse_schedule(args.schedule)  # a bad schedule is refused now, not on the page
     _, config = apply_arguments("sensor", SensorNode(), args)  # its options, checked now
     check_source(config)
     out_dir = Path(args.calibrations) if args.calibrations else None

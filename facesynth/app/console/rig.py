@@ -9,7 +9,9 @@ translator), so C's clamping, speed limits and watchdog hold. :class:`ConsoleRig
 * ``targets``: where the console asks the servos to be while it ``holding`` them, each clamped
   to the narrower of the active and the draft limits (a limit widened in the draft takes
   effect once the profile is saved and C restarts with it);
-* ``positions``: where C reported the servos last (``…/servo_state``).
+* ``positions``: where C reported the servos last (``…/servo_state``);
+* ``measured`` and ``faults``: what the servos themselves reported in C's last report (smart
+  bus servos read their position back; other drivers report nothing).
 
 Servos are addressed by their index in the profile (a rename does not move a slider). Every
 refused request raises :class:`ConsoleError` with a message for the page.
@@ -46,18 +48,36 @@ class ConsoleRig:
         self.active = profile
         self.draft = msgspec.structs.replace(profile, servos=[_copy(s) for s in profile.servos])
         self.positions: dict[str, float] = profile.neutral_positions()
+        self.measured: dict[str, float] = {}
+        self.faults: dict[str, str] = {}
         self.targets: list[float] = [spec.neutral_us for spec in profile.servos]
         self.holding = False
         self.dirty = False
 
     # --- where the servos are and should be -------------------------------------------------
 
-    def report(self, profile_name: str, positions: dict[str, float]) -> None:
-        """C's report of where the servos are (other profiles' reports are ignored)."""
+    def report(
+        self,
+        profile_name: str,
+        positions: dict[str, float],
+        measured: dict[str, float] | None = None,
+        faults: dict[str, str] | None = None,
+    ) -> None:
+        """C's report of where the servos are commanded and, where they read themselves back,
+        measured (each report replaces the last readings; other profiles' are ignored)."""
         if profile_name == self.active.name:
             self.positions.update(
                 {k: v for k, v in positions.items() if isinstance(v, float | int)}
             )
+            self.measured = {
+                k: float(v) for k, v in (measured or {}).items() if isinstance(v, float | int)
+            }
+            self.faults = {k: v for k, v in (faults or {}).items() if isinstance(v, str)}
+
+    def read_back(self, index: int) -> tuple[float | None, str]:
+        """Servo ``index``'s measured position (None: not read back) and fault ("": none)."""
+        name = self.active.servos[self._index(index)].name
+        return self.measured.get(name), self.faults.get(name, "")
 
     def here(self, index: int) -> float:
         """Where servo ``index`` stands (C's last report)."""

@@ -133,6 +133,8 @@ class ConsoleSession:
         """Where the servos are and are wanted, for the page."""
         return {
             "positions": [self.core.here(i) for i in range(len(self.core.targets))],
+            "measured": [self.core.read_back(i)[0] for i in range(len(self.core.targets))],
+            "faults": [self.core.read_back(i)[1] for i in range(len(self.core.targets))],
             "targets": list(self.core.targets),
             "holding": self.core.holding,
             "dirty": self.core.dirty,
@@ -226,7 +228,7 @@ class ConsoleSession:
         async for sample in subscription:
             state = sample.message
             if isinstance(state, ServoCommands):
-                self.core.report(state.profile, state.positions)
+                self.core.report(state.profile, state.positions, state.measured, state.faults)
 
     async def _follow_senders(self, subscription: Any) -> None:
         async for sample in subscription:

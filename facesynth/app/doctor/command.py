@@ -16,27 +16,27 @@ from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
 from facesynth.app import wiring
+from facesynth.app.chain import RUN_LISTEN
 from facesynth.app.doctor import (
     addresses,
+    buses,
     cameras,
     extras,
     firmware_check,
     named,
     outputs,
+    ros2,
     router,
 )
 from facesynth.app.doctor import serial_ports as serial
 from facesynth.app.doctor.needs import Needs, RouterNeed, graph_needs
 from facesynth.app.doctor.report import Finding, lines, verdict
-from facesynth.app.graph import check_node, graph_file, graph_help, load_graph
+from facesynth.app.graph import Graph, check_node, graph_file, graph_help, load_graph
 from facesynth.app.profile_choice import settle_profiles
 from facesynth.app.recording.attach import add_attach_arguments
 from facesynth.app.stage_args import add_stage_arguments, apply_arguments
 from facesynth.runtime import keys
 from facesynth.runtime.bus.zenoh_bus import endpoints
-
-#: Where ``facesynth run``'s own router listens when not told.
-RUN_LISTEN = "tcp/127.0.0.1:7447"
 
 
 class DoctorError(ValueError):
@@ -76,13 +76,19 @@ def add_doctor_parser(sub: Any, zenoh_arguments: Callable[[argparse.ArgumentPars
     )
 
 
-def router_need(args: argparse.Namespace) -> RouterNeed:
-    """The graph's link to Zenoh, as ``run`` makes it: its own router unless told otherwise."""
+def router_need(args: argparse.Namespace, graph: Graph | None = None) -> RouterNeed:
+    """The graph's link to Zenoh, as ``run`` makes it: its own router unless told otherwise.
+
+    ``run`` of a graph with a sensor (``graph``; None: the demo's, which has one) takes a free
+    port when its default endpoint is taken; an explicit ``--listen`` is kept or ``run`` fails,
+    and so does a graph without a sensor (its nodes are served where others look for them).
+    """
     options = wiring.zenoh_options(args, default_mode="router")
     embedded = options.effective_mode() == "router"
     if embedded and not options.listen and options.config_file_path() is None:
         options.listen = endpoints(args.listen) or [RUN_LISTEN]
-    return RouterNeed(options, embedded)
+    chain = graph is None or bool(graph.of_stage("sensor"))
+    return RouterNeed(options, embedded, free_port=embedded and chain and not args.listen)
 
 
 def examine(needs: Needs, serial_ports: list[str], timeout: float) -> list[Finding]:
@@ -116,8 +122,10 @@ def examine(needs: Needs, serial_ports: list[str], timeout: float) -> list[Findi
     findings += addresses.address_findings(needs.addresses)
     findings += outputs.output_findings(needs.outputs, needs.folders, outputs.user_folders())
     findings += named.profile_findings(needs.profiles)
+    findings += buses.bus_findings(needs.profiles)
     findings += named.calibration_findings(needs.calibrations)
     findings += extras.extras_findings(extras.installed_extras(), needs.extras)
+    findings += ros2.ros2_findings("ros2" in needs.extras)
     return findings
 
 
@@ -130,7 +138,7 @@ def cmd_doctor(args: argparse.Namespace) -> int:
         graph.nodes[name], configs[name] = apply_arguments(name, node, args)
         check_node(name, graph.nodes[name], args.graph or "command line")
     settle_profiles(graph, configs, check=False)  # a misfit is one of the lines below
-    needs = graph_needs(graph, configs, router=router_need(args), options=args)
+    needs = graph_needs(graph, configs, router=router_need(args, graph), options=args)
     findings = examine(needs, args.serial, args.timeout)
     for line in lines(findings):
         print(line, flush=True)

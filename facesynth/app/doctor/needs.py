@@ -41,6 +41,9 @@ class RouterNeed:
 
     options: ZenohOptions
     embedded: bool
+    #: ``run``'s own router takes a free port on loopback when its endpoint is taken (its
+    #: default endpoint, with a sensor in the graph); an explicit ``--listen`` is kept or fails.
+    free_port: bool = False
 
 
 @dataclass

@@ -2,7 +2,8 @@
 videos, F's kept state), checked as the writers check them before they start
 (:func:`facesynth.runtime.outputs.check_output`: a probe file made and removed, so a read-only
 mount shows even to root), and facesynth's own folders that other commands write into
-(calibrations: ``facesynth calibrate``; profiles: ``facesynth learn``).
+(calibrations: ``facesynth calibrate``; profiles: ``facesynth console``, and ``facesynth learn
+--out-profile`` when pointed there: by default it writes beside its session).
 """
 
 from __future__ import annotations
@@ -24,7 +25,12 @@ def user_folders() -> list[tuple[str, Path]]:
     """facesynth's own folders other commands write to: calibrations and profiles."""
     return [
         ("calibrations folder (facesynth calibrate writes here)", CALIBRATIONS.user_dir()),
-        ("profiles folder (facesynth learn writes here)", PROFILES.user_dir()),
+        (
+            "profiles folder (profiles here are found by name; facesynth console saves "
+            "shipped profiles here, facesynth learn writes beside its session unless "
+            "--out-profile puts it here)",
+            PROFILES.user_dir(),
+        ),
     ]
 
 

@@ -2,9 +2,11 @@
 secured (plain TCP, TLS, or mutual TLS with a certificate of the rig's CA, as ``facesynth
 certs`` makes them; see :mod:`facesynth.app.secure`).
 
-``facesynth run`` starts its own router listening on ``tcp/127.0.0.1:7447`` (``--listen``):
-it then needs that endpoint free, and a router already answering there is the thing to fix.
-With ``--mode client`` (or a client config file) the graph needs a router that answers.
+``facesynth run`` starts its own router listening on ``tcp/127.0.0.1:7447``; when something
+already listens there it takes a free port on loopback instead (an ``info`` line: run works, but
+commands looking on 7447 meet the other program). An explicit ``--listen`` is kept or run
+fails, and so is a graph without a sensor's endpoint: there a taken endpoint is the thing to
+fix. With ``--mode client`` (or a client config file) the graph needs a router that answers.
 """
 
 from __future__ import annotations
@@ -123,6 +125,18 @@ def _listens(endpoint: str, timeout: float) -> bool | None:
 def router_findings(result: RouterResult, need: RouterNeed) -> list[Finding]:
     """The router's line (pure): answering or not, judged by what the graph needs."""
     where = ", ".join(result.endpoints) or "the configured endpoints"
+    if need.embedded and need.free_port and (result.router is not None or result.occupied):
+        who = f"router {result.router}" if result.router is not None else "something"
+        return [
+            Finding(
+                FAMILY,
+                where,
+                f"{who} already listens there ({result.security}): run's own router will "
+                "take a free port on 127.0.0.1 instead and log it (commands that look on "
+                f"{where} meet the other program; --listen chooses run's endpoint)",
+                good=None,
+            )
+        ]
     if need.embedded:
         if result.router is not None:
             return [

@@ -43,9 +43,16 @@ def add_learn_parser(sub: Any, zenoh_arguments: Callable[[argparse.ArgumentParse
     )
     p.add_argument("--no-fit", action="store_true", help="babble only, fit later (--fit-only)")
     p.add_argument(
+        "--partial",
+        action="store_true",
+        help="fit a session that has not yet swept every servo: those stay at neutral "
+        "(without it the fit refuses, naming them)",
+    )
+    p.add_argument(
         "--out-profile",
         metavar="NAME.learned",
-        help="the learned profile to write (default: the session's name with .learned)",
+        help="the learned profile to write (default: the session's name with .learned, beside "
+        "it; in ~/.config/facesynth/profiles it is found by name)",
     )
     group = p.add_argument_group("babbling")
     group.add_argument(
@@ -77,6 +84,19 @@ def add_learn_parser(sub: Any, zenoh_arguments: Callable[[argparse.ArgumentParse
     )
     group.add_argument(
         "--max-wait", type=float, default=3.0, help="longest wait for a pose to settle (3 s)"
+    )
+    group.add_argument(
+        "--measured-tolerance",
+        type=float,
+        default=20.0,
+        help="where the driver reads the servos back: how close (µs) their measured positions "
+        "must come to the command; no --min-wait then (20)",
+    )
+    group.add_argument(
+        "--measured-timeout",
+        type=float,
+        default=3.0,
+        help="seconds a read-back servo may take to get there before the pose is taken (3)",
     )
     group.add_argument(
         "--frame-every",

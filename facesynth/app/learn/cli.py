@@ -8,7 +8,8 @@
 babbles (:mod:`facesynth.app.learn.shell`) into ``head.mcap`` (run it again to resume), then
 reads the session into a :class:`~facesynth.app.learn.dataset.BabbleSet`, fits the self-model
 and writes the learned profile (``--out-profile``; ``--no-fit`` skips it, ``--fit-only
-SESSION`` does only that).
+SESSION`` does only that). A session that has not yet swept every servo is not fitted (one
+line naming them and how to finish) unless ``--partial``, which keeps them at neutral.
 """
 
 from __future__ import annotations
@@ -27,8 +28,9 @@ import msgspec
 from facesynth.app.chain import freeze_startup_objects, open_embedded
 from facesynth.app.graph import Graph
 from facesynth.app.learn.core import BabbleOptions, Babbler, Budget
+from facesynth.app.learn.coverage import UnsweptError
 from facesynth.app.learn.dataset import BabbleSet
-from facesynth.app.learn.fit import fit_learned_profile, format_report
+from facesynth.app.learn.fit import FitOptions, fit_learned_profile, format_report
 from facesynth.app.learn.plan import Plan, PlanOptions
 from facesynth.app.learn.progress import Progress
 from facesynth.app.learn.session import (
@@ -70,7 +72,8 @@ def cmd_learn(args: argparse.Namespace) -> int:
         session = read_session(_existing(args.fit_only))
         profile = load_profile(args.profile or session.profile)
         check_profile(session, profile)
-        print(fit_session(session, profile, _profile_out(args, Path(args.fit_only))))
+        out = _profile_out(args, Path(args.fit_only))
+        print(fit_session(session, profile, out, partial=args.partial, plan=_plan_options(args)))
         return 0
     if not args.session:
         raise LearnError("give the session file with --out SESSION.mcap")
@@ -89,16 +92,15 @@ def cmd_learn(args: argparse.Namespace) -> int:
     resume = _resume(out, profile, args.seed)
     profile_out = None if args.no_fit else _profile_out(args, out)
     seed = resume.seed if resume is not None else (args.seed or 0)
-    plan = Plan(
-        len(profile.servos),
-        PlanOptions(seed=seed, sweep_steps=args.sweep_steps, neutral_every=args.neutral_every),
-    )
+    plan = Plan(len(profile.servos), _plan_options(args, seed))
     options = BabbleOptions(
         settle=SettleOptions(
             frames=args.settle_frames,
             feature_tol=args.settle_tolerance,
             max_wait_s=args.max_wait,
             min_wait_s=args.min_wait,
+            measured_tol_us=args.measured_tolerance,
+            measured_timeout_s=args.measured_timeout,
         ),
         pace=args.pace,
     )
@@ -120,6 +122,8 @@ def cmd_learn(args: argparse.Namespace) -> int:
             "seconds": round(result.seconds, 1),
             "poses_per_minute": round(rate, 1),
             "interrupted": result.interrupted,
+            # how the servos were known to be there: read back ("measured") or not
+            "reached": result.reached,
         }
         summary.update(_sweeps(out, profile))
         print(json.dumps(summary), flush=True)
@@ -127,8 +131,13 @@ def cmd_learn(args: argparse.Namespace) -> int:
             return 130
     if profile_out is None:
         return 0
-    print(fit_session(read_session(out), profile, profile_out))
+    session = read_session(out)
+    print(fit_session(session, profile, profile_out, partial=args.partial, plan=plan.options))
     return 0
+
+
+def _plan_options(args: argparse.Namespace, seed: int = 0) -> PlanOptions:
+    return PlanOptions(seed=seed, sweep_steps=args.sweep_steps, neutral_every=args.neutral_every)
 
 
 def _sweeps(out: Path, profile: Profile) -> dict[str, Any]:
@@ -145,18 +154,47 @@ def _sweeps(out: Path, profile: Profile) -> dict[str, Any]:
     }
 
 
-def fit_session(session: Session, profile: Profile, out: Path) -> str:
-    """Read the session's poses into a BabbleSet, fit it and write the learned profile."""
+def fit_session(
+    session: Session,
+    profile: Profile,
+    out: Path,
+    *,
+    partial: bool = False,
+    plan: PlanOptions | None = None,
+) -> str:
+    """Read the session's poses into a BabbleSet, fit it and write the learned profile.
+
+    A session that has not yet swept every servo is a :class:`LearnError` naming them and how
+    to finish (``plan``: the babbling's options, for the poses the sweeps take), unless
+    ``partial``."""
     if not session.samples:
         raise LearnError(f"{session.path} holds no babbling poses to fit")
-    return fit(babble_set(session.samples, profile), profile, out)
+    try:
+        return fit(babble_set(session.samples, profile), profile, out, partial=partial)
+    except UnsweptError as exc:
+        sweeps = Plan(len(profile.servos), plan or PlanOptions()).sweep_poses
+        raise LearnError(
+            f"{session.path}: {exc}: resume the babbling to sweep them (the same learn "
+            f"command with --out {session.path} and --poses {sweeps} or more), or fit what it "
+            f"holds with --partial (they stay at neutral)"
+        ) from None
 
 
-def fit(babble: BabbleSet, profile: Profile, out: Path) -> str:
+def fit(babble: BabbleSet, profile: Profile, out: Path, *, partial: bool = False) -> str:
     """Fit the self-model on ``babble``, write the learned profile to ``out`` (atomically) and
     return the held-out report to print: the one call into the fitting
-    (:mod:`facesynth.app.learn.fit`, which needs the ``learn`` extra)."""
-    learned = fit_learned_profile(babble, profile)
+    (:mod:`facesynth.app.learn.fit`, which needs the ``learn`` extra). ``partial``: fit even
+    if some servos were not swept yet (kept at neutral; logged)."""
+    learned = fit_learned_profile(babble, profile, FitOptions(partial=partial))
+    report = learned.learned.report if learned.learned is not None else None
+    if report is not None and (report.not_exercised or report.one_way):
+        log.warning(
+            "--partial: %d of %d servos not swept yet, kept at neutral in %s: %s",
+            len(report.not_exercised) + len(report.one_way),
+            len(profile.servos),
+            out,
+            ", ".join([*report.not_exercised, *report.one_way]),
+        )
     # The learned profile is named after its file (robot.learned: robot), not the hardware's.
     name = out.name.removesuffix(".learned") or profile.name
     learned = msgspec.structs.replace(learned, name=name)

@@ -20,6 +20,7 @@ publish. Phases:
 
 from __future__ import annotations
 
+import collections
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
@@ -71,6 +72,8 @@ class Sample:
     reported: dict[str, float]
     face: Settled
     t_ns: int
+    #: Where the servos read themselves back when the pose settled (empty: not read back).
+    measured: dict[str, float] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -116,6 +119,10 @@ class Babbler:
         self.at_neutral = False
         self.commanded = dict(self.neutral)
         self.reported: dict[str, float] | None = None
+        #: The servos' read-back positions in C's last report (empty: the driver reads none).
+        self.measured: dict[str, float] = {}
+        #: Poses taken, by how the servos were known to be there (Settled.reached).
+        self.reached: collections.Counter[str] = collections.Counter()
         self._goal = dict(self.neutral)
         self._last_ns: int | None = None
         self._reached_ns: int | None = None
@@ -131,11 +138,18 @@ class Babbler:
 
     # --- what the bus says -------------------------------------------------------------------
 
-    def servos(self, positions: Mapping[str, float], now_ns: int) -> None:
-        """Where the control interface reports the servos (``…/servo_state``)."""
+    def servos(
+        self,
+        positions: Mapping[str, float],
+        now_ns: int,
+        measured: Mapping[str, float] | None = None,
+    ) -> None:
+        """Where the control interface reports the servos (``…/servo_state``): commanded, and
+        ``measured`` where its driver reads them back (poses then settle on those)."""
         self.reported = dict(positions)
+        self.measured = dict(measured or {})
         if self._settle is not None:
-            self._settle.servos(positions, now_ns)
+            self._settle.servos(positions, now_ns, self.measured)
         if self._reached_ns is None and self._near(positions, self._goal):
             self._reached_ns = now_ns
 
@@ -222,7 +236,10 @@ class Babbler:
         face = settle.check(now_ns)
         if face is None:
             return None
-        sample = Sample(pose, dict(settle.target), dict(self.reported or {}), face, now_ns)
+        sample = Sample(
+            pose, dict(settle.target), dict(self.reported or {}), face, now_ns, dict(self.measured)
+        )
+        self.reached[face.reached] += 1
         self.taken += 1
         self.index += 1
         self._retries = 0
@@ -239,7 +256,7 @@ class Babbler:
         self._go(target)
         self._settle = Settle(target, now_ns, self.options.settle)
         if self.reported is not None:
-            self._settle.servos(self.reported, now_ns)
+            self._settle.servos(self.reported, now_ns, self.measured)
 
     def _pause(self) -> None:
         self.phase = "paused"

@@ -14,8 +14,12 @@ hardware profile it was babbled with and returns that profile with its
 2. **Dead servos.** A forward model (ridge on degree-2 polynomial features of every servo's
    normalized command ``u``) predicts the standardized inputs; a servo whose full travel
    (``u`` = ±1, the others at neutral) moves no input by ``dead_effect`` standard deviations is
-   dead: its command moved nothing the camera sees, so it stays at neutral. Servos of the
-   profile that the babbling never commanded are dead too.
+   dead: its command moved nothing the camera sees, so it stays at neutral. A servo the
+   babbling has not moved both ways from neutral (a session stopped before its sweeps) is not
+   dead but *not exercised* (:mod:`facesynth.app.learn.coverage`): the fit refuses such a
+   session (:class:`~facesynth.app.learn.coverage.UnsweptError`) unless ``partial``, which
+   keeps those servos at neutral and names them in the report. Held-out errors cover the
+   fitted servos only.
 3. **Inverse model.** Candidates (ridge on degree-2 polynomial features with a per-servo
    penalty by generalized cross-validation, k nearest neighbours, a small tanh MLP at each
    penalty of ``mlp_alphas``; fitted on one BLAS thread: on these small matrices more threads
@@ -50,6 +54,7 @@ from typing import Any
 import msgspec
 import numpy as np
 
+from facesynth.app.learn.coverage import UnsweptError, coverage
 from facesynth.app.learn.dataset import BabbleSet
 from facesynth.app.learn.report import format_report
 from facesynth.app.learn.responsive import clip_commands, responsive_range
@@ -94,6 +99,8 @@ class FitOptions:
     #: 0.02, 0.53-0.54 with priors of 0.5-5 (6 steps; 3 or 12 steps: no better).
     plan_steps: int = 6
     plan_prior: float = 1.0
+    #: Fit even when some servos were not moved both ways (they stay at neutral).
+    partial: bool = False
 
 
 def _sklearn() -> Any:
@@ -297,7 +304,9 @@ def fit_learned_profile(
     """``profile`` (a hardware profile) with the mapping fitted on ``babble`` (see the module).
 
     Raises :class:`FitError` when the data cannot give a model (no moving feature, too few
-    poses, servos the profile lacks, no servo moving the face).
+    poses, servos the profile lacks, no servo moving the face), and
+    :class:`~facesynth.app.learn.coverage.UnsweptError` when some servo was not moved both
+    ways from neutral (unless ``options.partial``).
     """
     options = options or FitOptions()
     _sklearn()
@@ -318,13 +327,17 @@ def _fit(babble: BabbleSet, profile: Profile, options: FitOptions) -> Profile:
     unknown_models = [c for c in options.candidates if c not in FITTERS]
     if unknown_models or not options.candidates:
         raise FitError(f"unknown models {unknown_models} (known: {', '.join(FITTERS)})")
+    cover = coverage(babble, profile)
+    if cover.unswept and not options.partial:
+        raise UnsweptError(cover)
     data = _choose_inputs(babble, babble.normalized(profile), options)
     mean = data.t.mean(axis=0)
     scale = data.t.std(axis=0)
     scale = np.where(scale > 0, scale, 1.0)
     x = (data.t - mean) / scale
-    dead_mask = _dead(x, data.u, options)
     servos = [str(name) for name in babble.servos]  # numpy strings do not encode
+    # kept at neutral: dead (moved nothing), and not swept yet (only with options.partial)
+    dead_mask = _dead(x, data.u, options) | np.isin(servos, cover.unswept)
     live = [s for s, d in zip(servos, dead_mask, strict=True) if not d]
     dead = [s for s in names if s not in live]
     if not live:
@@ -352,6 +365,8 @@ def _fit(babble: BabbleSet, profile: Profile, options: FitOptions) -> Profile:
     low = np.minimum(np.percentile(data.t, 1, axis=0), 0.0)
     high = np.maximum(np.percentile(data.t, 99, axis=0), 0.0)
     notes = data.notes + [f"{name} fitted in {seconds[name]:.1f} s" for name in seconds]
+    if cover.unswept:
+        notes.insert(0, f"partial fit: {UnsweptError(cover)} (kept at neutral)")
     report = Report(
         model=best,
         servo_error={s: float(e) for s, e in zip(live, raw_errors[best], strict=True)},
@@ -364,6 +379,8 @@ def _fit(babble: BabbleSet, profile: Profile, options: FitOptions) -> Profile:
         fit_seconds=round(time.perf_counter() - started, 3),
         created=datetime.now(UTC).isoformat(timespec="seconds"),
         notes=notes,
+        not_exercised=[str(name) for name in cover.not_exercised],
+        one_way=[str(name) for name in cover.one_way],
     )
     learned = Learned(
         inputs=data.inputs,

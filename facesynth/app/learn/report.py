@@ -8,7 +8,9 @@ from facesynth.runtime.profiles.learned import command_range
 
 def format_report(profile: Profile) -> str:
     """The fit's report: the models compared, then each servo's held-out command error, raw
-    and (where the file has it) effective; issue 17's goal is measured on the effective one."""
+    and (where the file has it) effective; issue 17's goal is measured on the effective one.
+    The errors cover the fitted servos only (``over N of M servos``); the others are listed as
+    dead (swept, moved nothing), not exercised (never moved) or swept one way only."""
     if profile.learned is None:
         return f"profile {profile.name} is not learned"
     learned, report = profile.learned, profile.learned.report
@@ -17,7 +19,8 @@ def format_report(profile: Profile) -> str:
         f"{profile.name}: {report.model} from {len(learned.inputs)} inputs, "
         f"{report.samples} samples ({report.held_out} held out, {report.dropped} dropped), "
         f"fitted in {report.fit_seconds:.1f} s",
-        "held-out command error (fraction of range), raw: "
+        f"held-out command error (fraction of range) over {len(learned.outputs)} of "
+        f"{len(profile.servos)} servos, raw: "
         + ", ".join(f"{name} {error:.3f}" for name, error in report.candidates.items()),
     ]
     if report.effective_candidates:
@@ -33,6 +36,12 @@ def format_report(profile: Profile) -> str:
             line += f"  responsive {low[index] + 0.0:+.2f} .. {high[index] + 0.0:+.2f}"
         lines.append(line)
     for name in learned.dead:
-        lines.append(f"  {name:<20} dead (kept at neutral)")
+        if name in report.not_exercised:
+            state = "not exercised: never moved while babbling"
+        elif name in report.one_way:
+            state = "swept one way only"
+        else:
+            state = "dead"
+        lines.append(f"  {name:<20} {state} (kept at neutral)")
     lines.extend(f"note: {note}" for note in report.notes)
     return "\n".join(lines)

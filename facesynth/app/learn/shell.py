@@ -25,7 +25,7 @@ import secrets
 import signal
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 from facesynth.app.chain import node_context
@@ -68,6 +68,9 @@ class LearnResult:
     seconds: float
     interrupted: bool
     recorded: int
+    #: Poses taken by how the servos were known to be there: ``commanded`` (a fixed wait),
+    #: ``measured`` (read back), ``measured timeout`` (read back, not there in time).
+    reached: dict[str, int] = field(default_factory=dict)
 
 
 class BabbleShell:
@@ -87,6 +90,8 @@ class BabbleShell:
         self.on_neutral = on_neutral
         self.commands = ServoSender()
         self.samples = 0
+        #: Whether C's reports carry read-back positions (said once in the log).
+        self.reading = False
         self._started_ns = 0
 
     async def serve(self, ctx: ServiceContext) -> None:
@@ -151,7 +156,17 @@ class BabbleShell:
         async for sample in subscription:
             state = sample.message
             if isinstance(state, ServoCommands) and state.profile == self.babbler.profile.name:
-                self.babbler.servos(state.positions, ctx.clock.monotonic_ns())
+                if state.measured and not self.reading:
+                    self.reading = True
+                    settle = self.babbler.options.settle
+                    ctx.log.info(
+                        "the driver reads the servos back: poses settle on measured positions "
+                        "(within %g us of the command, or %g s after C applied it), not on a "
+                        "fixed wait",
+                        settle.measured_tol_us,
+                        settle.measured_timeout_s,
+                    )
+                self.babbler.servos(state.positions, ctx.clock.monotonic_ns(), state.measured)
 
     async def _follow_features(self, subscription: Subscription, ctx: ServiceContext) -> None:
         async for sample in subscription:
@@ -178,6 +193,8 @@ class BabbleShell:
             frames=sample.face.frames,
             settled=sample.face.settled,
             seed=self.seed,
+            measured=sample.measured,
+            reached=sample.face.reached,
         )
         ctx.bus.publish(keys.stage_key(ctx.rig, "babble"), codec.encode(message))
         self.samples += 1
@@ -278,4 +295,5 @@ async def babble(
         seconds=time.monotonic() - started,
         interrupted=interrupted,
         recorded=recorder.recorded[keys.stage_key(rig, "babble")],
+        reached=dict(babbler.reached),
     )

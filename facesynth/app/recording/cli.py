@@ -227,6 +227,17 @@ def add_convert_parser(sub: Any) -> None:
         "--size", default="640x480", help="landmarks: image size WIDTHxHEIGHT (default 640x480)"
     )
     p.add_argument("--overwrite", action="store_true", help="replace an existing .mcap output")
+    p.add_argument(
+        "--to",
+        choices=("rosbag2",),
+        help="rosbag2: a recording to a rosbag2 folder OUTPUT/ that ROS 2 tools play "
+        "(JointState, CompressedImage, Float32MultiArray; MCAP, CDR)",
+    )
+    p.add_argument(
+        "--profile",
+        help="--to rosbag2: the profile whose angle maps give the radians (default: the one "
+        "the commands name)",
+    )
 
 
 def _zenoh(args: argparse.Namespace) -> Any:
@@ -334,7 +345,12 @@ def cmd_replay(args: argparse.Namespace) -> int:
     from facesynth.app.chain import run_single
     from facesynth.app.graph import wait_for_problem
     from facesynth.app.recording.reader import Recording
-    from facesynth.app.recording.replay import Replayer, ReplayOptionError, ReplayOptions
+    from facesynth.app.recording.replay import (
+        Replayer,
+        ReplayLinkError,
+        ReplayOptionError,
+        ReplayOptions,
+    )
     from facesynth.runtime.service import run_async
 
     problem = wait_for_problem(endpoints(args.wait_for))
@@ -373,8 +389,16 @@ def cmd_replay(args: argparse.Namespace) -> int:
         "stalls": replayer.stalls,
         **chain,
     }
-    print(json.dumps(summary))
-    return 130 if outcome is None else 0
+    if replayer.link.losses:
+        summary["sent_without_router"] = replayer.link.unlinked
+        summary["router_losses"] = replayer.link.losses
+    print(json.dumps(summary), flush=True)
+    if outcome is None:
+        return 130  # interrupted: the summary says what the lost router cost, if anything
+    problem = replayer.link.problem(replayer.sent)
+    if problem is not None:
+        raise ReplayLinkError(problem)
+    return 0
 
 
 def cmd_inspect(args: argparse.Namespace) -> int:
@@ -417,6 +441,17 @@ def cmd_convert(args: argparse.Namespace) -> int:
     from facesynth.app.recording.reader import Recording
 
     source, target = Path(args.input), Path(args.output)
+    if args.to == "rosbag2":
+        from facesynth.app.recording.rosbag2 import export_rosbag2
+
+        if source.suffix.lower() != ".mcap":
+            raise ConvertError(f"{source}: --to rosbag2 converts a recording (.mcap)")
+        with Recording(source) as recording:
+            counts = export_rosbag2(
+                recording, target, profile=args.profile, overwrite=args.overwrite
+            )
+        print(json.dumps({"input": str(source), "output": str(target), "topics": counts}))
+        return 0
     if source.suffix.lower() == ".mcap":
         exporters = {".jsonl": export_jsonl, ".csv": export_csv}
         exporter = exporters.get(target.suffix.lower())

@@ -10,6 +10,11 @@ Timing: message ``n`` is due at ``start + (log_time(n) - log_time(0)) / speed``,
 pacer on the recording's receipt clock. ``fast`` ignores the clock and keeps at most ``window``
 messages in flight ahead of the last servo command seen (``…/servo_state`` when a control
 interface runs, else ``…/servo_commands``): nothing is lost, however slow the chain.
+
+The router: ``published`` counts only the messages published while the session had its router
+(a message published with no router reaches nobody; the bus's :class:`RouterLink` says when);
+:class:`ReplayLinkTally` keeps that count and says, in one line, how a lost router cut the
+replay short.
 """
 
 from __future__ import annotations
@@ -26,6 +31,7 @@ from facesynth.app.recording import REPLAYABLE
 from facesynth.app.recording.layout import key_kind, message_type
 from facesynth.app.recording.reader import Recording
 from facesynth.runtime import codec, keys
+from facesynth.runtime.bus.link import LinkFigures
 from facesynth.runtime.service import ServiceContext
 from schemas.messages import ServoCommands
 from services.sensor.core import Pacer
@@ -35,6 +41,67 @@ from services.sensor.service import wait_for_services
 
 class ReplayOptionError(ValueError):
     """Replay options that do not fit the recording."""
+
+
+class ReplayLinkError(ValueError):
+    """The replay lost its router: some messages reached nobody (the line says how many)."""
+
+
+@dataclass
+class ReplayLinkTally:
+    """What a replay's link to its router did to its messages (pure: link figures in).
+
+    A message counts as delivered when it is published while the session has a router, or on
+    a session that never had one (a peer with no router: nothing to lose); one published after
+    the router was lost, before it is back, reached nobody.
+    """
+
+    #: Messages published while linked (what ``published`` reports).
+    delivered: int = 0
+    #: Messages published with no router (lost).
+    unlinked: int = 0
+    #: Routers lost since the replay started.
+    losses: int = 0
+    #: Seconds into the replay at which the router was first found lost.
+    lost_at_s: float | None = None
+    _losses_at_start: int | None = None
+
+    def start(self, link: LinkFigures | None) -> None:
+        """The link as the replay starts (earlier losses are not this replay's)."""
+        self._losses_at_start = link.losses if link is not None else 0
+
+    def published(self, link: LinkFigures | None, elapsed_s: float) -> bool:
+        """Count one message published with ``link`` as it was; True when it was delivered."""
+        self.observe(link, elapsed_s)
+        if link is None or link.connected or link.losses == 0:
+            self.delivered += 1
+            return True
+        self.unlinked += 1
+        return False
+
+    def observe(self, link: LinkFigures | None, elapsed_s: float) -> None:
+        """Note the link's losses at ``elapsed_s`` seconds into the replay."""
+        if link is None:
+            return
+        if self._losses_at_start is None:
+            self._losses_at_start = link.losses
+        losses = link.losses - self._losses_at_start
+        if losses > self.losses:
+            self.losses = losses
+            if self.lost_at_s is None:
+                self.lost_at_s = max(0.0, elapsed_s - link.down_for_s)
+
+    def problem(self, total: int) -> str | None:
+        """None when the router stayed, else the error line's text (``total``: messages sent)."""
+        if not self.losses:
+            return None
+        at = f"{self.lost_at_s:.1f} s into the replay" if self.lost_at_s is not None else ""
+        times = "" if self.losses == 1 else f" ({self.losses} times)"
+        return (
+            f"lost the Zenoh router {at}{times}: {self.delivered} of {total} messages were "
+            f"published while linked, {self.unlinked} with no router reached nobody - "
+            "is the router still running? (replay again once it is back)"
+        )
 
 
 class _Seq(msgspec.Struct):
@@ -92,17 +159,24 @@ def choose_stage(recording: Recording, stage: str | None) -> str:
 
 
 class Replayer:
-    """Publishes one stage of a recording on ``ctx``'s rig; ``published`` counts messages."""
+    """Publishes one stage of a recording on ``ctx``'s rig; ``published`` counts the messages
+    published while linked to the router, ``link`` how the router fared."""
 
     def __init__(self, recording: Recording, options: ReplayOptions) -> None:
         self.recording = recording
         self.options = options
         self.stage: keys.Stage = choose_stage(recording, options.stage)  # type: ignore[assignment]
         self.sources = [key for key in recording.bus_keys() if key_kind(key) == self.stage]
-        self.published = 0
+        self.sent = 0
+        self.link = ReplayLinkTally()
         self.last_seq = -1
         self.credit = CreditGate(options.window, options.ack_timeout, "message")
         self._sent = 0
+
+    @property
+    def published(self) -> int:
+        """Messages published while linked to the router (all of them when it stayed)."""
+        return self.link.delivered
 
     @property
     def stalls(self) -> int:
@@ -152,6 +226,8 @@ class Replayer:
             ctx.log.info("--fast: at most %d messages ahead of %s", options.window, ack_stage)
             ack_task = asyncio.create_task(self.credit.watch(ctx, ack_stage))
         pacer = Pacer()
+        started = time.monotonic()
+        self.link.start(ctx.bus.link())
         first_log: int | None = None
         ctx.log.info(
             "replaying %s (%d messages) of %s on %s",
@@ -177,14 +253,16 @@ class Replayer:
                     payload = self._send_as_sender(payload, ctx)
                 ctx.stats.received += 1
                 ctx.bus.publish(target, payload)
-                ctx.stats.record_published(0)
-                self.published += 1
+                self.sent += 1
+                if self.link.published(ctx.bus.link(), time.monotonic() - started):
+                    ctx.stats.record_published(0)  # the stats count what reached the router
                 if seq is not None:
                     self.last_seq = max(self.last_seq, seq)
                 await asyncio.sleep(0)
             if options.fast and self.last_seq >= 0:
                 await self.credit.wait(ctx, self.last_seq + self.credit.flow.window)
         finally:
+            self.link.observe(ctx.bus.link(), time.monotonic() - started)
             if ack_task is not None:
                 ack_task.cancel()
                 with contextlib.suppress(asyncio.CancelledError):

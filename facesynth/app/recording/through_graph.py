@@ -70,7 +70,9 @@ def replay_through_graph(
     replay_part = StageParts("replay", "replay", replayer.serve, replayer)
 
     async def main() -> ChainResult:
-        session, locators = await asyncio.to_thread(open_embedded, listen, options)
+        session, locators = await asyncio.to_thread(
+            open_embedded, listen, options, fallback=not args.listen
+        )
         bus = ZenohBus(session)
         log.info("embedded Zenoh router on %s (rig %s)", ", ".join(locators), rig)
         freeze_startup_objects()

@@ -13,6 +13,7 @@ robot's camera | the bars of what C sent it (:mod:`facesynth.app.render.robot`).
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -40,7 +41,9 @@ from facesynth.app.wiring import (
 from services.sensor.sources.video import VideoConfig
 from services.translator.core import Translator
 
-__all__ = ["RenderError", "render_graph"]
+__all__ = ["RenderError", "render_graph", "render_run", "video_input"]
+
+log = logging.getLogger("facesynth.render")
 
 FACE_PROFILE = "virtual"
 #: The face when the points backend gives the blendshapes (the ``full`` tracker model, the
@@ -58,6 +61,58 @@ def _one(graph: Graph, stage: str) -> tuple[str, Any]:
     return next(iter(nodes.items()))
 
 
+def video_input(
+    graph: Graph, configs: dict[str, msgspec.Struct | None]
+) -> tuple[SensorNode, VideoConfig]:
+    """The graph's sensor node and the video it plays, or :class:`RenderError` when its input
+    cannot be rendered (a camera, images, generated ticks, a looping video): ``run --render``
+    checks this before the chain starts, not after it."""
+    sensor_name, sensor = _one(graph, "sensor")
+    assert isinstance(sensor, SensorNode)
+    source_config = configs.get(sensor_name) or plugin_config(sensor, f"node {sensor_name}")
+    if not isinstance(source_config, VideoConfig):
+        raise RenderError("the renderer needs a video file as input (--video PATH)")
+    if source_config.loop:
+        raise RenderError("a looping video never ends: render it without --loop")
+    return sensor, source_config
+
+
+def render_run(
+    graph: Graph,
+    configs: dict[str, msgspec.Struct | None],
+    out: str | Path,
+    *,
+    frames: int,
+    interrupted: bool,
+) -> dict[str, Any]:
+    """``run --render``: the video of the run's input once the run has ended.
+
+    After Ctrl-C, the video of the ``frames`` frames the sensor played before it: the input is
+    a file still on disk and the renderer gives one output frame per input frame, so they are
+    the frames the chain was shown. When nothing was played, or Ctrl-C comes again while
+    rendering, the render is skipped with one line saying why (no file is left behind), and the
+    summary's ``render`` is ``{"skipped": WHY}``.
+    """
+    if not interrupted:
+        return render_graph(graph, configs, out)
+    if frames <= 0:
+        return _skipped(out, "interrupted before the first frame was played")
+    try:  # the notice too: a Ctrl-C that lands while it is written is Ctrl-C again
+        log.warning(
+            "interrupted after %d frames: rendering them to %s (Ctrl-C again to skip)",
+            frames,
+            out,
+        )
+        return render_graph(graph, configs, out, max_frames=frames)
+    except KeyboardInterrupt:
+        return _skipped(out, "interrupted again while rendering")
+
+
+def _skipped(out: str | Path, why: str) -> dict[str, Any]:
+    log.warning("render skipped: %s (%s not written)", why, out)
+    return {"skipped": why}
+
+
 def render_graph(
     graph: Graph,
     configs: dict[str, msgspec.Struct | None],
@@ -73,13 +128,7 @@ def render_graph(
     """Render the graph's input video side by side with the virtual face (and bars), or with
     the camera of the simulated head ``robot_head`` (opened by ``open_head``)."""
     check_render_out(out)
-    sensor_name, sensor = _one(graph, "sensor")
-    assert isinstance(sensor, SensorNode)
-    source_config = configs.get(sensor_name) or plugin_config(sensor, f"node {sensor_name}")
-    if not isinstance(source_config, VideoConfig):
-        raise RenderError("the renderer needs a video file as input (--video PATH)")
-    if source_config.loop:
-        raise RenderError("a looping video never ends: render it without --loop")
+    sensor, source_config = video_input(graph, configs)
     points_name, points = _one(graph, "points")
     backend_config = configs.get(points_name) or plugin_config(points, f"node {points_name}")
     assert backend_config is not None

@@ -172,9 +172,15 @@ def open_session(options: ZenohOptions) -> zenoh.Session:
             where = ", ".join(options.connect or options.listen) or "the configured endpoints"
             hint = ""
             if options.mode == "client":
+                waited = options.overrides.get("connect/timeout_ms")
+                within = (
+                    f"none answered within {waited / 1000:g} s, --router-timeout S waits longer; "
+                    if isinstance(waited, int | float) and waited > 0
+                    else ""
+                )
                 hint = (
-                    " - is a router running there? (start one with: facesynth router; or "
-                    "--connect another)"
+                    f" - is a router running there? ({within}start one with: facesynth router; "
+                    "or --connect another)"
                 )
         raise ZenohConfigError(
             f"cannot open a Zenoh {mode} session ({where}): {cause}{hint}"

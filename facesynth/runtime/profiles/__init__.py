@@ -63,6 +63,7 @@ from .loading import (
     resolve_profile,
 )
 from .model import (
+    AngleMap,
     ExclusiveRule,
     Profile,
     Safety,
@@ -78,6 +79,7 @@ __all__ = [
     "FORMAT_REFERENCE",
     "PACKAGE_DIR",
     "PROFILES",
+    "AngleMap",
     "ExclusiveRule",
     "Learned",
     "Profile",

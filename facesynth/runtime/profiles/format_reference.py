@@ -32,6 +32,14 @@ deadband = 0.0                 # >= 0, source units (IOD for points, scaled for 
 max_speed = 2500               # µs/s, >= 0, 0 = unlimited
 max_accel = 30000              # µs/s², >= 0, 0 = unlimited
 smoothing = { beta = 0.5 }     # per-servo override of [smoothing] fields (enabled too)
+angle = { min_us = 500, max_us = 2500, min_deg = 0, max_deg = 180 }  # pulse -> joint angle,
+                               # linear (the default; min_us < max_us, min_deg != max_deg):
+                               # what the ros2 driver sends, in radians
+bus_id = 1                     # smart bus servos (dynamixel, feetech): the servo's id,
+                               # 0..252, unique (default channel + 1)
+model = "XL430-W250"           # the model the bus must answer with (default: any it knows)
+native_min = 1024              # native positions at min_us / max_us, both or neither
+native_max = 3072              # (default: through angle, 1500 us = the model's centre)
 
 [[servos]]
 name = "brow_raise"
@@ -67,6 +75,10 @@ min_us = 1000                  # written by facesynth learn; it ignores reversed
 neutral_us = 1500              # model knows the wiring)
 max_us = 2000
 max_speed = 3000
+
+[bus]                          # smart servo bus (dynamixel, feetech); their options win
+baud = 1000000                 # the bus's baud rate (default: the driver's, see its --help)
+protocol = 2                   # Dynamixel protocol 1 (AX, MX) or 2 (X); default from the models
 
 [[safety.exclusive]]           # never two of these servos beyond threshold of their travel
 servos = ["brow_raise", "brow_lower"]

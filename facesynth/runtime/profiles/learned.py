@@ -105,6 +105,11 @@ class Report(msgspec.Struct, forbid_unknown_fields=True, kw_only=True):
     give the same face are the same command to a camera. Issue 17's goal (held-out command
     error <= 0.05 of range) is measured against the effective error; the raw error is kept
     alongside (it counts travel that moves nothing, which no camera-based learner can learn).
+
+    Every error covers the fitted servos (``Learned.outputs``) only. ``not_exercised`` lists
+    the servos the babbling never moved and ``one_way`` those it moved to one side of neutral
+    only (a fit of a session stopped before their sweeps, ``facesynth learn --partial``): both
+    are kept at neutral with the dead ones (``Learned.dead``), but nothing is known of them.
     """
 
     model: str
@@ -118,6 +123,8 @@ class Report(msgspec.Struct, forbid_unknown_fields=True, kw_only=True):
     notes: list[str] = []
     effective_error: dict[str, float] = {}
     effective_candidates: dict[str, float] = {}
+    not_exercised: list[str] = []
+    one_way: list[str] = []
 
 
 class Learned(msgspec.Struct, forbid_unknown_fields=True, kw_only=True):
@@ -329,7 +336,9 @@ def describe_learned(learned: Learned) -> str:
     effective = [report.effective_error[n] for n in learned.outputs if n in report.effective_error]
     if effective:
         error += f", effective {np.mean(effective):.3f} (worst {max(effective):.3f})"
+    unknown = len(report.not_exercised) + len(report.one_way)
+    kept = f"{len(learned.dead) - unknown} dead" + (f", {unknown} not swept" if unknown else "")
     return (
         f"learned: {report.model} from {len(learned.inputs)} inputs to {len(learned.outputs)} "
-        f"servos ({len(learned.dead)} dead){error}, {report.samples} samples"
+        f"servos ({kept}){error}, {report.samples} samples"
     )

@@ -9,6 +9,7 @@ Lookup order for a name: a path to an existing file; ``$FACESYNTH_PROFILES``;
 from __future__ import annotations
 
 import os
+import re
 import tomllib
 from pathlib import Path
 from typing import Any
@@ -96,7 +97,7 @@ def parse_profile(text: str, source: str = "<profile>") -> Profile:
     try:
         profile = msgspec.convert(data, Profile)
     except msgspec.ValidationError as exc:
-        raise _error(source, _structure_problems(data, exc)) from None
+        raise _error(source, _structure_problems(data, exc, text)) from None
     problems = validate_profile(profile)
     if problems:
         raise _error(source, problems)
@@ -115,13 +116,50 @@ def _at(message: str, path: str) -> str:
     return f"{message} - at `{path}`"
 
 
-def _structure_problems(data: dict[str, Any], whole: msgspec.ValidationError) -> list[str]:
+_HEADER = re.compile(r"^\s*\[")
+_SERVOS_KEY = re.compile(r"""^\s*(servos|"servos"|'servos')\s*[.=]""")
+_SERVOS_TABLE = re.compile(r"""^\s*\[\s*(servos|"servos"|'servos')\s*[.\]]""")
+
+
+def _servos_line(text: str) -> int | None:
+    """The line (1-based) where ``servos`` is first made a table: a ``[servos.NAME]`` or
+    ``[servos]`` header, or a ``servos = {…}`` / ``servos.NAME…`` key before any header."""
+    at_root = True
+    for number, line in enumerate(text.splitlines(), start=1):
+        if _SERVOS_TABLE.match(line) and not line.lstrip().startswith("[["):
+            return number
+        if _HEADER.match(line):
+            at_root = False
+        elif at_root and _SERVOS_KEY.match(line):
+            return number
+    return None
+
+
+def _servos_as_table(text: str, servos: dict[str, Any]) -> str:
+    """The problem of a profile whose servos are a table (``[servos.jaw]``), not an array of
+    tables (``[[servos]]``), with the line where it starts."""
+    tables = [name for name, value in servos.items() if isinstance(value, dict)]
+    shown = f"[servos.{tables[0]}]" if tables else "[servos]"
+    number = _servos_line(text)
+    where = f"line {number}: " if number is not None else ""
+    return (
+        f"{where}servos are written as [[servos]] tables (an array of tables, one per servo, "
+        f'each with its name = "…"), not as {shown} - at `$.servos`'
+    )
+
+
+def _structure_problems(
+    data: dict[str, Any], whole: msgspec.ValidationError, text: str
+) -> list[str]:
     """Every type/shape error of the profile: the top level and each servo converted apart."""
     problems: list[str] = []
     servos = data.get("servos")
     top = dict(data)
     if isinstance(servos, list):
         top["servos"] = []
+    elif isinstance(servos, dict):
+        top["servos"] = []
+        problems.append(_servos_as_table(text, servos))
     try:
         msgspec.convert(top, Profile)
     except msgspec.ValidationError as exc:

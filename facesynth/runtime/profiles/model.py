@@ -6,6 +6,8 @@ for the format); :mod:`.validation` says whether their values make sense.
 
 from __future__ import annotations
 
+import math
+
 import msgspec
 
 from .learned import Learned
@@ -47,6 +49,33 @@ class Safety(msgspec.Struct, forbid_unknown_fields=True, kw_only=True):
     exclusive: list[ExclusiveRule] = []
 
 
+class AngleMap(msgspec.Struct, forbid_unknown_fields=True, kw_only=True, frozen=True):
+    """How a servo's pulse width stands for its joint angle, for outputs in angles (ROS 2).
+
+    Linear: ``min_us`` is ``min_deg`` and ``max_us`` is ``max_deg``, extended beyond them the
+    same way. The default is a hobby servo's: 500-2500 µs over 0-180°. Positions leave in
+    radians (:meth:`radians`).
+    """
+
+    min_us: float = 500.0
+    max_us: float = 2500.0
+    min_deg: float = 0.0
+    max_deg: float = 180.0
+
+    def radians(self, us: float) -> float:
+        """The joint angle in radians of a pulse of ``us`` microseconds."""
+        fraction = (us - self.min_us) / (self.max_us - self.min_us)
+        return math.radians(self.min_deg + fraction * (self.max_deg - self.min_deg))
+
+
+class Bus(msgspec.Struct, forbid_unknown_fields=True, kw_only=True, frozen=True):
+    """A smart servo bus's settings (``dynamixel``, ``feetech``): the drivers use them unless
+    their own options say otherwise."""
+
+    baud: int | None = None
+    protocol: int | None = None  # Dynamixel: 1 (AX, MX) or 2 (X series); None: from the models
+
+
 class ServoSpec(msgspec.Struct, forbid_unknown_fields=True, kw_only=True):
     """One servo: where it is wired, how far and fast it may move, what drives it."""
 
@@ -69,6 +98,16 @@ class ServoSpec(msgspec.Struct, forbid_unknown_fields=True, kw_only=True):
     max_accel: float = 0.0
     smoothing: SmoothingOverride | None = None
     description: str = ""
+    #: The pulse -> joint angle map for outputs in angles (the ``ros2`` driver).
+    angle: AngleMap = msgspec.field(default_factory=AngleMap)
+    #: Smart bus servos (``dynamixel``, ``feetech``): the servo's id on the bus (None: channel
+    #: + 1, so channels 0..15 are ids 1..16), the model it must answer with ("XL430-W250";
+    #: None: any model the driver knows) and, optionally, the native positions at min_us and
+    #: max_us (both or neither; None: converted through ``angle``, 1500 µs = the centre).
+    bus_id: int | None = None
+    model: str | None = None
+    native_min: int | None = None
+    native_max: int | None = None
 
     def clamp(self, position: float) -> float:
         """``position`` limited to this servo's [min_us, max_us]: the last word on safety."""
@@ -101,6 +140,8 @@ class Profile(msgspec.Struct, forbid_unknown_fields=True, kw_only=True):
     max_command_age_s: float = 0.25
     smoothing: Smoothing | None = None
     safety: Safety = msgspec.field(default_factory=Safety)
+    #: The smart servo bus (``[bus]``); None: the bus drivers' defaults.
+    bus: Bus | None = None
     servos: list[ServoSpec]
     #: The learned mapping of a ``NAME.learned`` file (None for a TOML profile): T drives the
     #: servos with it instead of their sources; C ignores it.

@@ -113,6 +113,39 @@ def _motion_problems(where: str, spec: ServoSpec) -> list[str]:
     return problems
 
 
+def _angle_problems(where: str, spec: ServoSpec) -> list[str]:
+    angle = spec.angle
+    if not _finite(angle.min_us, angle.max_us, angle.min_deg, angle.max_deg):
+        return [f"{where}: angle: min_us, max_us, min_deg and max_deg must be finite numbers"]
+    if angle.min_us >= angle.max_us:
+        return [f"{where}: angle: needs min_us < max_us (got {angle.min_us:g}, {angle.max_us:g})"]
+    if angle.min_deg == angle.max_deg:
+        return [f"{where}: angle: min_deg and max_deg are both {angle.min_deg:g}"]
+    return []
+
+
+def _bus_problems(where: str, spec: ServoSpec) -> list[str]:
+    problems = []
+    if spec.bus_id is not None and not 0 <= spec.bus_id <= 252:
+        problems.append(f"{where}: bus_id {spec.bus_id} is outside 0..252")
+    if (spec.native_min is None) != (spec.native_max is None):
+        problems.append(f"{where}: give native_min and native_max together")
+    elif (
+        spec.native_min is not None
+        and spec.native_max is not None
+        and (spec.native_min == spec.native_max or min(spec.native_min, spec.native_max) < 0)
+    ):
+        problems.append(
+            f"{where}: native_min and native_max must differ and be >= 0 "
+            f"(got {spec.native_min}, {spec.native_max})"
+        )
+    return problems
+
+
+def _bus_id(spec: ServoSpec) -> int:
+    return spec.bus_id if spec.bus_id is not None else spec.channel + 1
+
+
 def _safety_problems(profile: Profile, names: set[str]) -> list[str]:
     problems = []
     for index, rule in enumerate(profile.safety.exclusive):
@@ -168,6 +201,8 @@ def validate_profile(profile: Profile) -> list[str]:
         channels.add(spec.channel)
         problems.extend(_source_problems(where, spec))
         problems.extend(_motion_problems(where, spec))
+        problems.extend(_angle_problems(where, spec))
+        problems.extend(_bus_problems(where, spec))
         if not _finite(spec.min_us, spec.neutral_us, spec.max_us):
             problems.append(f"{where}: limits and ranges must be finite numbers")
             continue
@@ -179,6 +214,18 @@ def validate_profile(profile: Profile) -> list[str]:
         if spec.min_us < 0:
             problems.append(f"{where}: min_us {spec.min_us:g} is negative")
     problems.extend(_safety_problems(profile, names))
+    seen: dict[int, str] = {}
+    for spec in profile.servos:
+        other = seen.setdefault(_bus_id(spec), spec.name)
+        if other != spec.name:
+            problems.append(
+                f"servo {spec.name!r}: bus id {_bus_id(spec)} is taken by servo {other!r}"
+            )
+    if profile.bus is not None:
+        if profile.bus.baud is not None and profile.bus.baud <= 0:
+            problems.append(f"bus.baud must be a positive baud rate (got {profile.bus.baud})")
+        if profile.bus.protocol not in (None, 1, 2):
+            problems.append(f"bus.protocol must be 1 or 2 (got {profile.bus.protocol})")
     if profile.learned is not None:
         servos = [spec.name for spec in profile.servos]
         problems.extend(f"learned: {p}" for p in learned_problems(profile.learned, servos))

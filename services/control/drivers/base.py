@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import abc
 from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
 from types import TracebackType
 from typing import Any, ClassVar, Self
 
@@ -24,6 +25,38 @@ class DriverConfigError(DriverError, ValueError):
 
 class DeviceUnavailable(DriverError, ValueError):
     """The device cannot be opened or does not answer (bring-up tools fail with this at once)."""
+
+
+@dataclass(frozen=True, slots=True)
+class ServoReading:
+    """What one servo reports of itself (smart bus servos: Dynamixel, Feetech).
+
+    ``position_us`` is the measured position in the profile's microseconds; ``load`` the signed
+    load as a fraction of the servo's maximum (None: not reported); ``temperature_c`` in degrees
+    Celsius (None: not reported); ``fault`` one line on a hardware error the servo reports
+    (overload, overheating, voltage), empty while there is none.
+    """
+
+    position_us: float
+    load: float | None = None
+    temperature_c: float | None = None
+    fault: str = ""
+
+
+@dataclass(frozen=True, slots=True)
+class FoundDevice:
+    """One device a driver found on its bus, for ``facesynth doctor``.
+
+    ``address`` is where it answered (``id 3`` on a servo bus, ``0x40`` on I2C), ``model``
+    what it says it is, ``servo`` the profile's servo that expects it there (empty: none), and
+    ``problem`` one line when it cannot serve that servo (another model than the profile's),
+    empty when it can.
+    """
+
+    address: str
+    model: str
+    servo: str = ""
+    problem: str = ""
 
 
 class ServoDriver(abc.ABC):
@@ -104,6 +137,23 @@ class ServoDriver(abc.ABC):
     @abc.abstractmethod
     async def close(self) -> None:
         """Release the device or file."""
+
+    def readings(self) -> Mapping[str, ServoReading]:
+        """The latest reading of each servo that reports itself, by servo name.
+
+        Empty for drivers that cannot read their servos back (the Maestro, the SSC-32, our
+        firmware, files and pages). Called by the control interface after each send; it must
+        not wait on the device (a driver reads in the background and returns what it has).
+        """
+        return {}
+
+    async def found(self) -> list[FoundDevice]:
+        """What answers on the device's bus (``facesynth doctor``, after ``connect_once(
+        query_only=True)``): ids and models of the servos, or the board itself, read only.
+
+        Drivers without a bus to look at return an empty list (doctor then lists nothing).
+        """
+        return []
 
     def state(self) -> str:
         """One line on the device's state for the service's stats (empty: nothing to say)."""

@@ -10,7 +10,9 @@ session; both skip torn lines and refuse any other broken line with :class:`Reco
 
 from __future__ import annotations
 
+import logging
 import os
+import re
 import socket
 import time
 from collections.abc import Mapping
@@ -26,6 +28,9 @@ from services.control.core import CommandInfo
 from services.control.drivers.base import DriverConfigError, DriverError, ServoDriver
 from services.control.drivers.registry import DRIVERS
 from services.control.drivers.servo_map import ProfileLimits
+
+log = logging.getLogger("facesynth.control")
+_MARKER = re.compile(rb'^\{\s*"session"\s*:')  # a session marker line, not decoded
 
 
 class RecordConfig(
@@ -95,6 +100,7 @@ class RecordDriver(ServoDriver):
             )
         )
         try:
+            earlier = earlier_sessions(self.path)
             self.path.parent.mkdir(parents=True, exist_ok=True)
             self._file = open(self.path, "ab")  # noqa: SIM115 - kept open for the run
             if self._file.tell() > 0 and not _ends_with_newline(self.path):
@@ -105,6 +111,7 @@ class RecordDriver(ServoDriver):
             self._file = None
             raise DriverError(f"cannot open record file {self.path}: {exc}") from None
         self.count = 0
+        log.info("%s", describe_record_file(self.path, earlier))
 
     async def send(self, positions: Mapping[str, float], info: CommandInfo) -> None:
         if self._file is None:
@@ -129,6 +136,44 @@ class RecordDriver(ServoDriver):
         if self._file is not None:
             self._file.close()
             self._file = None
+
+
+def earlier_sessions(path: str | Path) -> int:
+    """How many sessions a record file holds before the next one is appended (0: the file
+    does not exist, is empty or cannot be read: opening it says why). Lines written before
+    session markers existed count as one session; the lines are not decoded."""
+    sessions = 0
+    try:
+        with open(path, "rb") as handle:
+            for number, raw in enumerate(handle):
+                if _MARKER.match(raw):
+                    sessions += 1
+                elif number == 0 and raw.strip():
+                    sessions += 1  # commands before the first marker: a file from before them
+    except OSError:  # none yet, or unreadable: opening it for the session says why
+        return 0
+    return sessions
+
+
+def describe_record_file(path: str | Path, earlier: int) -> str:
+    """One line on what a session did to its record file: created it, or appended to it."""
+    if earlier == 0:
+        return f"record file {path}: created (one session)"
+    s = "" if earlier == 1 else "s"
+    return (
+        f"record file {path}: appended session {earlier + 1} after {earlier} earlier "
+        f"session{s} (a record file is never truncated)"
+    )
+
+
+def record_summary(path: str | Path, earlier: int) -> dict[str, object]:
+    """A run summary's ``record`` entry: the file, ``"created"`` or ``"appended"``, and the
+    sessions it now holds."""
+    return {
+        "out": str(path),
+        "file": "appended" if earlier else "created",
+        "sessions": earlier + 1,
+    }
 
 
 def _ends_with_newline(path: Path) -> bool:

@@ -55,10 +55,19 @@ class FrameSource(abc.ABC):
     #: The ``facesynth`` extra whose packages it imports when built (``facesynth doctor`` checks
     #: that a graph's plugins have theirs); None: no extra.
     needs_extra: ClassVar[str | None] = None
+    #: Whether :meth:`frames` may wait long for the next frame (a ROS 2 subscription): the
+    #: sensor then takes each frame in a worker thread, so its event loop (and, in
+    #: ``facesynth run``, every other stage) keeps running while nothing comes.
+    waits: ClassVar[bool] = False
 
     @abc.abstractmethod
     def frames(self) -> Iterator[tuple[Image, int]]:
         """Yield frames until the source ends."""
+
+    def capture_time_ns(self) -> int | None:
+        """The wall-clock capture time (ns) of the frame :meth:`frames` yielded last, when the
+        source knows it (a ROS 2 image's stamp); None: the sensor stamps it on taking it."""
+        return None
 
     def close(self) -> None:  # noqa: B027 - an optional hook: most sources hold nothing
         """Release the device or file (nothing to release by default)."""

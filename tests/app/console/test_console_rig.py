@@ -73,6 +73,22 @@ def test_a_widened_limit_waits_for_the_save() -> None:
     assert rig.jog(0, 2300.0) == 2300.0
 
 
+def test_read_back_positions_and_faults_are_kept_beside_the_commanded() -> None:
+    rig = _rig()
+    assert rig.read_back(0) == (None, "")  # a board that cannot read its servos back
+    second = PROFILE.servos[1].name
+    rig.report(
+        PROFILE.name,
+        {FIRST.name: 1600.0},
+        measured={FIRST.name: 1588.0, second: 1500.0},
+        faults={second: "overload"},
+    )
+    assert rig.here(0) == 1600.0 and rig.read_back(0) == (1588.0, "")
+    assert rig.read_back(1) == (1500.0, "overload")
+    rig.report(PROFILE.name, {FIRST.name: 1600.0})  # each report replaces the readings
+    assert rig.read_back(0) == (None, "") and rig.read_back(1) == (None, "")
+
+
 def test_reports_of_another_profile_are_ignored() -> None:
     rig = _rig()
     rig.report("paper16", {FIRST.name: 1111.0})

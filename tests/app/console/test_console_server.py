@@ -70,6 +70,36 @@ def _commands(tmp_path: Path) -> list[dict[str, float]]:
     return [row["servos"] for row in rows if "servos" in row]
 
 
+async def test_the_page_shows_measured_positions_and_faults_beside_the_commanded(
+    console: ConsoleServer,
+) -> None:
+    """A servo_state with read-back tables (from a smart-servo driver) reaches the page."""
+    profile = console.session.core.active
+    names = [s.name for s in profile.servos]
+    state = ServoCommands(
+        seq=0,
+        t_capture_ns=0,
+        t_media_ns=0,
+        face=False,
+        profile=profile.name,
+        positions={names[0]: 1600.0},
+        move="report",
+        measured={names[0]: 1587.0},
+        faults={names[1]: "overheating"},
+    )
+    async with aiohttp.ClientSession() as http:
+        page = await _page(http, console)
+        for _ in range(50):  # C's own reports interleave: publish until the page shows ours
+            console.session.bus.publish("facesynth/t/servo_state", codec.encode(state))
+            shown = await page.until(lambda m: m["type"] == "state")
+            if shown["measured"][0] == 1587.0:
+                break
+            await asyncio.sleep(0.02)
+        assert shown["measured"][0] == 1587.0 and shown["faults"][1] == "overheating"
+        assert shown["measured"][1] is None and shown["faults"][0] == ""
+        assert len(shown["measured"]) == len(shown["faults"]) == len(names)
+
+
 async def test_a_jog_moves_a_servo_through_c_and_it_returns_to_neutral(
     console: ConsoleServer, tmp_path: Path
 ) -> None:

@@ -38,3 +38,25 @@ def test_facesynth_folders_are_under_the_users_config(isolated_home: Path) -> No
         "calibrations": isolated_home / ".config" / "facesynth" / "calibrations",
         "profiles": isolated_home / ".config" / "facesynth" / "profiles",
     }
+
+
+def test_the_profiles_folder_label_says_who_writes_there(isolated_home: Path) -> None:
+    """Issue 29: doctor said ``facesynth learn writes here`` while learn writes ``S.learned``
+    beside its session; the label must say what each command really does."""
+    from argparse import Namespace
+
+    from facesynth.app.console.profile_file import save_path
+    from facesynth.app.learn.cli import _profile_out
+
+    label, folder = next((w, p) for w, p in user_folders() if w.startswith("profiles"))
+    assert "facesynth learn writes here" not in label
+    # the console saves a shipped profile into the folder …
+    assert "facesynth console saves shipped profiles here" in label
+    assert save_path(None, "head16").parent == folder
+    # … learn writes beside its session unless --out-profile says otherwise
+    assert "facesynth learn writes beside its session unless --out-profile" in label
+    session = isolated_home / "runs" / "head.mcap"
+    session.parent.mkdir()
+    args = Namespace(out_profile=None)
+    assert _profile_out(args, session) == session.with_suffix(".learned")
+    assert _profile_out(args, session).parent != folder

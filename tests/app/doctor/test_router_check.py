@@ -136,3 +136,70 @@ def test_runs_own_router_sees_a_secured_router_on_its_endpoint(tmp_path: Path) -
     assert result.security == "mutual TLS"
     assert finding.status.value == "fix", finding.line()
     assert finding.text.startswith("something already listens there (mutual TLS)"), finding.text
+
+
+def _taken_by_run_default(locator: str):  # type: ignore[no-untyped-def]
+    """run's default endpoint (no --listen, a graph with a sensor), here the test router's."""
+    from dataclasses import replace
+
+    default = need()
+    assert default.free_port and default.options.listen == ["tcp/127.0.0.1:7447"]
+    return replace(default, options=replace(default.options, listen=[locator]))
+
+
+def test_a_taken_default_endpoint_is_info_run_takes_a_free_port(zenoh_router: str) -> None:
+    """run falls back to a free port when its default endpoint is taken: doctor says so, and
+    nothing is to fix."""
+    taken = _taken_by_run_default(zenoh_router)
+    result = probe_router(taken, timeout=2.0)
+    (finding,) = router_findings(result, taken)
+    assert finding.status.value == "info", finding.line()
+    assert finding.line() == (
+        f"info router   {zenoh_router}: router {result.router} already listens there (plain): "
+        "run's own router will take a free port on 127.0.0.1 instead and log it (commands that "
+        f"look on {zenoh_router} meet the other program; --listen chooses run's endpoint)"
+    )
+
+
+def test_doctor_and_run_agree_on_a_taken_endpoint(zenoh_router: str) -> None:
+    """What doctor says about a taken endpoint is what run's own router does on it: a free port
+    for run's default endpoint, a one-line error for an explicit --listen."""
+    from facesynth.app.chain import open_embedded
+    from facesynth.runtime.bus.zenoh_bus import ZenohConfigError, ZenohOptions
+
+    session, locators = open_embedded([zenoh_router], ZenohOptions(mode="router"))
+    session.close()
+    assert locators and zenoh_router not in locators
+    (info,) = router_findings(probe_router(_taken_by_run_default(zenoh_router)), need())
+    explicit = need("--listen", zenoh_router)
+    assert not explicit.free_port
+    with pytest.raises(ZenohConfigError, match="Address already in use"):
+        open_embedded([zenoh_router], ZenohOptions(mode="router"), fallback=False)
+    (fix,) = router_findings(probe_router(explicit, timeout=2.0), explicit)
+    assert (info.status.value, fix.status.value) == ("info", "fix")
+
+
+def test_a_graph_without_a_sensor_keeps_its_endpoint(tmp_path: Path) -> None:
+    """run serves a sensor-less graph (a robot host) where others look for it: no free port."""
+    from facesynth.app.graph import load_graph
+
+    graph_file = tmp_path / "host.toml"
+    graph_file.write_text('[nodes.c]\nstage = "control"\ndriver = { driver = "record" }\n')
+    args = build_parser().parse_args(["doctor", str(graph_file)])
+    assert not router_need(args, load_graph(str(graph_file), plugins=False)).free_port
+    assert router_need(args).free_port  # the demo graph has a sensor
+
+
+def test_doctor_exits_0_when_runs_default_endpoint_is_taken(
+    zenoh_router: str,
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr("facesynth.app.doctor.command.RUN_LISTEN", zenoh_router)
+    assert main(["doctor", "--log-level", "WARNING"]) == 0
+    out = " ".join(capsys.readouterr().out.split())
+    assert f"info router {zenoh_router}: router " in out
+    assert "run's own router will take a free port on 127.0.0.1 instead" in out
+    assert "graph demo can run on this host" in out

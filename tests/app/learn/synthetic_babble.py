@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from facesynth.app.learn.dataset import BabbleSet
+from facesynth.app.learn.plan import Plan
 from facesynth.runtime.feature_names import BY_NAME, NAMES
 from facesynth.runtime.profiles import Profile, load_profile
 
@@ -106,4 +107,25 @@ def synthetic_babble(n: int = 1500, seed: int = 0, head: SyntheticHead | None = 
         inputs=head.moved + STILL,
         faces=faces,
         kinds=tuple(kinds),
+    )
+
+
+def planned_babble(poses: int, seed: int = 0) -> BabbleSet:
+    """The first ``poses`` poses of the real plan (neutral, sweeps, then random poses) on the
+    synthetic head: what a session stopped at ``poses`` holds."""
+    profile, head = hardware(), SyntheticHead()
+    plan = Plan(len(profile.servos))
+    chosen = [plan.pose(i) for i in range(poses)]
+    u = np.array([pose.u for pose in chosen])
+    rng = np.random.default_rng(seed)
+    faces = np.concatenate([head.features(u), rng.normal(0.0, 0.02, (poses, len(STILL)))], 1)
+    neutral = np.array([s.neutral_us for s in profile.servos])
+    up = np.array([s.max_us - s.neutral_us for s in profile.servos])
+    down = np.array([s.neutral_us - s.min_us for s in profile.servos])
+    return BabbleSet(
+        servos=tuple(s.name for s in profile.servos),
+        commands=neutral + np.where(u >= 0, u * up, u * down),
+        inputs=head.moved + STILL,
+        faces=faces,
+        kinds=tuple(pose.kind for pose in chosen),
     )

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from synthetic_babble import hardware, synthetic_babble
+from synthetic_babble import hardware, planned_babble, synthetic_babble
 
 from facesynth.app.cli import main
 from facesynth.app.learn import cli
@@ -77,3 +77,50 @@ def test_a_complete_session_is_fitted_without_babbling(
     assert first.learned is not None and second.learned is not None
     assert first.learned.inputs == second.learned.inputs
     assert np.array_equal(first.learned.reach_high.data, second.learned.reach_high.data)
+
+
+def test_a_session_not_yet_swept_is_refused_in_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``--poses 40`` on sixteen servos: ten not swept yet. The fit refuses (exit 2, one line
+    naming them and how to finish), after a resumed run and with --fit-only, and writes
+    nothing."""
+    monkeypatch.chdir(tmp_path)
+    _session(tmp_path / "s.mcap", planned_babble(40))
+    runs = [
+        ["learn", "--profile", "head16_hardware", "--out", "s.mcap", "--poses", "40"],
+        ["learn", "--fit-only", "s.mcap"],
+    ]
+    for argv in runs:
+        assert main([*argv, "--video", "x"] if "--out" in argv else argv) == 2
+        err = capsys.readouterr().err
+        assert err.count("facesynth learn: error: ") == 1 and "Traceback" not in err
+        line = err[err.index("facesynth learn: error: ") :].strip()
+        assert "\n" not in line
+        assert line.startswith("facesynth learn: error: s.mcap: 10 of 16 servos not swept yet: ")
+        assert "left_eye_y (one way only), right_inner_cheek, " in line and "jaw" in line
+        assert "--out s.mcap and --poses 100 or more" in line and "--partial" in line
+        assert not (tmp_path / "s.learned").exists()
+
+
+def test_a_partial_fit_writes_and_says_what_is_missing(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], caplog: pytest.LogCaptureFixture
+) -> None:
+    path = tmp_path / "s.mcap"
+    _session(path, planned_babble(40))
+    assert main(["learn", "--fit-only", str(path), "--partial"]) == 0
+    out = capsys.readouterr().out
+    assert f"wrote {tmp_path / 's.learned'}" in out
+    assert " of 16 servos, raw: " in out
+    assert "jaw                  not exercised: never moved while babbling (kept at neutral)" in out
+    assert "note: partial fit: 10 of 16 servos not swept yet" in out
+    assert "--partial: 10 of 16 servos not swept yet, kept at neutral" in caplog.text
+    learned = load_profile(str(tmp_path / "s.learned")).learned
+    assert learned is not None and "jaw" in learned.dead and "jaw" not in learned.outputs
+    assert learned.report.not_exercised[-1] == "left_lower_lip"
+    # facesynth profile show says the same
+    assert main(["profile", "show", str(tmp_path / "s.learned")]) == 0
+    shown = capsys.readouterr().out
+    assert "10 not swept" in shown
+    jaw = next(line for line in shown.splitlines() if " jaw " in line)
+    assert jaw.endswith("learned: not exercised (never moved while babbling), kept at neutral")

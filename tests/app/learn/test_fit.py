@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from synthetic_babble import DEAD, MOVED, STILL, SyntheticHead, hardware, synthetic_babble
 
+from facesynth.app.learn.coverage import UnsweptError
 from facesynth.app.learn.dataset import BabbleSet
 from facesynth.app.learn.fit import (
     FitError,
@@ -128,8 +129,10 @@ def test_unfittable_babbling_is_a_clear_error() -> None:
     few = BabbleSet(
         babble.servos, babble.commands[:8], babble.inputs, babble.faces[:8], babble.kinds[:8]
     )
+    with pytest.raises(UnsweptError, match="14 of 16 servos not swept yet"):
+        fit_learned_profile(few, hardware(), options)  # tests/app/learn/test_coverage.py
     with pytest.raises(FitError, match="too few"):
-        fit_learned_profile(few, hardware(), options)
+        fit_learned_profile(few, hardware(), FitOptions(candidates=("poly_ridge",), partial=True))
     with pytest.raises(FitError, match="lacks"):
         fit_learned_profile(babble, load_profile("virtual"), options)
     with pytest.raises(FitError, match="unknown models"):

@@ -140,3 +140,42 @@ def test_an_unknown_key_with_a_newline_stays_on_one_line() -> None:
     with pytest.raises(ProfileError, match=r"bad\\nkey") as info:
         parse_profile(text)
     assert "\n" not in str(info.value)
+
+
+SERVO_TABLE = 'channel = 0\nfeature = "jaw_open"\nmin_us = 1000\nneutral_us = 1500\nmax_us = 2000\n'
+
+
+@pytest.mark.parametrize(
+    ("text", "line", "shown"),
+    [
+        ('name = "r"\n\n[servos.jaw]\n' + SERVO_TABLE, 3, "[servos.jaw]"),
+        ('name = "r"\n[servos]\n[servos.jaw]\n' + SERVO_TABLE, 2, "[servos.jaw]"),
+        ('name = "r"\nservos = { jaw = { channel = 0 } }\n', 2, "[servos.jaw]"),
+        ('name = "r"\nservos.jaw.channel = 0\n', 2, "[servos.jaw]"),
+        (
+            'name = "r"\n[[safety.exclusive]]\nservos = ["a", "b"]\n\n[servos]\njaw = 1\n',
+            5,
+            "[servos]",
+        ),
+    ],
+)
+def test_servos_written_as_a_table_name_the_array_of_tables_and_the_line(
+    text: str, line: int, shown: str
+) -> None:
+    with pytest.raises(ProfileError) as info:
+        parse_profile(text, "r.toml")
+    assert f"r.toml: line {line}: servos are written as [[servos]] tables" in str(info.value)
+    assert f"not as {shown} - at `$.servos`" in str(info.value)
+    assert "Expected `array`" not in str(info.value)
+    assert "\n" not in str(info.value)
+
+
+def test_servos_as_a_table_and_other_problems_are_all_listed() -> None:
+    text = 'name = "r"\nmirror = "yes"\n[servos.jaw]\n' + SERVO_TABLE
+    with pytest.raises(ProfileError) as info:
+        parse_profile(text, "r.toml")
+    assert info.value.problems == [
+        "r.toml: line 3: servos are written as [[servos]] tables (an array of tables, one per "
+        'servo, each with its name = "…"), not as [servos.jaw] - at `$.servos`',
+        "r.toml: Expected `bool`, got `str` - at `$.mirror`",
+    ]

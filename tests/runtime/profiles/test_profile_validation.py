@@ -442,3 +442,64 @@ def test_invalid_sources_motion_smoothing_and_safety(text: str, detail: str) -> 
     assert detail in message
     assert any(detail in problem for problem in info.value.problems)
     assert all(problem.startswith("robot.toml: ") for problem in info.value.problems)
+
+
+# --- smart servo buses (issue 26) -----------------------------------------------------------------
+
+
+def test_bus_fields_are_valid() -> None:
+    text = profile_toml(
+        [
+            feature_servo(bus_id=7, model="XL430-W250", native_min=1024, native_max=3072),
+            feature_servo(name="brow", channel=6),  # default id: channel + 1 = 7, taken
+        ],
+        bus={"baud": 1000000, "protocol": 2},
+    )
+    with pytest.raises(ProfileError, match="servo 'brow': bus id 7 is taken by servo 'jaw'"):
+        parse_profile(text)
+    ok = profile_toml(
+        [
+            feature_servo(bus_id=7, native_min=3072, native_max=1024),
+            feature_servo(name="b", channel=1),
+        ],
+        bus={"baud": 57600},
+    )
+    profile = parse_profile(ok)
+    assert profile.bus is not None and profile.bus.baud == 57600
+    assert (profile.servos[0].bus_id, profile.servos[1].bus_id) == (7, None)
+
+
+@pytest.mark.parametrize(
+    ("text", "detail"),
+    [
+        (profile_toml([feature_servo(bus_id=253)]), "servo 'jaw': bus_id 253 is outside 0..252"),
+        (
+            profile_toml([feature_servo(native_min=10)]),
+            "servo 'jaw': give native_min and native_max together",
+        ),
+        (
+            profile_toml([feature_servo(native_min=10, native_max=10)]),
+            "servo 'jaw': native_min and native_max must differ and be >= 0 (got 10, 10)",
+        ),
+        (
+            profile_toml([feature_servo(native_min=-1, native_max=10)]),
+            "native_min and native_max must differ and be >= 0 (got -1, 10)",
+        ),
+        (profile_toml(bus={"baud": 0}), "bus.baud must be a positive baud rate (got 0)"),
+        (profile_toml(bus={"protocol": 3}), "bus.protocol must be 1 or 2 (got 3)"),
+        (profile_toml(bus={"parity": "odd"}), "Object contains unknown field `parity`"),
+    ],
+    ids=[
+        "bus-id-253",
+        "native-min-alone",
+        "native-equal",
+        "native-negative",
+        "baud-zero",
+        "protocol-3",
+        "bus-unknown-field",
+    ],
+)
+def test_invalid_bus_fields(text: str, detail: str) -> None:
+    with pytest.raises(ProfileError) as info:
+        parse_profile(text, "robot.toml")
+    assert detail in str(info.value)

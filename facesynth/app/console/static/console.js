@@ -10,6 +10,8 @@ const state = {
   control: null,
   servos: [],
   positions: [],
+  measured: [],
+  faults: [],
   targets: [],
   errors: [],
   saved: null,
@@ -125,6 +127,8 @@ function onHello(m) {
     };
     const target = cell(row, "–");
     const at = cell(row, "–");
+    const measured = cell(row, "–");
+    measured.className = "measured";
     const limits = {};
     for (const which of ["min", "neutral", "max"]) {
       const input = cell(row, '<input type="number" step="1">').firstChild;
@@ -149,12 +153,14 @@ function onHello(m) {
     body.appendChild(row);
     const bar = servoBar(s.name, s.min, s.neutral, s.max);
     bars.appendChild(bar.element);
-    return { s, jog, target, at, limits, bar };
+    return { s, jog, target, at, measured, limits, bar };
   });
 }
 
 function onState(m) {
   state.positions = m.positions;
+  state.measured = m.measured || [];
+  state.faults = m.faults || [];
   state.targets = m.targets;
   state.heldBy = m.held_by;
   state.holding = m.holding;
@@ -170,8 +176,14 @@ function onState(m) {
     const t = m.targets[i];
     r.target.textContent = m.holding ? t.toFixed(0) : "–";
     r.at.textContent = p.toFixed(0);
+    const measured = state.measured[i];
+    const fault = state.faults[i] || "";
+    r.measured.textContent = (measured === null || measured === undefined ? "–" : measured.toFixed(0))
+      + (fault ? ` ⚠ ${fault}` : "");
+    r.measured.classList.toggle("fault", fault !== "");
+    r.measured.title = fault ? `the servo reports: ${fault}` : "";
     if (document.activeElement !== r.jog && m.holding) r.jog.value = t;
-    r.bar.show(p);
+    r.bar.show(p, measured);
   });
 }
 

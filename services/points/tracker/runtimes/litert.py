@@ -6,15 +6,20 @@ model. The fastest runtime here, so ``"auto"`` prefers it when it is installed.
 
 from __future__ import annotations
 
+import logging
 from pathlib import Path
 from typing import Any
 
 import msgspec
 import numpy as np
 
+from facesynth.runtime.native_stderr import LITERT_CHATTER, chatter_to_log
+
 from ..errors import ModelError
 from ..model_files import ModelSpec
 from .base import RUNTIMES, Model
+
+_LOG = logging.getLogger(__name__)
 
 
 class LiteRTRuntime(
@@ -37,7 +42,12 @@ class LiteRTModel(Model):
         from ai_edge_litert.interpreter import Interpreter
 
         self._content = content  # the interpreter reads from this buffer
-        self._interp: Any = Interpreter(model_content=content, num_threads=num_threads)
+        with chatter_to_log(_LOG, LITERT_CHATTER):  # "INFO: Created … XNNPACK delegate …"
+            self._interp: Any = Interpreter(model_content=content, num_threads=num_threads)
+            self._prepare(spec, batch)
+
+    def _prepare(self, spec: ModelSpec, batch: int) -> None:
+        """Check the model's input and outputs, size its input for ``batch`` and allocate."""
         inputs = self._interp.get_input_details()
         if len(inputs) != 1:
             raise ModelError(f"{spec.filename}: expected one input, found {len(inputs)}")
