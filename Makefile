@@ -44,7 +44,8 @@ test-faults: $(BIN)/.installed
 ## A test past its timeout ends its shard with every thread's stack (pytest-timeout's thread
 ## method): hypothesis would run a hanging case again to report it, past a signal's one alarm.
 FUZZ_SHARD_A := tests/fuzz/test_fuzz_loaders.py tests/fuzz/test_fuzz_files.py \
-	tests/fuzz/test_fuzz_translator.py tests/fuzz/test_fuzz_text_inputs.py tests/fuzz/test_fuzz_console.py
+	tests/fuzz/test_fuzz_translator.py tests/fuzz/test_fuzz_text_inputs.py tests/fuzz/test_fuzz_console.py \
+	tests/fuzz/test_fuzz_feetech.py tests/fuzz/test_fuzz_pca9685.py
 test-fuzz: $(BIN)/.installed
 	@$(SYSTEM_PACKAGES) fuzz
 	@mkdir -p build; \
