@@ -69,7 +69,7 @@ def _frame(
     driver: str, how: str, bus: ServoBus, model: Model, count: int, baud: int, status: int
 ) -> BusFrame:
     port = CapturePort()
-    bus.port = port  # type: ignore[attr-defined]
+    bus.port = port
     if hasattr(bus, "series"):  # feetech: each servo's byte order
         bus.series = dict.fromkeys(range(1, count + 1), model.protocol)
     goals = {i: model.centre + 7 * i for i in range(1, count + 1)}

@@ -11,8 +11,10 @@ from __future__ import annotations
 import abc
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 from services.control.drivers.bus_servo.native import Model, NativeServo
+from services.control.drivers.bus_servo.sdk_port import port_class
 
 
 @dataclass(frozen=True)
@@ -40,13 +42,23 @@ class ServoBus(abc.ABC):
     #: Name of the bus in messages ("Dynamixel Protocol 2.0").
     name = "servo bus"
 
-    @abc.abstractmethod
+    def __init__(self, sdk: Any, port: str, baud: int, latency_ms: float) -> None:
+        """The vendor SDK's port on ``port`` (``sdk``: the SDK's module, whose ``PortHandler``
+        this project's :func:`port_class` adapts), opened at ``baud`` by :meth:`open`."""
+        self.sdk = sdk
+        self.baud = baud
+        self.port = port_class(sdk.PortHandler)(port)
+        self.port.latency_ms = latency_ms
+        self.garbled = 0  # status packets dropped (checksum, length)
+
     def open(self) -> None:
         """Open the port at the bus's baud rate (raise ``OSError`` if it cannot be opened)."""
+        self.port.setBaudRate(self.baud)
 
-    @abc.abstractmethod
     def close(self) -> None:
         """Close the port (harmless when closed)."""
+        if self.port.is_open:
+            self.port.closePort()
 
     @abc.abstractmethod
     def model(self, number: int) -> Model | None:

@@ -16,7 +16,6 @@ from typing import Any
 
 from services.control.drivers.bus_servo.bus import Ping, ServoBus, Status
 from services.control.drivers.bus_servo.native import Model, NativeServo
-from services.control.drivers.bus_servo.sdk_port import port_class
 from services.control.drivers.dynamixel import models as m
 
 
@@ -24,21 +23,10 @@ class DynamixelBus(ServoBus):
     """Servos of one protocol on one port (``sdk`` is the ``dynamixel_sdk`` module)."""
 
     def __init__(self, sdk: Any, port: str, baud: int, *, protocol: int, latency_ms: float) -> None:
-        self.sdk = sdk
+        super().__init__(sdk, port, baud, latency_ms)
         self.protocol = protocol
         self.name = f"Dynamixel Protocol {protocol}.0"
-        self.baud = baud
-        self.port = port_class(sdk.PortHandler)(port)
-        self.port.latency_ms = latency_ms
         self.ph = sdk.PacketHandler(float(protocol))
-        self.garbled = 0  # status packets dropped (CRC, length)
-
-    def open(self) -> None:
-        self.port.setBaudRate(self.baud)
-
-    def close(self) -> None:
-        if self.port.is_open:
-            self.port.closePort()
 
     def model(self, number: int) -> Model | None:
         found = m.MODELS.get(number)

@@ -15,7 +15,6 @@ from typing import Any
 
 from services.control.drivers.bus_servo.bus import Ping, ServoBus, Status
 from services.control.drivers.bus_servo.native import Model, NativeServo
-from services.control.drivers.bus_servo.sdk_port import port_class
 from services.control.drivers.feetech import models as m
 
 
@@ -25,20 +24,9 @@ class FeetechBus(ServoBus):
     name = "Feetech"
 
     def __init__(self, sdk: Any, port: str, baud: int, *, latency_ms: float) -> None:
-        self.sdk = sdk
-        self.baud = baud
-        self.port = port_class(sdk.PortHandler)(port)
-        self.port.latency_ms = latency_ms
+        super().__init__(sdk, port, baud, latency_ms)
         self.ph = sdk.PacketHandler(m.STS)
         self.series: dict[int, int] = {}  # id -> byte order, from its model
-        self.garbled = 0
-
-    def open(self) -> None:
-        self.port.setBaudRate(self.baud)
-
-    def close(self) -> None:
-        if self.port.is_open:
-            self.port.closePort()
 
     def model(self, number: int) -> Model | None:
         return m.MODELS.get(number)
