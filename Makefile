@@ -23,6 +23,14 @@ system-packages-test:
 demo: $(BIN)/.installed
 	$(BIN)/facesynth run --render facesynth-demo.mp4
 
+## The documentation site: docs/ and mkdocs.yml built into site/ by `mkdocs build --strict` (a
+## broken link or anchor, or a page left out of the nav, fails it); the docs extra installed
+## into the venv first when it is missing. Open site/index.html.
+.PHONY: docs
+docs: $(BIN)/.installed
+	@$(BIN)/python -c 'import mkdocs, material' 2>/dev/null || $(BIN)/python -m pip install -q -e '.[docs]'
+	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict
+
 ## Each test group's Debian packages (tools/system-packages.txt): installed with apt as root,
 ## else one line naming them. Every target that runs a group asks for its own first.
 SYSTEM_PACKAGES := bash tools/system-packages.sh

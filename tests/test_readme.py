@@ -1,16 +1,22 @@
-"""The README agrees with the program (issue 20): its commands, paths and Python names exist.
+"""The README and the documentation agree with the program (issues 20 and 28): their commands,
+paths, links and Python names exist.
 
-Read from whatever README.md holds, so text added later is checked too:
+Read from whatever README.md, ARCHITECTURE.md and every page of docs/ hold, so text added later
+(and a page added later) is checked too:
 
 * every ``facesynth …`` command line, in a code block (a line starting with ``facesynth ``,
   with its ``\\`` continuations) or in backticks, names a sub-command of the real parser, and
   every ``--flag`` on it is one of that sub-command's options (``--help`` level: values,
   placeholders such as ``[GRAPH]``, ``…`` and ``A | B`` alternatives are not parsed);
-* every repository path in backticks or in a Markdown link (``facesynth/app/graphs/demo.toml``,
-  ``ARCHITECTURE.md``, ``docs/side-by-side.png``) exists; placeholders (``NAME``, ``<rig>``,
-  ``…``) are skipped;
+* every repository path in backticks (``facesynth/app/graphs/demo.toml``, ``ARCHITECTURE.md``)
+  exists; placeholders (``NAME``, ``<rig>``, ``…``) are skipped;
+* every Markdown link to a file (``docs/side-by-side.png`` from the README, ``running.md`` from a
+  page of docs/) exists beside the page that links it, and a ``#fragment`` on a link to a page is
+  one of that page's headings (``mkdocs build --strict``, tests/test_docs_site.py, checks the
+  site's own links too);
 * every dotted Python name of the project in backticks (``facesynth.runtime.rig_view.RigView``)
-  imports, or is a logger name the code uses (``facesynth.link``).
+  imports, or is a logger name or a plugin entry-point group the code uses (``facesynth.link``,
+  ``facesynth.drivers``).
 """
 
 from __future__ import annotations
@@ -18,6 +24,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import re
+import unicodedata
 from fnmatch import fnmatch
 from functools import cache
 from pathlib import Path
@@ -28,6 +35,7 @@ from facesynth.app.cli import build_parser
 
 ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
+DOCS = ROOT / "docs"
 #: Top-level folders of the repository: a backticked ``dir/…`` path in one of them must exist.
 TOP_DIRS = ("facesynth", "services", "schemas", "tests", "deploy", "docs", "tools", "firmware")
 PACKAGES = ("facesynth", "services", "schemas")
@@ -49,6 +57,24 @@ _CAPS = re.compile(r"[A-Z]{2,}")
 
 def readme_text() -> str:
     return README.read_text(encoding="utf-8")
+
+
+def documents() -> list[Path]:
+    """The README, ARCHITECTURE.md (the site's Architecture page includes it) and every page of
+    docs/."""
+    return [README, ROOT / "ARCHITECTURE.md", *sorted(DOCS.rglob("*.md"))]
+
+
+def page_text(page: Path) -> str:
+    """A page as the site shows it: ``--8<-- "FILE"`` lines (pymdownx.snippets) replaced by the
+    repository file they include."""
+    text = page.read_text(encoding="utf-8")
+    return re.sub(
+        r'^--8<-- "([^"]+)"$',
+        lambda m: (ROOT / m.group(1)).read_text(encoding="utf-8"),
+        text,
+        flags=re.M,
+    )
 
 
 def _code_and_prose(text: str) -> tuple[list[str], list[str]]:
@@ -141,10 +167,9 @@ def _ignored(path: str) -> bool:
 
 
 def named_paths(text: str) -> list[str]:
-    """Repository paths the README names in backticks or Markdown links (no placeholders)."""
-    spans = _TICKS.findall(text) + _LINK.findall(text)
+    """Repository paths a page names in backticks (no placeholders)."""
     paths = []
-    for span in spans:
+    for span in _TICKS.findall(text):
         span = span.strip().rstrip(".,;:")
         if span.startswith(("http:", "https:", "#")) or _PLACEHOLDER.search(span):
             continue
@@ -153,23 +178,66 @@ def named_paths(text: str) -> list[str]:
     return paths
 
 
+def linked_targets(text: str) -> list[str]:
+    """The targets of a page's Markdown links and images (web addresses left out)."""
+    return [t for t in _LINK.findall(text) if not re.match(r"^[a-z][a-z0-9+.-]*:", t)]
+
+
+def heading_anchors(text: str) -> set[str]:
+    """The ids the site gives a page's headings (Python-Markdown's toc slugs, duplicates
+    numbered)."""
+    anchors: set[str] = set()
+    inside = False
+    for line in text.splitlines():
+        if _FENCE.match(line):
+            inside = not inside
+        heading = None if inside else re.match(r"^#{1,6} (.+)$", line)
+        if not heading:
+            continue
+        words = unicodedata.normalize("NFKD", heading.group(1).replace("`", "").replace("**", ""))
+        words = re.sub(r"[^\w\s-]", "", words.encode("ascii", "ignore").decode()).strip().lower()
+        slug = re.sub(r"[-\s]+", "-", words)
+        anchor, n = slug, 0
+        while anchor in anchors:
+            n += 1
+            anchor = f"{slug}_{n}"
+        anchors.add(anchor)
+    return anchors
+
+
+def link_problem(page: Path, target: str) -> str | None:
+    """Why a link from ``page`` leads nowhere (no such file beside it, or no such heading on the
+    page it names), or None."""
+    path, _, fragment = target.partition("#")
+    linked = (page.parent / path).resolve() if path else page
+    if not linked.exists():
+        shown = linked.relative_to(ROOT) if linked.is_relative_to(ROOT) else linked
+        return f"{target}: no file {shown}"
+    if fragment and linked.suffix == ".md" and fragment not in heading_anchors(page_text(linked)):
+        return f"{target}: {linked.name} has no heading #{fragment}"
+    return None
+
+
 def python_names(text: str) -> list[str]:
     """Dotted names of the project's packages in backticks."""
     return [span for span in _TICKS.findall(text) if _DOTTED.match(span.strip())]
 
 
 @cache
-def _logger_names() -> frozenset[str]:
+def _names_in_code() -> frozenset[str]:
     names = set()
     for package in PACKAGES:
         for path in (ROOT / package).rglob("*.py"):
-            names.update(re.findall(r"getLogger\(\s*\"([\w.]+)\"", path.read_text("utf-8")))
+            text = path.read_text("utf-8")
+            names.update(re.findall(r"getLogger\(\s*\"([\w.]+)\"", text))
+            names.update(re.findall(r"entry_points=\"([\w.]+)\"", text))  # plugin groups
     return frozenset(names)
 
 
 def name_problem(name: str) -> str | None:
-    """Why a dotted name does not import (module, or module attribute), or None."""
-    if name in _logger_names():
+    """Why a dotted name does not import (module, or module attribute) and is no logger or
+    entry-point group of the code, or None."""
+    if name in _names_in_code():
         return None
     parts = name.split(".")
     for cut in range(len(parts), 0, -1):
@@ -186,26 +254,46 @@ def name_problem(name: str) -> str | None:
     return f"no module {parts[0]!r}"
 
 
-# The check itself, on the README as it is.
+# The check itself, on the README and the pages as they are.
+
+PAGES = documents()
+_IDS = [str(page.relative_to(ROOT)) for page in PAGES]
 
 
-def test_every_readme_command_parses() -> None:
-    commands = command_lines(readme_text())
-    assert len(commands) > 30  # the finder finds them
-    problems = [f"{c}: {p}" for c in commands if (p := command_problem(c))]
+def test_the_check_reads_the_readme_and_every_page() -> None:
+    assert README in PAGES and ROOT / "ARCHITECTURE.md" in PAGES
+    assert len([p for p in PAGES if p.parent == DOCS]) >= 10, PAGES
+    everything = "\n".join(page_text(page) for page in PAGES)
+    assert len(command_lines(everything)) > 100  # the finders find them
+    assert "facesynth/app/graphs/demo.toml" in named_paths(everything)
+    assert "facesynth.runtime.rig_view.RigView" in python_names(everything)
+    assert "docs/side-by-side.png" in linked_targets(readme_text())
+
+
+@pytest.mark.parametrize("page", PAGES, ids=_IDS)
+def test_every_command_parses(page: Path) -> None:
+    problems = [f"{c}: {p}" for c in command_lines(page_text(page)) if (p := command_problem(c))]
     assert not problems, "\n".join(problems)
 
 
-def test_every_path_the_readme_names_exists() -> None:
-    paths = named_paths(readme_text())
-    assert "facesynth/app/graphs/demo.toml" in paths
+@pytest.mark.parametrize("page", PAGES, ids=_IDS)
+def test_every_path_a_page_names_exists(page: Path) -> None:
+    paths = named_paths(page_text(page))
     missing = sorted({p for p in paths if not (ROOT / p).exists() and not _ignored(p)})
-    assert not missing, f"README.md names paths that do not exist: {missing}"
+    assert not missing, f"{page.relative_to(ROOT)} names paths that do not exist: {missing}"
 
 
-def test_every_python_name_the_readme_names_imports() -> None:
-    names = python_names(readme_text())
-    assert "facesynth.runtime.rig_view.RigView" in names
+@pytest.mark.parametrize("page", PAGES, ids=_IDS)
+def test_every_link_leads_somewhere(page: Path) -> None:
+    problems = [
+        p for target in linked_targets(page_text(page)) if (p := link_problem(page, target))
+    ]
+    assert not problems, "\n".join(problems)
+
+
+@pytest.mark.parametrize("page", PAGES, ids=_IDS)
+def test_every_python_name_imports(page: Path) -> None:
+    names = python_names(page_text(page))
     problems = [f"{n}: {p}" for n in sorted(set(names)) if (p := name_problem(n))]
     assert not problems, "\n".join(problems)
 
@@ -241,8 +329,8 @@ def test_the_finders_read_code_blocks_and_backticks() -> None:
         "facts.md",
         "facesynth/feature_names.py",
         "ARCHITECTURE.md",
-        "docs/side-by-side.png",
     ]
+    assert linked_targets(SAMPLE) == ["docs/side-by-side.png"]
     assert python_names(SAMPLE) == [
         "facesynth.profiles.FORMAT_REFERENCE",
         "facesynth.link",
@@ -276,8 +364,31 @@ def test_command_problems(command: str, problem: str | None) -> None:
 def test_name_problems() -> None:
     assert name_problem("facesynth.runtime.feature_names.NAMES") is None
     assert name_problem("facesynth.link") is None  # a logger the code uses
+    assert name_problem("facesynth.drivers") is None  # the servo drivers' entry-point group
+    assert name_problem("facesynth.nosuch_group") is not None
     assert name_problem("facesynth.profiles.FORMAT_REFERENCE") is not None
     assert name_problem("facesynth.runtime.feature_names.NOPE") is not None
+
+
+def test_links_that_lead_nowhere_are_found() -> None:
+    page = DOCS / "running.md"
+    assert link_problem(README, "docs/side-by-side.png") is None
+    assert link_problem(README, "docs/index.md#quick-start") is None
+    assert link_problem(page, "deployment.md#several-machines") is None
+    assert link_problem(page, "#what-this-host-can-run-facesynth-doctor") is None
+    assert "no file docs/nosuch.md" in (link_problem(page, "nosuch.md") or "")
+    assert "no file" in (link_problem(README, "side-by-side.png") or "")  # beside the README: no
+    assert "has no heading #nope" in (link_problem(page, "deployment.md#nope") or "")
+    assert linked_targets("[a](https://zenoh.io) [b](#x) [c](mailto:x@y) ![d](e.png)") == [
+        "#x",
+        "e.png",
+    ]
+    assert "has no heading #nope" in (link_problem(page, "#nope") or "")
+
+
+def test_heading_anchors_are_the_sites() -> None:
+    text = "# A ROS 2 robot: `--driver ros2`\n```\n# not a heading\n```\n## Notes\n## Notes\n"
+    assert heading_anchors(text) == {"a-ros-2-robot-driver-ros2", "notes", "notes_1"}
 
 
 def test_ignored_files_the_user_puts_in_place_count_as_named() -> None:
@@ -289,8 +400,8 @@ def test_the_learn_walk_through_writes_into_an_ignored_folder() -> None:
     """Issue 29: the simulated head's walk-through left ``head.mcap`` (86 MB), ``head.learned``
     and ``robot.mp4`` untracked in the clone. What its commands write (``--out``, and the
     learned profile beside the session) goes into a folder that .gitignore ignores."""
-    text = readme_text()
-    section = text[text.index("### On the simulated head") :]
+    text = page_text(DOCS / "learning.md")
+    section = text[text.index("## On the simulated head") :]
     section = section[: section.index("\n#")]
     commands = [c for c in command_lines(section) if c.split()[1] in ("learn", "render")]
     outputs = [m for c in commands for m in re.findall(r"--out (\S+)", c)]

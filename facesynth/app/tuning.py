@@ -6,7 +6,7 @@ are applied to the whole process before it opens its Zenoh session or loads a mo
 thread it starts later (Zenoh's, the inference runtime's) inherits them. On a machine shared with
 other work, a real-time chain keeps its latency: measured with two busy processes competing for
 the 2 cores, capture → command p50/p99 went from 16.9/45.7 ms to 8.0/10.4 ms
-(``facesynth bench chain --sched normal,realtime``; figures in the README). A negative
+(``facesynth bench chain --sched normal,realtime``; figures in docs/benchmarks.md). A negative
 ``nice`` or any ``realtime`` needs ``CAP_SYS_NICE`` (root, ``setcap``, the container's
 ``cap_add: [SYS_NICE]``) or a matching ``RLIMIT_NICE``/``RLIMIT_RTPRIO`` (``ulimit -e/-r``);
 Linux keeps 5 % of each second for other tasks whatever a real-time task does

@@ -8,9 +8,9 @@ runs through the real tracker, F and T of every profile. An expression *passes* 
 its expected servos move at least 15 % of their travel the right way and the servos of the other
 face regions stay within 20 % of theirs (``facesynth.app.bench.fidelity``).
 
-The measured table (README, "Fidelity") is pinned here: every expression that passes today must
-keep passing; the ones listed as misses are the measured weak spots (for example head16's
-geometric brows read a jaw drop and a look to the right as a brow movement, through the
+The measured table (docs/benchmarks.md, "Fidelity") is pinned here: every expression that passes
+today must keep passing; the ones listed as misses are the measured weak spots (for example
+head16's geometric brows read a jaw drop and a look to the right as a brow movement, through the
 tracker's own coupling of the upper and lower face; head16_bs, whose brows follow the
 blendshapes, does not).
 """

@@ -71,9 +71,13 @@ def installed(distribution: str) -> bool:
     return True
 
 
+#: Extras for working on facesynth, not for running it: doctor does not report them.
+DEVELOPER_EXTRAS = frozenset({"test", "docs"})
+
+
 def installed_extras() -> dict[str, list[str]]:
     """``{extra: [missing distribution, …]}`` for facesynth's extras (empty list: complete);
-    the test tools' extra left out."""
+    the developers' extras (test tools, the docs site) left out."""
     try:
         requires = importlib.metadata.requires("facesynth") or []
     except importlib.metadata.PackageNotFoundError:
@@ -82,7 +86,7 @@ def installed_extras() -> dict[str, list[str]]:
     return {
         extra: [name for name in names if not installed(name)]
         for extra, names in extras.items()
-        if extra != "test"
+        if extra not in DEVELOPER_EXTRAS
     }
 
 

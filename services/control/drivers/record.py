@@ -42,7 +42,7 @@ class RecordConfig(
 
 
 class RecordLine(msgspec.Struct, kw_only=True):
-    """One recorded command (see the README for the format)."""
+    """One recorded command (the format: docs/drivers.md)."""
 
     seq: int
     frame: int | None
