@@ -24,13 +24,7 @@ from facesynth.app.nodes import stage_of
 from facesynth.app.wiring import OptionError, StageParts, build_node, check_blendshapes
 from facesynth.runtime import codec, keys, limits
 from facesynth.runtime.bus.base import Bus
-from facesynth.runtime.bus.zenoh_bus import (
-    ZenohBus,
-    ZenohConfigError,
-    ZenohOptions,
-    open_session,
-    router_locators,
-)
+from facesynth.runtime.bus.zenoh_bus import ZenohBus, ZenohOptions
 from facesynth.runtime.gc_watch import GcWatch
 from facesynth.runtime.memory import return_big_allocations
 from facesynth.runtime.service import (
@@ -140,35 +134,6 @@ def freeze_startup_objects() -> None:
     collector's passes, which otherwise stall a stage for milliseconds now and then."""
     gc.collect()
     gc.freeze()
-
-
-#: Where ``facesynth run``'s own router listens when not told (``--listen``).
-RUN_LISTEN = "tcp/127.0.0.1:7447"
-#: Where it listens instead when :data:`RUN_LISTEN` is taken: a free port on loopback.
-FREE_PORT_LISTEN = "tcp/127.0.0.1:0"
-
-
-def open_embedded(
-    listen: list[str], options: ZenohOptions, *, fallback: bool = True
-) -> tuple[Any, list[str]]:
-    """A router session for ``facesynth run`` listening on ``listen``.
-
-    With ``fallback`` (run's default endpoint, no ``--listen``) a taken endpoint is replaced by a
-    free port on loopback, and said; without it (an explicit ``--listen``: other hosts may be
-    told that address) a taken endpoint is an error, as ``facesynth doctor`` reports it."""
-    try:
-        session = open_session(
-            ZenohOptions(**{**options.__dict__, "mode": "router", "listen": listen})
-        )
-    except ZenohConfigError as exc:
-        fallback_listen = [FREE_PORT_LISTEN]
-        if not fallback or listen == fallback_listen:
-            raise
-        log.warning("cannot listen on %s (%s); using a free port instead", ", ".join(listen), exc)
-        session = open_session(
-            ZenohOptions(**{**options.__dict__, "mode": "router", "listen": fallback_listen})
-        )
-    return session, router_locators(session)
 
 
 @dataclass

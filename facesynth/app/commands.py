@@ -16,13 +16,13 @@ from facesynth.app.chain import (
     build_chain,
     build_nodes,
     freeze_startup_objects,
-    open_embedded,
     run_chain,
     run_single,
     serve_nodes,
 )
 from facesynth.app.compose import compose_file, override_file, secure_file
 from facesynth.app.control_tools import TEST_OPTIONS, cmd_control_tool
+from facesynth.app.engine.router import RUN_LISTEN, embedded_bus, joined_bus
 from facesynth.app.graph import Graph, check_node, load_graph, select_node
 from facesynth.app.nodes import NODE_TYPES, SensorNode, stage_of
 from facesynth.app.plugin_help import describe_plugins
@@ -32,7 +32,7 @@ from facesynth.app.stage_args import apply_arguments
 from facesynth.app.tuning import Scheduling, apply_scheduling, combined, keep_buffers
 from facesynth.app.wiring import OptionError, build_node, replay_frames_of
 from facesynth.runtime.atomic import write_atomic
-from facesynth.runtime.bus.zenoh_bus import ZenohBus, endpoints, open_session, router_locators
+from facesynth.runtime.bus.zenoh_bus import endpoints, open_session, router_locators
 from facesynth.runtime.outputs import check_output
 from facesynth.runtime.profiles.learned import Learned, command_range
 from facesynth.runtime.service import default_instance, run_async, until_signalled
@@ -108,18 +108,13 @@ def cmd_run(args: argparse.Namespace) -> int:
         c.out: earlier_sessions(c.out) for c in configs.values() if isinstance(c, RecordConfig)
     }
     parts = build_chain(graph, configs)
-    listen = endpoints(args.listen) or ["tcp/127.0.0.1:7447"]
+    listen = endpoints(args.listen) or [RUN_LISTEN]
     options = wiring.zenoh_options(args, default_mode="router")
     options.connect = endpoints(args.connect)
 
     async def main() -> ChainResult:
-        session, locators = await asyncio.to_thread(
-            open_embedded, listen, options, fallback=not args.listen
-        )
-        bus = ZenohBus(session, mode="router")
-        log.info("embedded Zenoh router on %s (rig %s)", ", ".join(locators), rig)
-        freeze_startup_objects()
-        try:
+        async with embedded_bus(listen, options, rig=rig, fallback=not args.listen) as (bus, _):
+            freeze_startup_objects()
             async with attached(bus, rig, args):
                 return await run_chain(
                     bus,
@@ -128,8 +123,6 @@ def cmd_run(args: argparse.Namespace) -> int:
                     drain_timeout=args.drain_timeout,
                     stats_interval=args.stats_interval,
                 )
-        finally:
-            await bus.close()
 
     result = run_async(main())
     outs = [
@@ -183,16 +176,13 @@ def _serve_graph(args: argparse.Namespace, graph: Graph, configs: dict[str, Any]
     parts = build_nodes(graph, configs)
     options = wiring.zenoh_options(args, default_mode="router")
     if options.mode == "router" and not options.listen and options.config_file_path() is None:
-        options.listen = ["tcp/127.0.0.1:7447"]
+        options.listen = [RUN_LISTEN]
 
     async def main() -> ChainResult:
-        bus = ZenohBus(await asyncio.to_thread(open_session, options))
-        log.info("%d nodes of %s on rig %s", len(parts), args.graph, rig)
-        freeze_startup_objects()
-        try:
+        async with joined_bus(options) as bus:
+            log.info("%d nodes of %s on rig %s", len(parts), args.graph, rig)
+            freeze_startup_objects()
             return await serve_nodes(bus, rig, parts, stats_interval=args.stats_interval)
-        finally:
-            await bus.close()
 
     result = run_async(main())
     print(

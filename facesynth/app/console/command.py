@@ -22,16 +22,17 @@ from typing import Any
 
 import msgspec
 
-from facesynth.app.chain import freeze_startup_objects, open_embedded
+from facesynth.app.chain import freeze_startup_objects
 from facesynth.app.console.calibration import CalibrationRun
 from facesynth.app.console.profile_file import save_path
 from facesynth.app.console.rig import ConsoleRig
+from facesynth.app.engine.router import RUN_LISTEN, embedded_bus
 from facesynth.app.graph import Graph
 from facesynth.app.nodes import ControlNode, SensorNode
 from facesynth.app.profile_choice import check_fit
 from facesynth.app.stage_args import PLUGIN_FLAGS, apply_arguments
 from facesynth.app.wiring import OptionError, StageParts, build_node, zenoh_options
-from facesynth.runtime.bus.zenoh_bus import ZenohBus, endpoints
+from facesynth.runtime.bus.zenoh_bus import endpoints
 from facesynth.runtime.keys import check_name
 from facesynth.runtime.outputs import check_output
 from facesynth.runtime.profiles import load_profile, resolve_profile
@@ -172,30 +173,30 @@ async def _serve(
     from facesynth.app.console.server import ConsoleServer
     from facesynth.app.console.session import ConsoleSession
 
-    listen = endpoints(args.listen) or ["tcp/127.0.0.1:7447"]
+    listen = endpoints(args.listen) or [RUN_LISTEN]
     zenoh = zenoh_options(args, default_mode="router")
     zenoh.connect = endpoints(args.connect)
-    zsession, locators = await asyncio.to_thread(open_embedded, listen, zenoh)
-    bus = ZenohBus(zsession, mode="router")
-    session = ConsoleSession(
-        bus, rig, core, control, profile_file=node.profile or "", save_to=save_to,
-        stats_interval=args.stats_interval, robot=node.robot,
-    )  # fmt: skip
-    views = {"face_page": args.face_page, "robot_camera": args.robot_camera}
-    server = ConsoleServer(session, host=host, port=port, calibration=calibration, views=views)
-    try:
+    async with embedded_bus(listen, zenoh, rig=rig) as (bus, locators):
+        session = ConsoleSession(
+            bus, rig, core, control, profile_file=node.profile or "", save_to=save_to,
+            stats_interval=args.stats_interval, robot=node.robot,
+        )  # fmt: skip
+        views = {"face_page": args.face_page, "robot_camera": args.robot_camera}
+        server = ConsoleServer(session, host=host, port=port, calibration=calibration, views=views)
         try:
-            await server.start()
-        except OSError as exc:
-            raise OptionError(f"--page {args.page}: cannot listen there ({exc.strerror})") from None
-        await session.start()
-        freeze_startup_objects()
-        print(f"facesynth console for rig {rig}: {server.url}", flush=True)
-        print(f"router: {', '.join(locators)} (the chain's stages join it)", flush=True)
-        print(f"profile {core.active.name}: Save writes {save_to}", flush=True)
-        await until_signalled(asyncio.Event().wait())
-    finally:
-        await server.stop()
-        await session.stop()
-        await bus.close()
+            try:
+                await server.start()
+            except OSError as exc:
+                raise OptionError(
+                    f"--page {args.page}: cannot listen there ({exc.strerror})"
+                ) from None
+            await session.start()
+            freeze_startup_objects()
+            print(f"facesynth console for rig {rig}: {server.url}", flush=True)
+            print(f"router: {', '.join(locators)} (the chain's stages join it)", flush=True)
+            print(f"profile {core.active.name}: Save writes {save_to}", flush=True)
+            await until_signalled(asyncio.Event().wait())
+        finally:
+            await server.stop()
+            await session.stop()
     return 0

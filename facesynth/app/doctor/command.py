@@ -16,7 +16,6 @@ from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
 from facesynth.app import wiring
-from facesynth.app.chain import RUN_LISTEN
 from facesynth.app.doctor import (
     addresses,
     buses,
@@ -31,6 +30,7 @@ from facesynth.app.doctor import (
 from facesynth.app.doctor import serial_ports as serial
 from facesynth.app.doctor.needs import Needs, RouterNeed, graph_needs
 from facesynth.app.doctor.report import Finding, lines, verdict
+from facesynth.app.engine.router import RUN_LISTEN
 from facesynth.app.graph import Graph, check_node, graph_file, graph_help, load_graph
 from facesynth.app.profile_choice import settle_profiles
 from facesynth.app.recording.attach import add_attach_arguments

@@ -15,7 +15,6 @@ line naming them and how to finish) unless ``--partial``, which keeps them at ne
 from __future__ import annotations
 
 import argparse
-import asyncio
 import json
 import logging
 import sys
@@ -25,7 +24,8 @@ from typing import Any
 
 import msgspec
 
-from facesynth.app.chain import freeze_startup_objects, open_embedded
+from facesynth.app.chain import freeze_startup_objects
+from facesynth.app.engine.router import embedded_bus
 from facesynth.app.graph import Graph
 from facesynth.app.learn.core import BabbleOptions, Babbler, Budget
 from facesynth.app.learn.coverage import UnsweptError
@@ -48,7 +48,7 @@ from facesynth.app.nodes import ControlNode, FeaturesNode, PointsNode, SensorNod
 from facesynth.app.stage_args import PLUGIN_FLAGS
 from facesynth.app.wiring import StageParts, build_node, zenoh_options
 from facesynth.runtime import keys
-from facesynth.runtime.bus.zenoh_bus import ZenohBus, endpoints
+from facesynth.runtime.bus.zenoh_bus import endpoints
 from facesynth.runtime.outputs import check_output
 from facesynth.runtime.profiles import Profile, load_profile, save_learned_profile
 from facesynth.runtime.service import run_async
@@ -302,11 +302,8 @@ def _babble(
         meta = metadata(rig, profile, seed, record)
         meta["frame_every"] = str(args.frame_every)
         session = SessionFile(out, meta, resume)
-        session_, locators = await asyncio.to_thread(open_embedded, listen, zenoh)
-        bus = ZenohBus(session_, mode="router")
-        log.info("embedded Zenoh router on %s (rig %s)", ", ".join(locators), rig)
-        freeze_startup_objects()
-        try:
+        async with embedded_bus(listen, zenoh, rig=rig) as (bus, _):
+            freeze_startup_objects()
             return await babble(
                 bus,
                 rig,
@@ -317,7 +314,5 @@ def _babble(
                 record=record,
                 stats_interval=args.stats_interval,
             )
-        finally:
-            await bus.close()
 
     return run_async(main())

@@ -10,11 +10,11 @@ plays the replay, and drains on ``…/servo_state``.
 from __future__ import annotations
 
 import argparse
-import asyncio
 import logging
 from typing import Any
 
-from facesynth.app.chain import ChainResult, freeze_startup_objects, open_embedded, run_chain
+from facesynth.app.chain import ChainResult, freeze_startup_objects, run_chain
+from facesynth.app.engine.router import RUN_LISTEN, embedded_bus
 from facesynth.app.graph import load_graph
 from facesynth.app.nodes import stage_of
 from facesynth.app.profile_choice import settle_profiles
@@ -22,7 +22,7 @@ from facesynth.app.recording.attach import attached
 from facesynth.app.recording.replay import Replayer
 from facesynth.app.stage_args import apply_arguments
 from facesynth.app.wiring import OptionError, StageParts, build_node, zenoh_options
-from facesynth.runtime.bus.zenoh_bus import ZenohBus, endpoints
+from facesynth.runtime.bus.zenoh_bus import endpoints
 from facesynth.runtime.service import run_async
 
 log = logging.getLogger("facesynth")
@@ -64,19 +64,14 @@ def replay_through_graph(
     Returns the replay's outcome (``None`` when interrupted), the rig, and what the chain did.
     """
     parts, rig, configs = graph_parts(replayer, args)
-    listen = endpoints(args.listen) or ["tcp/127.0.0.1:7447"]
+    listen = endpoints(args.listen) or [RUN_LISTEN]
     options = zenoh_options(args, default_mode="router")
     options.connect = endpoints(args.connect)
     replay_part = StageParts("replay", "replay", replayer.serve, replayer)
 
     async def main() -> ChainResult:
-        session, locators = await asyncio.to_thread(
-            open_embedded, listen, options, fallback=not args.listen
-        )
-        bus = ZenohBus(session)
-        log.info("embedded Zenoh router on %s (rig %s)", ", ".join(locators), rig)
-        freeze_startup_objects()
-        try:
+        async with embedded_bus(listen, options, rig=rig, fallback=not args.listen) as (bus, _):
+            freeze_startup_objects()
             async with attached(bus, rig, args):
                 return await run_chain(
                     bus,
@@ -85,8 +80,6 @@ def replay_through_graph(
                     drain_timeout=args.drain_timeout,
                     stats_interval=args.stats_interval,
                 )
-        finally:
-            await bus.close()
 
     result = run_async(main())
     outs = [out for config in configs.values() if (out := getattr(config, "out", None))]

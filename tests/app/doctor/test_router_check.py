@@ -164,7 +164,7 @@ def test_a_taken_default_endpoint_is_info_run_takes_a_free_port(zenoh_router: st
 def test_doctor_and_run_agree_on_a_taken_endpoint(zenoh_router: str) -> None:
     """What doctor says about a taken endpoint is what run's own router does on it: a free port
     for run's default endpoint, a one-line error for an explicit --listen."""
-    from facesynth.app.chain import open_embedded
+    from facesynth.app.engine.router import open_embedded
     from facesynth.runtime.bus.zenoh_bus import ZenohConfigError, ZenohOptions
 
     session, locators = open_embedded([zenoh_router], ZenohOptions(mode="router"))

@@ -9,7 +9,8 @@ from collections.abc import Awaitable, Callable
 from pathlib import Path
 from typing import Any
 
-from facesynth.app.chain import open_embedded, run_chain
+from facesynth.app.chain import run_chain
+from facesynth.app.engine.router import open_embedded
 from facesynth.app.recording import RECORDABLE
 from facesynth.app.recording.reader import Recording
 from facesynth.app.recording.recorder import Recorder, RecordOptions
@@ -38,7 +39,7 @@ async def open_bus() -> ZenohBus:
     session, _ = await asyncio.to_thread(
         open_embedded, ["tcp/127.0.0.1:0"], ZenohOptions(mode="router")
     )
-    return ZenohBus(session)
+    return ZenohBus(session, mode="router")
 
 
 def stage_bodies(first: str, profile: str, backend: PointsBackend | None) -> dict[str, Body]:
