@@ -1,4 +1,8 @@
-"""A real OSC server (python-osc) on loopback that keeps every VMC message it receives."""
+"""A real OSC server (python-osc) on loopback that keeps every VMC message it receives.
+
+One thread takes the datagrams in the order they arrive, as a VMC receiver does (Unity's uOSC
+reads one socket in one loop). python-osc's threading server handles each datagram in a thread
+of its own, so under load two bundles' messages interleaved and a pose read as a mix of two."""
 
 from __future__ import annotations
 
@@ -9,7 +13,7 @@ from contextlib import contextmanager
 from typing import Any
 
 from pythonosc.dispatcher import Dispatcher
-from pythonosc.osc_server import ThreadingOSCUDPServer
+from pythonosc.osc_server import BlockingOSCUDPServer
 
 
 class Receiver:
@@ -55,7 +59,7 @@ def osc_receiver() -> Iterator[Receiver]:
     receiver = Receiver()
     dispatcher = Dispatcher()
     dispatcher.set_default_handler(receiver.handle)
-    server = ThreadingOSCUDPServer(("127.0.0.1", 0), dispatcher)
+    server = BlockingOSCUDPServer(("127.0.0.1", 0), dispatcher)
     receiver.port = server.server_address[1]
     thread = threading.Thread(target=server.serve_forever, name="osc-receiver", daemon=True)
     thread.start()
