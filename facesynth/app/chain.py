@@ -195,7 +195,7 @@ async def run_chain(
     contexts: dict[str, ServiceContext] = {}
     tasks: list[asyncio.Task[Any]] = []
     started = time.monotonic()
-    progress = ServoStateWatch(bus, keys.robots_pattern(rig, "servo_state"))
+    progress = AppliedFrameWatch(bus, keys.robots_pattern(rig, "servo_state"))
 
     def context(part: StageParts) -> ServiceContext:
         contexts[part.name] = node_context(bus, rig, part, stats_interval)
@@ -294,7 +294,7 @@ async def serve_nodes(
     )
 
 
-class ServoStateWatch:
+class AppliedFrameWatch:
     """Follows ``…/servo_state`` (``key`` may match every robot's) on the bus: the last frame
     a control interface applied."""
 

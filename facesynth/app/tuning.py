@@ -24,10 +24,14 @@ from __future__ import annotations
 
 import ctypes
 import ctypes.util
+import logging
 import os
 import sys
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
+from typing import Any
+
+log = logging.getLogger("facesynth")
 
 #: glibc ``mallopt`` parameters (malloc.h).
 _M_TRIM_THRESHOLD = -1
@@ -147,3 +151,13 @@ def keep_buffers() -> bool:
     return bool(
         mallopt(_M_MMAP_THRESHOLD, MMAP_THRESHOLD) and mallopt(_M_TRIM_THRESHOLD, TRIM_THRESHOLD)
     )
+
+
+def tune_process(nodes: Iterable[Any]) -> None:
+    """Set this process up for the nodes it runs: buffer reuse, and their scheduling requests
+    (the most demanding of each kind, see :mod:`facesynth.app.tuning`)."""
+    keep_buffers()
+    request = combined(Scheduling(node.nice, node.realtime, tuple(node.cpus)) for node in nodes)
+    if request.requested:
+        apply_scheduling(request)
+        log.info("scheduling: %s", request.describe())

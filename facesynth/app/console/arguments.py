@@ -4,9 +4,9 @@
 from __future__ import annotations
 
 import argparse
-from collections.abc import Callable
-from typing import Any
 
+from facesynth.app.command_registry import Command
+from facesynth.app.common_arguments import zenoh_arguments
 from facesynth.app.stage_args import add_stage_arguments
 
 HELP = (
@@ -21,12 +21,8 @@ def _cmd_console(args: argparse.Namespace) -> int:
     return cmd_console(args)
 
 
-def add_console_parser(
-    sub: Any, zenoh_arguments: Callable[[argparse.ArgumentParser], None]
-) -> None:
-    """Declare ``facesynth console`` on the command's sub-parsers."""
-    p: argparse.ArgumentParser = sub.add_parser("console", help=HELP, description=HELP)
-    p.set_defaults(handler=_cmd_console)
+def _arguments(p: argparse.ArgumentParser) -> None:
+    """``facesynth console``'s arguments."""
     p.add_argument(
         "--page",
         default="127.0.0.1:8095",
@@ -74,3 +70,6 @@ def add_console_parser(
     )
     add_stage_arguments(p, ["sensor", "points", "control"])
     zenoh_arguments(p)
+
+
+COMMANDS = (Command("console", HELP, _cmd_console, _arguments),)

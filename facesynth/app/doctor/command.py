@@ -11,11 +11,11 @@ from __future__ import annotations
 
 import argparse
 import time
-from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
-from typing import Any
 
 from facesynth.app import wiring
+from facesynth.app.command_registry import Command
+from facesynth.app.common_arguments import zenoh_arguments
 from facesynth.app.doctor import (
     addresses,
     buses,
@@ -43,15 +43,8 @@ class DoctorError(ValueError):
     """The graph cannot run on this host (the lines above say what to fix)."""
 
 
-def add_doctor_parser(sub: Any, zenoh_arguments: Callable[[argparse.ArgumentParser], None]) -> None:
-    """Declare ``facesynth doctor`` on the command's sub-parsers."""
-    text = (
-        "say what this host can run and what to fix, one line each: cameras, serial boards, "
-        "the router, output folders, extras, firmware; exit 0 when the graph (run's "
-        "arguments) can run here"
-    )
-    p = sub.add_parser("doctor", help=text, description=text)
-    p.set_defaults(handler=cmd_doctor)
+def _arguments(p: argparse.ArgumentParser) -> None:
+    """``facesynth doctor``'s arguments."""
     p.add_argument("graph", nargs="?", metavar="GRAPH", help=graph_help())
     add_stage_arguments(p, keys.SERVICES)
     add_attach_arguments(p)
@@ -150,3 +143,12 @@ def cmd_doctor(args: argparse.Namespace) -> int:
         raise DoctorError(problem)
     print(f"graph {name} can run on this host ({time.monotonic() - started:.1f} s)")
     return 0
+
+
+HELP = (
+    "say what this host can run and what to fix, one line each: cameras, serial boards, "
+    "the router, output folders, extras, firmware; exit 0 when the graph (run's "
+    "arguments) can run here"
+)
+
+COMMANDS = (Command("doctor", HELP, cmd_doctor, _arguments),)

@@ -8,9 +8,9 @@ recording and tracker extras that babbling needs are not installed: the command'
 from __future__ import annotations
 
 import argparse
-from collections.abc import Callable
-from typing import Any
 
+from facesynth.app.command_registry import Command
+from facesynth.app.common_arguments import zenoh_arguments
 from facesynth.app.stage_args import PLUGIN_FLAGS
 
 
@@ -20,14 +20,8 @@ def _cmd_learn(args: argparse.Namespace) -> int:
     return cmd_learn(args)
 
 
-def add_learn_parser(sub: Any, zenoh_arguments: Callable[[argparse.ArgumentParser], None]) -> None:
-    """Declare ``facesynth learn`` on the command's sub-parsers."""
-    text = (
-        "the robot learns its own face: babble the servos in front of the robot's camera, "
-        "record every settled pose (resumable), fit the self-model, write a learned profile"
-    )
-    p = sub.add_parser("learn", help=text, description=text)
-    p.set_defaults(handler=_cmd_learn)
+def _arguments(p: argparse.ArgumentParser) -> None:
+    """``facesynth learn``'s arguments."""
     p.add_argument("--profile", help="the robot's hardware profile: NAME or TOML path")
     p.add_argument(
         "--out",
@@ -109,3 +103,11 @@ def add_learn_parser(sub: Any, zenoh_arguments: Callable[[argparse.ArgumentParse
         flags, _ = PLUGIN_FLAGS[stage]
         flags.add(p, seen, {"sensor": None, "points": "tracker", "control": "record"}[stage])
     zenoh_arguments(p)
+
+
+HELP = (
+    "the robot learns its own face: babble the servos in front of the robot's camera, "
+    "record every settled pose (resumable), fit the self-model, write a learned profile"
+)
+
+COMMANDS = (Command("learn", HELP, _cmd_learn, _arguments),)

@@ -49,9 +49,9 @@ async def attached(bus: Any, rig: str, args: argparse.Namespace) -> AsyncIterato
     if not foxglove and not record:
         yield
         return
-    from facesynth.app.recording.cli import _need_extra
+    from facesynth.app.recording.extra import need_record_extra
 
-    _need_extra()
+    need_record_extra()
     from facesynth.app.recording.layout import LAYOUT_VERSION
     from facesynth.app.recording.live import Address, FoxgloveBridge
     from facesynth.app.recording.recorder import Recorder, RecordOptions

@@ -1,6 +1,6 @@
 """The ``record``, ``replay``, ``inspect`` and ``convert`` sub-commands.
 
-:func:`add_recording_parsers` adds them to the ``facesynth`` parser. Their handlers import the
+Registered in ``COMMANDS`` (:mod:`facesynth.app.command_registry`). Their handlers import the
 ``[record]`` extra (mcap, foxglove-sdk) only when they run, so every other command works
 without it, and a missing extra is one clear error line.
 """
@@ -8,58 +8,23 @@ without it, and a missing extra is one clear error line.
 from __future__ import annotations
 
 import argparse
-import importlib
 import json
 import time
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from facesynth.app.command_registry import Command
+from facesynth.app.common_arguments import zenoh_arguments
 from facesynth.app.recording import RECORDABLE, REPLAYABLE
+from facesynth.app.recording.extra import need_record_extra
 from facesynth.runtime.bus.zenoh_bus import endpoints
-
-ArgumentsAdder = Callable[[argparse.ArgumentParser], None]
 
 #: The stages a replay can feed, in chain order.
 DOWNSTREAM = ("points", "features", "translator", "control")
 
 
-class ExtraMissingError(ValueError):
-    """The ``[record]`` extra is not installed."""
-
-
-def _need_extra() -> None:
-    for module in ("mcap", "foxglove", "mcap_protobuf"):
-        try:
-            importlib.import_module(module)
-        except ImportError:
-            raise ExtraMissingError(
-                f"this command needs the record extra ({module} is missing): "
-                "pip install 'facesynth[record]'"
-            ) from None
-
-
-def add_recording_parsers(sub: Any, zenoh_arguments: ArgumentsAdder) -> None:
-    """Add ``record``, ``replay``, ``inspect`` and ``convert`` to the sub-command parsers."""
-    add_record_parser(sub, zenoh_arguments)
-    add_replay_parser(sub, zenoh_arguments)
-    add_inspect_parser(sub, zenoh_arguments)
-    add_convert_parser(sub)
-
-
-def _command(
-    sub: Any, name: str, handler: Callable[[argparse.Namespace], int], text: str
-) -> argparse.ArgumentParser:
-    parser: argparse.ArgumentParser = sub.add_parser(name, help=text, description=text)
-    parser.set_defaults(handler=handler)
-    return parser
-
-
-def add_record_parser(sub: Any, zenoh_arguments: ArgumentsAdder) -> None:
+def _record_arguments(p: argparse.ArgumentParser) -> None:
     """``facesynth record``."""
-    p = _command(
-        sub, "record", cmd_record, "record a rig's keys into an MCAP session file (or --check one)"
-    )
     p.add_argument(
         "--out",
         metavar="SESSION.mcap",
@@ -109,14 +74,8 @@ def add_record_parser(sub: Any, zenoh_arguments: ArgumentsAdder) -> None:
     zenoh_arguments(p)
 
 
-def add_replay_parser(sub: Any, zenoh_arguments: ArgumentsAdder) -> None:
+def _replay_arguments(p: argparse.ArgumentParser) -> None:
     """``facesynth replay``."""
-    p = _command(
-        sub,
-        "replay",
-        cmd_replay,
-        "publish a recording back on a rig's keys, with its timing or --fast",
-    )
     p.add_argument("session", metavar="SESSION.mcap")
     p.add_argument(
         "--from",
@@ -181,14 +140,8 @@ def add_replay_parser(sub: Any, zenoh_arguments: ArgumentsAdder) -> None:
     zenoh_arguments(p)
 
 
-def add_inspect_parser(sub: Any, zenoh_arguments: ArgumentsAdder) -> None:
+def _inspect_arguments(p: argparse.ArgumentParser) -> None:
     """``facesynth inspect``."""
-    p = _command(
-        sub,
-        "inspect",
-        cmd_inspect,
-        "serve a rig live to Foxglove (WebSocket): frame with landmarks, features, servos, stats",
-    )
     p.add_argument(
         "--foxglove",
         default="127.0.0.1:8765",
@@ -201,14 +154,8 @@ def add_inspect_parser(sub: Any, zenoh_arguments: ArgumentsAdder) -> None:
     zenoh_arguments(p)
 
 
-def add_convert_parser(sub: Any) -> None:
+def _convert_arguments(p: argparse.ArgumentParser) -> None:
     """``facesynth convert``."""
-    p = _command(
-        sub,
-        "convert",
-        cmd_convert,
-        "convert OpenFace .csv or track .jsonl to a recording, or a recording to JSON lines or CSV",
-    )
     p.add_argument("input", help="an OpenFace .csv, a facesynth track .jsonl, or a recording .mcap")
     p.add_argument(
         "output",
@@ -248,7 +195,7 @@ def _zenoh(args: argparse.Namespace) -> Any:
 
 def cmd_record(args: argparse.Namespace) -> int:
     """``facesynth record``."""
-    _need_extra()
+    need_record_extra()
     if args.check:
         return _check(args)
     from facesynth.app.chain import run_single
@@ -341,7 +288,7 @@ def _check(args: argparse.Namespace) -> int:
 
 def cmd_replay(args: argparse.Namespace) -> int:
     """``facesynth replay``."""
-    _need_extra()
+    need_record_extra()
     from facesynth.app.chain import run_single
     from facesynth.app.graph import wait_for_problem
     from facesynth.app.recording.reader import Recording
@@ -403,7 +350,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
 
 def cmd_inspect(args: argparse.Namespace) -> int:
     """``facesynth inspect``."""
-    _need_extra()
+    need_record_extra()
     from facesynth.app.chain import run_single
     from facesynth.app.recording.live import Address, FoxgloveBridge
     from facesynth.runtime import keys
@@ -430,7 +377,7 @@ def cmd_inspect(args: argparse.Namespace) -> int:
 
 def cmd_convert(args: argparse.Namespace) -> int:
     """``facesynth convert``."""
-    _need_extra()
+    need_record_extra()
     from facesynth.app.recording.convert import (
         ConvertError,
         export_csv,
@@ -472,3 +419,20 @@ def cmd_convert(args: argparse.Namespace) -> int:
         )
     print(json.dumps({"input": str(source), "output": str(target), "messages": count}))
     return 0
+
+
+RECORD_HELP = "record a rig's keys into an MCAP session file (or --check one)"
+REPLAY_HELP = "publish a recording back on a rig's keys, with its timing or --fast"
+INSPECT_HELP = (
+    "serve a rig live to Foxglove (WebSocket): frame with landmarks, features, servos, stats"
+)
+CONVERT_HELP = (
+    "convert OpenFace .csv or track .jsonl to a recording, or a recording to JSON lines or CSV"
+)
+
+COMMANDS = (
+    Command("record", RECORD_HELP, cmd_record, _record_arguments),
+    Command("replay", REPLAY_HELP, cmd_replay, _replay_arguments),
+    Command("inspect", INSPECT_HELP, cmd_inspect, _inspect_arguments),
+    Command("convert", CONVERT_HELP, cmd_convert, _convert_arguments),
+)

@@ -1,6 +1,6 @@
 """``facesynth simhead``: run a simulated head as a device (Maestro on a pty, MJPEG camera).
 
-:func:`add_simhead_parser` adds the sub-command to the ``facesynth`` parser. It prints the
+Registered in ``COMMANDS`` (:mod:`facesynth.app.command_registry`). It prints the
 serial port and the camera URL, then runs until Ctrl-C (or SIGTERM), removing its link.
 """
 
@@ -13,7 +13,9 @@ import sys
 from pathlib import Path
 from typing import Any
 
-__all__ = ["add_simhead_parser", "cmd_simhead", "parse_address"]
+from facesynth.app.command_registry import Command
+
+__all__ = ["COMMANDS", "cmd_simhead", "parse_address"]
 
 HELP = (
     "a simulated robot head: a face photo moved by messy actuators, speaking the Pololu "
@@ -31,10 +33,8 @@ def parse_address(text: str) -> tuple[str, int]:
     return host.strip("[]"), int(port)
 
 
-def add_simhead_parser(sub: Any) -> None:
-    """Add ``facesynth simhead``."""
-    p: argparse.ArgumentParser = sub.add_parser("simhead", help=HELP, description=HELP)
-    p.set_defaults(handler=cmd_simhead)
+def _arguments(p: argparse.ArgumentParser) -> None:
+    """``facesynth simhead``'s arguments."""
     p.add_argument(
         "head",
         nargs="?",
@@ -162,3 +162,6 @@ async def _serve(server: Any, name: str, actuators: int) -> int:
     finally:
         await server.stop()
     return 0
+
+
+COMMANDS = (Command("simhead", HELP, cmd_simhead, _arguments),)

@@ -1,0 +1,13 @@
+"""``facesynth bench``: the benchmarks (:mod:`facesynth.app.bench.command`)."""
+
+from __future__ import annotations
+
+from facesynth.app.bench.command import add_bench_arguments, cmd_bench
+from facesynth.app.command_registry import Command
+
+HELP = (
+    "benchmarks: the five-process chain, the tracker, smoothing, recording, the live face "
+    "page, expression fidelity, servo drivers on the wire"
+)
+
+COMMANDS = (Command("bench", HELP, cmd_bench, add_bench_arguments),)
