@@ -10,6 +10,11 @@ they evolve under strict rules (see ``schemas/README.md``):
 Every message derived from a frame carries that frame's ``seq``, ``t_capture_ns`` (wall clock,
 ``time.time_ns()`` at capture) and ``t_media_ns`` (position in the recording, or time since the
 live stream started), so latency can be measured at any stage and replays are deterministic.
+``capture_host`` (added with the stale-motion rules; empty from older senders) names the host
+whose wall clock ``t_capture_ns`` is, for a live capture only: every stage and the control
+interface drop a message captured longer ago than their limit, measured against that host's
+clock offset as they see it (``facesynth.runtime.capture_age``). Replays of recordings and
+``--fast`` sensors leave it empty: their capture stamps are not a live clock, and not aged.
 
 Semantic checks that a type system cannot express (finite numbers, coordinate counts, frame
 sizes) live in ``facesynth.runtime.codec``; this module holds structs only.
@@ -43,6 +48,7 @@ class Frame(msgspec.Struct, tag="frame", tag_field=TAG_FIELD, kw_only=True):
     data: bytes = b""
     source: str = ""
     fps: float = 0.0
+    capture_host: str = ""
 
 
 class PointSet(msgspec.Struct, kw_only=True):
@@ -90,6 +96,7 @@ class Points(msgspec.Struct, tag="points", tag_field=TAG_FIELD, kw_only=True):
     sets: list[PointSet] = []
     source: str = ""
     scores: list[ScoreSet] = []
+    capture_host: str = ""
 
 
 class Features(msgspec.Struct, tag="features", tag_field=TAG_FIELD, kw_only=True):
@@ -118,6 +125,7 @@ class Features(msgspec.Struct, tag="features", tag_field=TAG_FIELD, kw_only=True
     named: dict[str, float] = {}
     raw: dict[str, float] = {}
     displacements: list[float] = []
+    capture_host: str = ""
 
 
 class ServoCommands(msgspec.Struct, tag="servo_commands", tag_field=TAG_FIELD, kw_only=True):
@@ -132,7 +140,9 @@ class ServoCommands(msgspec.Struct, tag="servo_commands", tag_field=TAG_FIELD, k
     ``sender_seq`` counts its messages from 1, ``sent_ns`` is its wall clock at publication and
     ``sender_host`` names the host whose clock that is. A controller drops a command that is
     not newer than one it applied from the same sender, or older than the profile's
-    ``max_command_age_s``, measured against that host's clock offset as the controller sees it.
+    ``max_command_age_s``, measured against that host's clock offset as the controller sees it,
+    and one whose frame was captured longer ago than that (``t_capture_ns`` on
+    ``capture_host``, measured the same way; not when ``capture_host`` is empty).
 
     On ``…/servo_state`` the control interface reports every position it sends, and ``move``
     says why: ``"command"`` (a command applied; the default, and the only value on
@@ -165,6 +175,7 @@ class ServoCommands(msgspec.Struct, tag="servo_commands", tag_field=TAG_FIELD, k
     loads: dict[str, float] = {}
     temperatures_c: dict[str, float] = {}
     faults: dict[str, str] = {}
+    capture_host: str = ""
 
 
 class ServiceStats(msgspec.Struct, tag="service_stats", tag_field=TAG_FIELD, kw_only=True):
@@ -200,6 +211,10 @@ class ServiceStats(msgspec.Struct, tag="service_stats", tag_field=TAG_FIELD, kw_
     #: Seconds since the service last published a message (``None``: none yet, or a service
     #: older than this field); ``rate_hz`` is 0 once it has been idle for a second.
     idle_s: float | None = None
+    #: Inputs dropped since the service started because their frame was captured longer ago
+    #: than its limit (an upstream stall; ``facesynth.runtime.capture_age``); 0 from older
+    #: services.
+    stale: int = 0
 
 
 class BabbleSample(msgspec.Struct, tag="babble_sample", tag_field=TAG_FIELD, kw_only=True):

@@ -25,6 +25,7 @@ import msgspec
 
 from facesynth.runtime import codec, keys, limits
 from facesynth.runtime.bus.base import Bus, Subscription, Token
+from facesynth.runtime.capture_age import CaptureAge
 from facesynth.runtime.clock import Clock, SystemClock
 from facesynth.runtime.stats import StageStats
 
@@ -164,10 +165,17 @@ async def serve_transform(
     transform: Callable[[M], msgspec.Struct | None],
     maxsize: int,
     listening: str = "",
+    max_age_s: float | None = None,
 ) -> None:
     """Decode each input, transform it, publish the result; reject what cannot be used.
-    ``listening`` is logged once the service listens (operators and tests wait for it)."""
+    ``listening`` is logged once the service listens (operators and tests wait for it).
+
+    With ``max_age_s``, an input whose frame was captured longer ago than that when it leaves
+    the input queue is dropped untransformed and counted in ``stats.stale``
+    (:class:`~facesynth.runtime.capture_age.CaptureAge`, logged once per run of them): after a
+    stall upstream the stage goes on with fresh frames, never with the backlog."""
     subscription = ctx.subscribe(in_stage, maxsize, in_type)
+    ages = None if max_age_s is None else CaptureAge(max_age_s, socket.gethostname())
     ctx.ready()
     if listening:
         ctx.log.info("%s", listening)
@@ -177,6 +185,8 @@ async def serve_transform(
             message = sample.message  # decoded and checked on arrival
             if message is None:
                 message = codec.decode(sample.payload, in_type)  # type: ignore[type-var]
+            if ages is not None and _captured_too_long_ago(ctx, ages, message):
+                continue
             result = transform(message)
         except ValueError as exc:
             ctx.reject(f"{sample.key}: {exc}")
@@ -186,6 +196,21 @@ async def serve_transform(
             continue
         if result is not None:
             ctx.publish(out_stage, result)
+
+
+def _captured_too_long_ago(ctx: ServiceContext, ages: CaptureAge, message: object) -> bool:
+    """Whether ``message`` is too old since capture (counted, and said once per run)."""
+    verdict = ages.check(
+        getattr(message, "t_capture_ns", 0),
+        getattr(message, "capture_host", ""),
+        ctx.clock.time_ns(),
+        ctx.clock.monotonic_ns(),
+    )
+    if verdict.note:
+        ctx.log.warning("%s", verdict.note)
+    if verdict.old:
+        ctx.stats.stale += 1
+    return verdict.old
 
 
 async def _stats_loop(ctx: ServiceContext) -> None:

@@ -50,6 +50,8 @@ class StageStats:
         self.published = 0
         self.rejected = 0
         self.dropped = 0
+        #: Inputs dropped because their frame was captured too long ago (an upstream stall).
+        self.stale = 0
         #: A line on the service's state, published with its stats (e.g. a servo board's link).
         self.note = ""
         self.latencies_ms: collections.deque[float] = collections.deque(maxlen=window)
@@ -110,6 +112,7 @@ class StageStats:
             router_losses=0 if link is None else link.losses,
             router_offline_s=0.0 if link is None else round(link.offline_s, 3),
             idle_s=self.idle_s(now),
+            stale=self.stale,
         )
 
     def idle_s(self, now_ns: int) -> float | None:

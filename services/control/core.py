@@ -3,8 +3,9 @@
 Every command is checked against the profile before a servo moves: commands for another
 profile, with more positions than the profile has servos, naming servos it does not have, or
 with a NaN position are refused whole (never half applied); every position is clamped to its
-servo's limits. Commands older than the profile's ``max_command_age_s``, or not newer than one
-already applied from the same sender, are refused too (:mod:`services.control.freshness`).
+servo's limits. Commands older than the profile's ``max_command_age_s`` (since their sender sent
+them, or since their frame was captured), or not newer than one already applied from the same
+sender, are refused too (:mod:`services.control.freshness`).
 
 Then nothing moves faster than the profile allows (:mod:`services.control.motion`): each step
 toward the commanded targets is bounded by each servo's ``max_speed`` and ``max_accel``,

@@ -27,23 +27,44 @@ which every command from a host looked old (and at least ``relearn_count`` arriv
 controller takes the new delay as the baseline and says so; a backlog drains in far less than
 that. Commands without the stamps (older translators) are executed unaged; the controller says
 so once.
+
+**From capture.** A command is also refused (:class:`StaleCapture`) when its frame was
+captured longer than ``max_command_age_s`` ago: a stage upstream of the translator that stalls
+(points frozen for seconds) lets its backlog go afterwards, and the translator sends it on at
+once, fresh by ``sent_ns``. The frame's ``t_capture_ns`` is read on ``capture_host``, whose clock
+offset is learnt the same way, per capture host (:mod:`facesynth.runtime.capture_age`); the
+capture host and the sender may be different machines. The first of a run of such commands
+says so once, the first fresh one after it how many were dropped. Commands without a capture
+host (older senders, replays, ``--fast`` sensors) are not aged from capture.
 """
 
 from __future__ import annotations
 
 import collections
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
+from facesynth.runtime.capture_age import (
+    RELEARN_COUNT,
+    RELEARN_S,
+    WINDOW_S,
+    CaptureAge,
+    OffsetBaseline,
+    learn_host,
+)
 from schemas.messages import ServoCommands
 
-#: The baseline of a host is the smallest offset over this long (seconds).
-WINDOW_S = 30.0
-#: Width of one bucket of the window (seconds).
-BUCKET_S = 1.0
-#: After this long (seconds) with nothing but old commands from a host, its baseline is re-learnt.
-RELEARN_S = 2.0
-#: ... provided at least this many commands arrived meanwhile.
-RELEARN_COUNT = 10
+__all__ = [
+    "RELEARN_COUNT",
+    "RELEARN_S",
+    "SENDERS",
+    "WINDOW_S",
+    "Arrival",
+    "Freshness",
+    "StaleCapture",
+    "StaleCommand",
+    "Verdict",
+]
+
 #: How many senders' last commands are remembered.
 SENDERS = 64
 
@@ -52,49 +73,37 @@ class StaleCommand(ValueError):
     """A command that must not be executed because it is old or older than one applied."""
 
 
+class StaleCapture(StaleCommand):
+    """A command whose frame was captured longer ago than the limit (an upstream stall);
+    ``note`` is a line worth logging, on the first of a run only."""
+
+    def __init__(self, message: str, note: str = "") -> None:
+        super().__init__(message)
+        self.note = note
+
+
 @dataclass(frozen=True, slots=True)
 class Arrival:
     """When a command reached the controller: its wall clock (comparable with the sender's,
-    up to their offset) and its monotonic clock (for intervals)."""
+    up to their offset) and its monotonic clock (for intervals); ``taken_ns`` is the wall clock
+    when the controller took it from its input queue to execute it (0: as it arrived), from
+    which its capture is aged (a command may wait in the queue too)."""
 
     wall_ns: int
     mono_ns: int
+    taken_ns: int = 0
 
 
 @dataclass(frozen=True, slots=True)
 class Verdict:
     """A fresh command: its age (seconds; ``None`` when it carries no stamps), whether its
-    sender is not the one of the previous command, and a line worth logging (or empty)."""
+    sender is not the one of the previous command, a line worth logging (or empty), and its
+    age since capture (seconds; ``None`` when it is not aged from capture)."""
 
     age_s: float | None
     new_sender: bool = False
     note: str = ""
-
-
-@dataclass
-class _HostClock:
-    """The offset baseline of one sender host, and its run of old commands."""
-
-    buckets: collections.deque[list[int]] = field(default_factory=collections.deque)
-    stale_since_ns: int | None = None
-    stale_count: int = 0
-
-    def baseline(self) -> int:
-        return min(offset for _, offset in self.buckets)
-
-    def add(self, mono_ns: int, offset_ns: int) -> None:
-        bucket_ns = round(BUCKET_S * 1e9)
-        if self.buckets and mono_ns - self.buckets[-1][0] < bucket_ns:
-            self.buckets[-1][1] = min(self.buckets[-1][1], offset_ns)
-        else:
-            self.buckets.append([mono_ns, offset_ns])
-        newest = self.buckets[-1][0]
-        while len(self.buckets) > 1 and newest - self.buckets[0][0] > WINDOW_S * 1e9:
-            self.buckets.popleft()
-
-    def restart(self, mono_ns: int, offset_ns: int) -> None:
-        self.buckets = collections.deque([[mono_ns, offset_ns]])
-        self.stale_since_ns, self.stale_count = None, 0
+    capture_age_s: float | None = None
 
 
 class Freshness:
@@ -105,13 +114,15 @@ class Freshness:
             raise ValueError("the command age limit must be positive")
         self.max_age_ns = round(max_age_s * 1e9)
         self.own_host = own_host
-        self._hosts: dict[str, _HostClock] = {}
+        self.capture = CaptureAge(max_age_s, own_host, what="command")
+        self._hosts: dict[str, OffsetBaseline] = {}
         self._last: collections.OrderedDict[str, tuple[int, int]] = collections.OrderedDict()
         self._sender: str | None = None
         self.unstamped = 0
 
     def check(self, commands: ServoCommands, arrival: Arrival) -> Verdict:
-        """The verdict on ``commands`` arrived at ``arrival``, or raise :class:`StaleCommand`.
+        """The verdict on ``commands`` arrived at ``arrival``, or raise :class:`StaleCommand`
+        (:class:`StaleCapture` when its frame was captured too long ago).
 
         A fresh command counts as applied from here on (for the order of its sender).
         """
@@ -121,7 +132,7 @@ class Freshness:
             note = ""
             if self.unstamped == 1:
                 note = "commands without send stamps (an older translator?): executed unaged"
-            return self._fresh(commands, None, note)
+            return self._fresh(commands, arrival, None, note)
         last = self._last.get(sender)
         if last is not None and commands.sender_seq <= last[0] and commands.sent_ns <= last[1]:
             raise StaleCommand(
@@ -129,40 +140,48 @@ class Freshness:
                 f"{last[0]}, already applied"
             )
         offset = arrival.wall_ns - commands.sent_ns
-        clock = self._hosts.get(commands.sender_host)
-        if clock is None:
-            clock = self._hosts[commands.sender_host] = _HostClock()
-            same = bool(self.own_host) and commands.sender_host == self.own_host
-            clock.add(arrival.mono_ns, 0 if same else offset)
-        age = offset - clock.baseline()
+        clock = learn_host(
+            self._hosts, commands.sender_host, self.own_host, offset, arrival.mono_ns
+        )
+        judged = clock.judge(offset, arrival.mono_ns, self.max_age_ns)
+        if judged.old:
+            raise StaleCommand(
+                f"command {commands.sender_seq} of {sender} is {judged.age_ns / 1e9:.3f} s old "
+                f"(limit {self.max_age_ns / 1e9:g} s)"
+            )
         note = ""
-        if age > self.max_age_ns:
-            if clock.stale_since_ns is None:
-                clock.stale_since_ns = arrival.mono_ns
-            clock.stale_count += 1
-            waited = arrival.mono_ns - clock.stale_since_ns
-            if waited < RELEARN_S * 1e9 or clock.stale_count < RELEARN_COUNT:
-                raise StaleCommand(
-                    f"command {commands.sender_seq} of {sender} is {age / 1e9:.3f} s old "
-                    f"(limit {self.max_age_ns / 1e9:g} s)"
-                )
+        if judged.relearnt:
             note = (
                 f"every command from host {commands.sender_host!r} looked about "
-                f"{age / 1e9:.2f} s old for {waited / 1e9:.1f} s: taking that as its clock "
-                "offset from now on (a stepped clock, or a link that stays slower)"
+                f"{judged.looked_ns / 1e9:.2f} s old for {judged.waited_ns / 1e9:.1f} s: taking "
+                "that as its clock offset from now on (a stepped clock, or a link that stays "
+                "slower)"
             )
-            clock.restart(arrival.mono_ns, offset)
-            age = 0
-        else:
-            clock.stale_since_ns, clock.stale_count = None, 0
-            clock.add(arrival.mono_ns, offset)
+        verdict = self._fresh(commands, arrival, judged.age_ns / 1e9, note)
         self._last[sender] = (commands.sender_seq, commands.sent_ns)
         self._last.move_to_end(sender)
         while len(self._last) > SENDERS:
             self._last.popitem(last=False)
-        return self._fresh(commands, max(age, 0) / 1e9, note)
+        return verdict
 
-    def _fresh(self, commands: ServoCommands, age_s: float | None, note: str) -> Verdict:
+    def _fresh(
+        self, commands: ServoCommands, arrival: Arrival, age_s: float | None, note: str
+    ) -> Verdict:
+        """The verdict on a command fresh by its sender's stamps, once aged from capture."""
+        captured = self.capture.check(
+            commands.t_capture_ns,
+            commands.capture_host,
+            arrival.taken_ns or arrival.wall_ns,
+            arrival.mono_ns,
+        )
+        if captured.old:
+            raise StaleCapture(
+                f"command {commands.sender_seq} of {commands.sender or 'an unstamped sender'} "
+                f"(frame {commands.seq}) was captured {captured.age_s:.3f} s ago "
+                f"(limit {self.max_age_ns / 1e9:g} s)",
+                captured.note,
+            )
         new_sender = self._sender is not None and commands.sender != self._sender
         self._sender = commands.sender
-        return Verdict(age_s, new_sender, note)
+        notes = "; ".join(line for line in (note, captured.note) if line)
+        return Verdict(age_s, new_sender, notes, captured.age_s)

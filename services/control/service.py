@@ -28,6 +28,7 @@ from facesynth.runtime.service import ServiceContext
 from schemas.messages import ServoCommands
 from services.control.core import RAMP_RATE_HZ, Arrival, ControlCore, MotionTime, Move
 from services.control.drivers.base import ServoDriver, ServoReading
+from services.control.freshness import StaleCapture
 
 __all__ = ["RAMP_RATE_HZ", "ControlService"]
 
@@ -100,8 +101,13 @@ class ControlService:
             ctx.stats.received += 1
             try:
                 commands = sample.message or codec.decode(sample.payload, ServoCommands)
-                arrival = Arrival(sample.t_received_ns, clock.monotonic_ns())
+                arrival = Arrival(sample.t_received_ns, clock.monotonic_ns(), clock.time_ns())
                 move, verdict = self.core.command(commands, arrival)
+            except StaleCapture as exc:  # an upstream stall: hold, then neutral (the watchdog)
+                ctx.stats.stale += 1
+                if exc.note:  # once per run of them, not per command
+                    ctx.log.warning("%s", exc.note)
+                continue
             except ValueError as exc:
                 ctx.reject(f"{sample.key}: {exc}")
                 continue

@@ -182,10 +182,10 @@ class CalibrationRecorder:
                 "(live: hold still facing the camera; video: widen the neutral segment)"
             )
         neutral_frames = neutral_step.frames
-        neutral = np.median([_distances(f.ibug, f.mesh) for f in neutral_frames], axis=0)
         meshes = [f.mesh for f in neutral_frames if f.mesh is not None]
         neutral_mesh = np.median(np.stack(meshes), axis=0) if len(meshes) >= 3 else None
         reference = MeshReference(neutral_mesh) if neutral_mesh is not None else None
+        neutral = np.median([_distances(f.ibug, f.mesh, reference) for f in neutral_frames], axis=0)
         named_neutral = _median_named([self._named(f, reference) for f in neutral_frames])
         lows = np.zeros(N_IBUG)
         highs = np.zeros(N_IBUG)
@@ -194,7 +194,9 @@ class CalibrationRecorder:
         for recording in self.steps.values():
             if not recording.frames:
                 continue
-            deltas = np.stack([_distances(f.ibug, f.mesh) - neutral for f in recording.frames])
+            deltas = np.stack(
+                [_distances(f.ibug, f.mesh, reference) - neutral for f in recording.frames]
+            )
             lows = np.minimum(lows, np.percentile(deltas, self.low_pct, axis=0))
             highs = np.maximum(highs, np.percentile(deltas, self.high_pct, axis=0))
             rows = [relative(self._named(f, reference), named_neutral) for f in recording.frames]
@@ -224,8 +226,11 @@ class CalibrationRecorder:
         return named
 
 
-def _distances(ibug: np.ndarray, mesh: np.ndarray | None) -> np.ndarray:
-    return nose_distances(paper_frame(ibug, mesh))
+def _distances(
+    ibug: np.ndarray, mesh: np.ndarray | None, reference: MeshReference | None
+) -> np.ndarray:
+    """The paper's distances, the head's rotation since the neutral mesh taken out (F's way)."""
+    return nose_distances(paper_frame(ibug, mesh, reference))
 
 
 def _median_named(rows: list[dict[str, float]]) -> dict[str, float]:

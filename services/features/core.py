@@ -3,11 +3,12 @@
 The two outer eye corners (36, 45) define a face frame: origin at their midpoint, x axis along
 the eye line, unit length = their distance (inter-ocular distance, IOD). In that frame the
 distance of every point to the nose tip (30) no longer depends on the head's in-plane position,
-rotation or scale. When the points come with a 3D mesh (the tracker), they are first turned out
-of the head's yaw (:func:`paper_frame`), so a head turned to one side does not read as brows
-lowered on the far side and raised on the near one. Features are also given relative to the
-performer's neutral face: from a calibration, or the median over the first second (media time)
-in which a face is seen.
+rotation or scale. When the points come with a 3D mesh (the tracker), the rest of the head's
+rotation is taken out first (:func:`paper_frame`, ``services.features.frontal``): the points
+are moved rigidly, with the mesh's depth, to the head's pose at the neutral, so a head turned
+or nodding does not read as brows lowered. Features are also given relative to the performer's
+neutral face: from a calibration, or the median over the first second (media time) in which a
+face is seen.
 
 Beyond the paper, once the neutral is known every face frame also carries:
 
@@ -29,13 +30,10 @@ calibration has a named neutral but no neutral mesh). With
 
 from __future__ import annotations
 
-import contextlib
-
 import numpy as np
 
 from facesynth.runtime import blendshapes
 from facesynth.runtime.calibration import Calibration
-from facesynth.runtime.ibug_mesh import ibug68_depth
 from facesynth.runtime.landmarks import IBUG68, IRIS10, MESH468, MESH478, N_IBUG, NOSE_TIP
 from schemas.messages import Features, Points
 from services.features.brow_rest import BROW_NAMED, BROW_POINTS, BrowRest, window_at_rest
@@ -48,9 +46,10 @@ from services.features.expressions import (
     scale,
 )
 from services.features.frame import MIN_IOD_PX, FeatureError, normalise
+from services.features.frontal import paper_frame
 from services.features.gaze import SIDES, GazeHold
 from services.features.neutral import AutoNeutral, NeutralFace, NeutralWindow, Sample, neutral_face
-from services.features.pose import N_MESH, MeshReference, PoseError, unturned
+from services.features.pose import N_MESH, MeshReference
 
 __all__ = [
     "MIN_IOD_PX",
@@ -143,17 +142,6 @@ def blendshape_features(scores: np.ndarray | None) -> dict[str, float]:
     return dict(zip(blendshapes.SHAPES, scores[1:].tolist(), strict=True))
 
 
-def paper_frame(ibug: np.ndarray, mesh: np.ndarray | None = None) -> np.ndarray:
-    """The 68 points in the eye-corner face frame (:func:`normalise`), first turned out of the
-    head's yaw with the mesh's depth when there is a mesh (``pose.unturned``; the points' depth
-    is the mesh's through the iBUG table, ``facesynth.runtime.ibug_mesh``). A mesh with no face
-    frame leaves the points as they are."""
-    if mesh is not None:
-        with contextlib.suppress(PoseError):
-            ibug = unturned(np.column_stack([ibug, ibug68_depth(mesh)]), mesh)
-    return normalise(ibug)
-
-
 def nose_distances(normalised: np.ndarray) -> np.ndarray:
     """Distance of every point to the nose tip (the paper's 68 features), in IOD units."""
     offsets = normalised - normalised[NOSE_TIP]
@@ -208,6 +196,8 @@ class FeatureProcessor:
         self.estimator = NeutralEstimator(neutral_seconds)
         if calibration is not None and neutral is None:
             neutral = np.asarray(calibration.neutral, dtype=np.float64)
+        #: Whether the neutral's distances are measured (none given, none in a calibration).
+        self._distances_measured = neutral is None
         if neutral is not None:
             if neutral.shape != (N_IBUG,) or not np.all(np.isfinite(neutral)):
                 raise FeatureError("a neutral needs 68 finite distances")
@@ -258,6 +248,13 @@ class FeatureProcessor:
         neutral = neutral_face(
             self.window.samples, self.reference, use_mesh=self.use_mesh is not False
         )
+        if neutral.reference is not None:  # the window's points, frontalised against it
+            frames = np.stack(
+                [paper_frame(s.ibug68, s.mesh, neutral.reference) for s in self.window.samples]
+            )
+            neutral.frame = np.median(frames, axis=0)
+            if self._distances_measured:
+                self.estimator.neutral = np.median([nose_distances(f) for f in frames], axis=0)
         rest = window_at_rest(self.window.samples)
         if self._brows_may_move and rest in ("moved", "shut"):
             self.brows = BrowRest(self.window.window_ns / 1e9, provisional=rest == "shut")
@@ -286,10 +283,11 @@ class FeatureProcessor:
                 t_media_ns=points.t_media_ns,
                 face=False,
                 neutral_ready=self.estimator.ready,
+                capture_host=points.capture_host,
             )
         ibug = ibug_points(points)
         mesh = mesh_points(points)
-        frame = paper_frame(ibug, mesh)
+        frame = paper_frame(ibug, mesh, self.reference)
         iris = optional_points(points, IRIS10, N_IRIS, 2)
         scores = blendshape_scores(points)
         distances = nose_distances(frame)
@@ -298,6 +296,9 @@ class FeatureProcessor:
         sample = Sample(ibug, frame, mesh, iris, scores)
         if self.frame_neutral is None and self.window.add(t, sample):
             self._complete_neutral()
+            if self.reference is not None:  # this frame was read before the neutral mesh
+                frame = paper_frame(ibug, mesh, self.reference)
+                distances = nose_distances(frame)
         elif self.brows is not None:
             found = self.brows.add(t, sample)
             if found is not None:
@@ -348,6 +349,7 @@ class FeatureProcessor:
             named=named,
             raw=rel,
             displacements=displacements,
+            capture_host=points.capture_host,
         )
 
     def _rebase_brows(self, samples: list[Sample]) -> None:

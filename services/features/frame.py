@@ -19,9 +19,12 @@ class FeatureError(ValueError):
     """Points from which no features can be computed (missing scheme, degenerate eyes)."""
 
 
-def normalise(points: np.ndarray) -> np.ndarray:
-    """Points in the eye-corner face frame: translation, rotation and scale removed."""
-    right, left = points[RIGHT_EYE_OUTER], points[LEFT_EYE_OUTER]
+def normalise(points: np.ndarray, frame_of: np.ndarray | None = None) -> np.ndarray:
+    """Points in the eye-corner face frame: translation, rotation and scale removed. The frame
+    is set by the outer eye corners of ``points``, or of ``frame_of`` (68 points of another
+    face, e.g. the neutral's, when ``points`` were already moved to its pose)."""
+    corners = points if frame_of is None else frame_of
+    right, left = corners[RIGHT_EYE_OUTER], corners[LEFT_EYE_OUTER]
     axis = left - right
     iod = float(np.hypot(axis[0], axis[1]))
     if not np.isfinite(iod) or iod < MIN_IOD_PX:

@@ -20,11 +20,13 @@ performer's left shoulder. They are intrinsic yaw (about y), then pitch (about x
 
 from __future__ import annotations
 
+import functools
 import math
 from typing import Final
 
 import numpy as np
 
+from facesynth.runtime.ibug_mesh import mesh_to_ibug68
 from services.features.frame import FeatureError
 
 N_MESH: Final = 468
@@ -178,6 +180,12 @@ class MeshReference:
         self.canonical: np.ndarray = (mesh - origin) @ self.axes.T / self.iod
         self._stable = np.asarray(STABLE_VERTICES)
         self._target = self.canonical[self._stable]
+
+    @functools.cached_property
+    def ibug68(self) -> np.ndarray:
+        """The neutral's 68 iBUG points (68, 2), through the tracker's vertex table."""
+        points: np.ndarray = mesh_to_ibug68(self.mesh).astype(np.float64)
+        return points
 
     def fit(self, mesh: np.ndarray) -> Similarity:
         """The transform from a mesh's coordinates onto the neutral's face frame."""

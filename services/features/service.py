@@ -13,6 +13,7 @@ import contextlib
 from dataclasses import dataclass
 from pathlib import Path
 
+from facesynth.runtime.capture_age import DEFAULT_MAX_AGE_S
 from facesynth.runtime.service import ServiceContext, serve_transform
 from schemas.messages import Features, Points
 from services.features.core import FeatureProcessor
@@ -161,7 +162,9 @@ async def serve_features(
         return features
 
     try:
-        await serve_transform(ctx, "points", Points, "features", transform, queue)
+        await serve_transform(
+            ctx, "points", Points, "features", transform, queue, max_age_s=DEFAULT_MAX_AGE_S
+        )
     finally:
         if keeper is not None:
             with contextlib.suppress(Exception):  # never let a full disk hide the real error

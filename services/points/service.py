@@ -2,12 +2,16 @@
 
 from __future__ import annotations
 
+from facesynth.runtime.capture_age import DEFAULT_MAX_AGE_S
 from facesynth.runtime.service import ServiceContext, serve_transform
 from schemas.messages import Frame
 from services.points.backends import PointsBackend
 
 
 async def serve_points(ctx: ServiceContext, backend: PointsBackend, queue: int = 2) -> None:
-    """Run ``backend`` on every frame until cancelled."""
+    """Run ``backend`` on every frame until cancelled; a frame captured longer ago than
+    ``DEFAULT_MAX_AGE_S`` when its turn comes (after a stall) is dropped, not tracked."""
     ctx.log.info("point streamer on %s (backend %s)", ctx.key("input"), backend.name)
-    await serve_transform(ctx, "input", Frame, "points", backend.process, queue)
+    await serve_transform(
+        ctx, "input", Frame, "points", backend.process, queue, max_age_s=DEFAULT_MAX_AGE_S
+    )

@@ -4,14 +4,21 @@ Real-time by default (frames leave at the recording's pace); ``fast`` sends as f
 takes them, keeping at most ``window`` frames ahead of the last servo command seen, so a replay
 loses no frame and gives the same commands every time. Pacing, the credit window's
 ``ack_timeout`` and the wait for other services run on the context's clock (``ctx.clock``).
+
+Real-time frames name this host as their ``capture_host``, so the stages downstream drop them
+once they are too old (after a stall); ``fast`` frames wait for credit by design and name none
+(they are never aged from capture).
 """
 
 from __future__ import annotations
 
 import asyncio
 import contextlib
+import socket
 from collections.abc import AsyncIterator, Iterator
 from dataclasses import dataclass, field
+
+import msgspec
 
 from facesynth.runtime import keys
 from facesynth.runtime.frames import FrameError
@@ -91,6 +98,8 @@ class SensorService:
         self.options = options
         self.last_seq = -1
         self.credit = CreditGate(options.window, options.ack_timeout, "frame")
+        #: Whose wall clock stamps the frames (none for ``fast``: see the module doc).
+        self.capture_host = "" if options.fast else socket.gethostname()
 
     @property
     def stalls(self) -> int:
@@ -193,6 +202,8 @@ class SensorService:
                     captured = self.source.capture_time_ns()
                     now = captured if captured is not None else ctx.clock.time_ns()
                     frame = self._frame(image, seq, t_media_ns, now)
+                    if self.capture_host:
+                        frame = msgspec.structs.replace(frame, capture_host=self.capture_host)
                 except FrameError as exc:  # e.g. a camera's JPEG that does not decode (raw)
                     ctx.reject(f"frame {seq}: {exc}")
                     continue

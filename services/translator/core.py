@@ -407,4 +407,5 @@ class Translator:
             face=features.face,
             profile=self.profile.name,
             positions=self.step(features),
+            capture_host=features.capture_host,
         )

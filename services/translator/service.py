@@ -51,7 +51,15 @@ async def serve_translator(ctx: ServiceContext, translator: Translator, queue: i
     listening = f"translator on {ctx.key('features')} (profile {translator.profile.name})"
     try:
         await serve_transform(
-            ctx, "features", Features, "servo_commands", transform, queue, listening
+            ctx,
+            "features",
+            Features,
+            "servo_commands",
+            transform,
+            queue,
+            listening,
+            # Features captured longer ago than the controller would execute are not translated.
+            max_age_s=translator.profile.max_command_age_s,
         )
     finally:
         states.close()

@@ -131,6 +131,18 @@ def test_a_profile_with_channels_the_head_lacks_is_an_error() -> None:
         loop.start()
 
 
+def test_a_segment_plays_as_a_video_of_its_own() -> None:
+    """From frame ``start`` on, media time from 0 there, F's neutral from its first second."""
+    segment = track_performer(str(sample_video()), frames=30, start=200)
+    assert len(segment.features) == 30
+    assert segment.features[0].t_media_ns == 0 and segment.features[0].seq == 0
+    assert not segment.features[0].neutral_ready and segment.features[-1].neutral_ready
+    with pytest.raises(RobotError, match="0 or later"):
+        track_performer(str(sample_video()), frames=3, start=-1)
+    with pytest.raises(RobotError, match="never found the performer"):
+        track_performer(str(sample_video()), frames=3, start=10_000)
+
+
 def test_frames_must_be_positive() -> None:
     with pytest.raises(RobotError, match="--frames must be at least 1"):
         track_performer(str(sample_video()), frames=0)

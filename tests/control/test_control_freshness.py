@@ -4,8 +4,10 @@ from __future__ import annotations
 
 from typing import Any
 
+import msgspec
 import pytest
 
+from facesynth.runtime import codec
 from schemas.messages import ServoCommands
 from services.control.freshness import (
     RELEARN_COUNT,
@@ -13,6 +15,7 @@ from services.control.freshness import (
     WINDOW_S,
     Arrival,
     Freshness,
+    StaleCapture,
     StaleCommand,
 )
 
@@ -22,10 +25,18 @@ S = 1_000_000_000
 AHEAD_NS = 3_600 * S + 123 * MS
 
 
-def cmd(seq: int, sent_ns: int, *, sender: str = "t-1/ab", host: str = "tracker", **kw: Any):
+def cmd(
+    seq: int,
+    sent_ns: int,
+    *,
+    sender: str = "t-1/ab",
+    host: str = "tracker",
+    t_capture_ns: int = 1,
+    **kw: Any,
+) -> ServoCommands:
     return ServoCommands(
         seq=seq,
-        t_capture_ns=1,
+        t_capture_ns=t_capture_ns,
         t_media_ns=1,
         face=True,
         profile="rig",
@@ -148,6 +159,105 @@ def test_commands_without_stamps_run_unaged_and_that_is_said_once() -> None:
     notes = [fresh.check(plain, at(10 * S + i)).note for i in range(3)]
     assert notes[0].startswith("commands without send stamps") and notes[1:] == ["", ""]
     assert fresh.check(plain, at(99 * S)).age_s is None
+
+
+#: The camera host's clock is 5 s behind the controller's (and the translator's is ahead).
+BEHIND_NS = -5 * S
+
+
+def captured(seq: int, capture_ns: int, sent_ns: int) -> ServoCommands:
+    """Command ``seq`` of a frame captured at controller time ``capture_ns`` on the camera host,
+    translated and sent at controller time ``sent_ns`` on the translator's host."""
+    return cmd(seq, sent_ns + AHEAD_NS, t_capture_ns=capture_ns + BEHIND_NS, capture_host="camera")
+
+
+def capture_stream(fresh: Freshness, first: int, count: int, start_ns: int) -> None:
+    """``count`` commands at 30 Hz, 12 ms from capture to send, 2 ms from send to arrival."""
+    for i in range(count):
+        capture = start_ns + i * 33 * MS
+        verdict = fresh.check(
+            captured(first + i, capture, capture + 12 * MS), at(capture + 14 * MS)
+        )
+        assert verdict.capture_age_s is not None and verdict.capture_age_s < 0.001
+
+
+def test_a_command_sent_fresh_but_captured_long_ago_is_refused_said_once_per_stall() -> None:
+    # Points stalled 3 s; the frames it held come through F and T at once afterwards: fresh by
+    # the translator's send stamp, 3 s old from capture, on a third host's clock.
+    fresh = Freshness(0.25, own_host="board")
+    capture_stream(fresh, 1, 60, 10 * S)
+    resumed = 10 * S + 60 * 33 * MS + 3 * S
+    refusals = []
+    for i in range(3):
+        backlog = captured(61 + i, resumed - 3 * S + i * 33 * MS, resumed + i * MS)
+        with pytest.raises(StaleCapture) as refused:
+            fresh.check(backlog, at(resumed + i * MS + 2 * MS))
+        refusals.append(refused.value)
+    assert str(refusals[0]).startswith("command 61 of t-1/ab (frame 61) was captured 2.988 s ago")
+    assert "(limit 0.25 s)" in str(refusals[0])
+    assert "captured 2.99 s ago on 'camera' (limit 0.25 s): dropping" in refusals[0].note
+    assert [r.note for r in refusals[1:]] == ["", ""]  # once per stall, not per command
+    assert isinstance(refusals[0], StaleCommand)  # a stale command like any other
+    live_now = captured(64, resumed + 20 * MS, resumed + 32 * MS)
+    verdict = fresh.check(live_now, at(resumed + 34 * MS))
+    assert verdict.note == "fresh commands again: dropped 3 captured up to 2.99 s before"
+    assert fresh.capture.old == 3
+
+
+def test_a_command_refused_for_its_capture_is_not_counted_as_applied() -> None:
+    fresh = Freshness(0.25)
+    capture_stream(fresh, 1, 30, 10 * S)
+    now = 12 * S
+    with pytest.raises(StaleCapture):
+        fresh.check(captured(31, now - 2 * S, now), at(now + 2 * MS))
+    # The same sender's next command is newer than the last one applied (30), not than 31.
+    assert fresh.check(captured(31, now, now + MS), at(now + 3 * MS)).capture_age_s is not None
+
+
+def test_a_capture_over_the_limit_is_refused_just_within_it_is_not() -> None:
+    fresh = Freshness(0.25)
+    capture_stream(fresh, 1, 30, 10 * S)  # the fastest way: 14 ms from capture to arrival
+    now = 12 * S
+    assert not fresh.check(captured(31, now - 250 * MS, now), at(now + 14 * MS)).note
+    with pytest.raises(StaleCapture):
+        fresh.check(captured(32, now - 250 * MS, now + MS), at(now + 15 * MS))
+
+
+def test_the_capture_is_aged_when_the_command_leaves_the_queue_not_when_it_arrived() -> None:
+    fresh = Freshness(0.25)
+    capture_stream(fresh, 1, 30, 10 * S)
+    now = 12 * S  # arrived young, then waited 300 ms in the controller's input queue
+    waited = Arrival(wall_ns=now + 14 * MS, mono_ns=now + 314 * MS, taken_ns=now + 314 * MS)
+    with pytest.raises(StaleCapture, match=r"captured 0\.300 s ago"):
+        fresh.check(captured(31, now, now + 12 * MS), waited)
+
+
+def test_an_old_sender_without_a_capture_host_is_decoded_and_not_aged_from_capture() -> None:
+    # A translator from before capture hosts: its payload has no such field at all.
+    stamped = codec.encode(cmd(1, 10 * S + AHEAD_NS, t_capture_ns=1))
+    fields = msgspec.msgpack.decode(stamped)
+    del fields["capture_host"]
+    old_sender = codec.decode(msgspec.msgpack.encode(fields), ServoCommands)
+    assert old_sender.capture_host == ""
+    fresh = Freshness(0.25)
+    verdict = fresh.check(old_sender, at(10 * S))  # captured "at 1 ns", half a century ago
+    assert verdict.capture_age_s is None and verdict.age_s == 0.0
+    assert fresh.capture.unaged == 1
+
+
+def test_unstamped_commands_are_still_aged_from_their_capture() -> None:
+    fresh = Freshness(0.25, own_host="board")
+    plain = ServoCommands(
+        seq=1,
+        t_capture_ns=10 * S,
+        t_media_ns=1,
+        face=True,
+        profile="rig",
+        positions={},
+        capture_host="board",
+    )
+    with pytest.raises(StaleCapture, match="an unstamped sender"):
+        fresh.check(plain, at(11 * S))
 
 
 def test_the_age_limit_must_be_positive() -> None:

@@ -7,6 +7,7 @@ Every time below is exact: the shell runs on a FakeClock (facesynth.runtime.test
 from __future__ import annotations
 
 import itertools
+import socket
 from collections.abc import Mapping
 
 import msgspec
@@ -176,6 +177,38 @@ async def test_a_command_interrupts_the_ramp_and_the_next_silence_ramps_from_the
         second = [(t, p) for t, p in driver.own() if t > at_command[0]]
         assert second[-1][1] == NEUTRAL
         assert second[-1][0] == at_command[0] + 500 * MS + 500 * MS
+
+
+async def test_commands_captured_too_long_ago_hold_then_return_to_neutral_said_once(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    # Points stalled 3 s, then its backlog came through: the controller's own host captured
+    # the frames (so they are aged from the first), the commands carry no send stamps.
+    run, driver = control_run(watchdog_s=0.5)
+    host = socket.gethostname()
+
+    def captured(seq: int, t_capture_ns: int, **positions: float) -> ServoCommands:
+        command = commands(seq, **positions)
+        return msgspec.structs.replace(command, t_capture_ns=t_capture_ns, capture_host=host)
+
+    async with run:
+        await settle_catch_up(run)
+        await run.send("servo_commands", captured(1, run.clock.time_ns() - 10 * MS, jaw=1600.0))
+        assert driver.sent[-1][2].frame == 1
+        await run.advance(0.1)
+        stall_start = run.clock.time_ns() - 3_000 * MS
+        for i in range(3):
+            await run.send("servo_commands", captured(2 + i, stall_start + i * 33 * MS, jaw=2000.0))
+        assert driver.sent[-1][1]["jaw"] == 1600.0, "the backlog must not move the face"
+        assert (run.ctx.stats.stale, run.ctx.stats.rejected, run.ctx.stats.received) == (3, 0, 5)
+        said = [r.message for r in caplog.records if "dropping commands this old" in r.message]
+        assert len(said) == 1 and "captured 3.00 s ago" in said[0]
+        await run.advance(0.4 + 0.5)  # the watchdog counts from the last command applied
+        assert driver.sent[-1][1] == NEUTRAL
+        await run.send("servo_commands", captured(5, run.clock.time_ns() - 10 * MS, jaw=1700.0))
+        assert driver.sent[-1][2].frame == 5  # fresh frames move the face again
+        assert any("dropped 3 captured up to 3.00 s" in r.message for r in caplog.records)
+    assert run.messages("stats")[-1].stale == 3
 
 
 async def test_without_a_ramp_the_face_returns_to_neutral_at_once() -> None:

@@ -64,6 +64,10 @@ class Rig:
             ],
         }[name]  # fmt: skip
 
+    def ready_line(self, name: str) -> str:
+        """What ``name`` says once it listens."""
+        return READY[name]
+
     def log_name(self, name: str) -> str:
         return f"{name}-{self.starts.get(name, 0)}"
 
@@ -72,7 +76,7 @@ class Rig:
         self.starts[name] = self.starts.get(name, 0) + 1
         log = self.log_name(name)
         self.live[name] = self.processes.start(*self.args(name), name=log)
-        self.processes.wait_for_line(log, READY[name], timeout=60)
+        self.processes.wait_for_line(log, self.ready_line(name), timeout=60)
         return time.monotonic()
 
     def kill(self, name: str) -> None:

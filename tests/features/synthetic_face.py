@@ -1,11 +1,11 @@
 """A real neutral face and known edits of it, for the named-feature tests (not a test module).
 
-``face_neutral.npz`` holds the sample video's first second (the README's neutral window) as the
-tracker saw it: the median of its 24 meshes (each aligned onto the first on stable vertices),
-turned to face the camera squarely (its own face frame) and placed at 150 px per inter-ocular
-distance (outer eye corners at (245, 160) and (395, 160)); z in the same pixels, away from the
-camera. The 10 iris points keep their median position in each eye's corner frame. The 68 points
-are derived from the mesh with P's own vertex table, as the tracker does.
+``face_neutral.npz`` holds the sample video's first second (F's neutral window, docs/method.md)
+as the tracker saw it: the median of its 24 meshes (each aligned onto the first on stable
+vertices), turned to face the camera squarely (its own face frame) and placed at 150 px per
+inter-ocular distance (outer eye corners at (245, 160) and (395, 160)); z in the same pixels,
+away from the camera. The 10 iris points keep their median position in each eye's corner frame.
+The 68 points are derived from the mesh with P's own vertex table, as the tracker does.
 
 Edits are in the face frame (IOD units, x toward the performer's left = image right, y up =
 image up); rotations use the contract's yaw/pitch/roll.

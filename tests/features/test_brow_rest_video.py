@@ -30,7 +30,10 @@ right / left / middle, before -> after:
 * paper16: median +0.22 / -1.00 / -1.00 -> -0.21 / +0.04 / -0.22; within +-0.25 57 % / 0 % /
   4 % -> 53 % / 71 % / 42 %; at -0.5 or lower 0 % / 100 % / 88 % -> 11 % / 11 % / 19 % (most of
   those in the laugh's first frames, 230-239, still read against the crying: its chin is 14
-  degrees higher, which the 2D distances read as lowered brows);
+  degrees higher, which the 2D distances read as lowered brows). With the whole rotation taken
+  out against the neutral mesh, in the neutral's eye-corner frame (issue 27,
+  ``services.features.frontal``): median -0.07 / +0.18 / +0.00, within +-0.25 89 % / 77 % /
+  100 %, none at -0.5 or lower;
 * head16 (named features, unaffected by the yaw step): median -0.20 / -0.39 / -0.82 ->
   -0.64 / -0.18 / -0.49;
 * virtual: median -0.25 / -0.44 -> -0.69 / -0.23 (the mesh-aligned brow heights read the
@@ -146,14 +149,17 @@ def test_the_brows_neutral_is_taken_with_the_eyes_open(tracked) -> None:
 
 
 def test_paper16_brows_stay_near_neutral_through_the_laugh(tracked) -> None:
-    """The demo's bars (paper16: nose distances of the Table 1 brow groups)."""
+    """The demo's bars (paper16: nose distances of the Table 1 brow groups), with the head's
+    whole rotation taken out against the neutral mesh (issue 27; ``services.features.frontal``):
+    right / left / middle within +-0.25 on 89 % / 77 % / 100 % of the laugh's frames, none at
+    -0.5 or lower (the yaw alone undone: 53 % / 71 % / 42 %, and 11 % / 11 % / 19 %)."""
     laugh = _smiling_with_resting_brows(tracked)
     laugh[:LAUGH] = False
     for servo, travel in _brow_travel(load_profile("paper16"), tracked).items():
         t = travel[laugh]
         assert abs(np.median(t)) <= BAND, f"paper16 {servo}: median {np.median(t):+.2f}"
-        assert np.mean(np.abs(t) <= BAND) >= 0.35, f"paper16 {servo} leaves its neutral band"
-        assert np.mean(t <= -0.5) < 0.25, f"paper16 {servo} reads a frown"
+        assert np.mean(np.abs(t) <= BAND) >= 0.7, f"paper16 {servo} leaves its neutral band"
+        assert np.mean(t <= -0.5) < 0.03, f"paper16 {servo} reads a frown"
 
 
 def test_the_brows_hold_neutral_until_they_rest(tracked) -> None:

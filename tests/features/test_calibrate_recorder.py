@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from synthetic_face import IRIS, MESH, S, move, points_message
+from synthetic_face import IRIS, MESH, S, move, points_message, transform
 
 from facesynth.app.calibrate_cli import guided_schedule
 from facesynth.app.cli import main
@@ -73,6 +73,19 @@ def test_recorder_measures_neutral_and_ranges() -> None:
     assert 0 < calibration.named_max["jaw_open"] < 0.1
     assert max(calibration.delta_max[17:22]) > 0.03  # the paper's brow distances grew
     assert max(abs(v) for v in calibration.delta_min[48:68]) < 1e-6  # the mouth did not move
+
+
+def test_a_nodding_head_widens_no_paper_range() -> None:
+    """The paper's distances are read with the head's rotation since the neutral mesh taken
+    out (issue 27, F's ``frontal.paper_frame``): a step done with the head nodding and turned
+    but the face still moves none of the 68 ranges (the yaw alone undone: the chin-up read as
+    brows lowered)."""
+    recorder = CalibrationRecorder("alice", raw_features, settle_s=0.1)
+    _frames(recorder, "neutral", MESH, 20)
+    nodding, _ = transform(MESH, IRIS, yaw=15.0, pitch=12.0, scale=0.9, shift=(20, 5, 0))
+    _frames(recorder, "look_up", nodding, 20)
+    calibration = recorder.build(created="2026-11-26")
+    assert max(abs(v) for v in calibration.delta_min + calibration.delta_max) < 1e-6
 
 
 def test_recorder_needs_a_neutral_with_a_face() -> None:

@@ -1,5 +1,6 @@
-"""The paper's 68 nose-tip distances free of head yaw when the points come with a 3D mesh
-(services.features.core.paper_frame, services.features.pose.unturned)."""
+"""The paper's 68 nose-tip distances free of head yaw when the points come with a 3D mesh and no
+neutral mesh is known yet (services.features.frontal.paper_frame, services.features.pose.unturned;
+with a neutral mesh the whole rotation is taken out: test_frontal.py)."""
 
 from __future__ import annotations
 

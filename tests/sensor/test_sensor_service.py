@@ -4,6 +4,7 @@ ack timeout, waiting for the other services. Every time below is exact (a FakeCl
 from __future__ import annotations
 
 import logging
+import socket
 from collections.abc import Iterator
 
 import numpy as np
@@ -52,6 +53,19 @@ async def test_frames_leave_at_the_recordings_pace() -> None:
         assert [f.t_capture_ns for f in frames] == [FAKE_EPOCH_NS + i * 100 * MS for i in range(5)]
         assert [f.t_media_ns for f in frames] == [i * 100 * MS for i in range(5)]
         assert {(f.encoding, f.source, f.fps) for f in frames} == {("none", "ticks", 10.0)}
+
+
+async def test_real_time_frames_name_this_host_as_their_capture_host_fast_ones_none() -> None:
+    # Downstream stages age real-time frames from capture (and drop them after a stall);
+    # --fast frames wait for credit by design and are never aged.
+    run, _ = sensor_run(ticks(2, 10.0))
+    async with run:
+        await run.finish(timeout=10.0)
+        assert {f.capture_host for f in run.messages("input")} == {socket.gethostname()}
+    run, _ = sensor_run(ticks(2, 10.0), fast=True, window=2)
+    async with run:
+        await run.finish(timeout=0.0)
+        assert {f.capture_host for f in run.messages("input")} == {""}
 
 
 class Replayed(FrameSource):

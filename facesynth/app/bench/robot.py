@@ -115,21 +115,33 @@ def robot_features(features: Features) -> dict[str, float] | None:
     return features.raw
 
 
-def track_performer(video: str, *, frames: int | None = None, model: str = MODEL) -> Performance:
-    """The performer's features from the first ``frames`` frames of ``video`` (all: None)."""
+def track_performer(
+    video: str, *, frames: int | None = None, model: str = MODEL, start: int = 0
+) -> Performance:
+    """The performer's features from ``frames`` frames of ``video`` (all: None) from frame
+    ``start`` on; a segment plays as a video of its own (media time from 0 at ``start``, F's
+    neutral from its first second)."""
     if frames is not None and frames < 1:
         raise RobotError("--frames must be at least 1")
+    if start < 0:
+        raise RobotError("the first frame must be 0 or later")
     started = time.monotonic()
     source = VideoSource(VideoConfig(path=video))
     backend = tracker(model)
     processor = FeatureProcessor(neutral_seconds=NEUTRAL_S)
     out: list[Features] = []
+    origin_ns: int | None = None
     try:
-        for seq, (image, t_media_ns) in enumerate(source.frames()):
+        for index, (image, media_ns) in enumerate(source.frames()):
+            seq = index - start
+            if seq < 0:
+                continue
             if frames is not None and seq >= frames:
                 break
             if image is None:  # pragma: no cover - a video file always has pixels
                 raise RobotError(f"{video}: a frame without pixels")
+            origin_ns = media_ns if origin_ns is None else origin_ns
+            t_media_ns = media_ns - origin_ns
             frame = encode_frame(
                 image, seq=seq, t_capture_ns=t_media_ns, t_media_ns=t_media_ns, encoding="raw"
             )

@@ -3,8 +3,11 @@ the chain takes it.
 
 One stage is replayed (``--from``): by default the earliest one recorded (frames when there
 are frames), so the stages after it run live on the recorded input. The payloads published
-are the recorded ones, byte for byte (``restamp`` sets each capture time to the replay's clock
-instead, so latencies read as live).
+are the recorded ones, byte for byte, but for the ``capture_host`` of a live capture, which is
+cleared: a recording's capture stamps are no live clock, so the stages and the control interface
+do not age them from capture (a replay at another speed, or ``fast``, would look stale).
+``restamp`` sets each capture time to the replay's clock instead, so latencies read as live;
+then this host is the capture host (none with ``fast``, whose messages wait for credit).
 
 Timing: message ``n`` is due at ``start + (log_time(n) - log_time(0)) / speed``, the sensor's
 pacer on the recording's receipt clock. ``fast`` ignores the clock and keeps at most ``window``
@@ -194,7 +197,24 @@ class Replayer:
             message = msgspec.msgpack.decode(payload, type=cls)
         except (msgspec.DecodeError, msgspec.ValidationError):
             return payload
-        return codec.encode(msgspec.structs.replace(message, t_capture_ns=time.time_ns()))
+        host = "" if self.options.fast else socket.gethostname()
+        return codec.encode(
+            msgspec.structs.replace(message, t_capture_ns=time.time_ns(), capture_host=host)
+        )
+
+    def _unlive(self, payload: bytes) -> bytes:
+        """The recorded payload, without the capture host of a live capture (see the module
+        doc); byte for byte when it names none."""
+        if b"capture_host" not in payload:  # recorded before capture hosts
+            return payload
+        cls = message_type(self.sources[0])
+        try:
+            message = msgspec.msgpack.decode(payload, type=cls)
+        except (msgspec.DecodeError, msgspec.ValidationError):
+            return payload
+        if not getattr(message, "capture_host", ""):
+            return payload
+        return codec.encode(msgspec.structs.replace(message, capture_host=""))
 
     def _send_as_sender(self, payload: bytes, ctx: ServiceContext) -> bytes:
         """A replayed servo command, stamped as sent now by this replay (the controller drops
@@ -248,7 +268,10 @@ class Replayer:
                     delay = pacer.delay_ns(offset, time.monotonic_ns())
                     if delay:
                         await asyncio.sleep(delay / 1e9)
-                payload = self._restamp(item.payload) if options.restamp else item.payload
+                if options.restamp:
+                    payload = self._restamp(item.payload)
+                else:
+                    payload = self._unlive(item.payload)
                 if self.stage == "servo_commands":
                     payload = self._send_as_sender(payload, ctx)
                 ctx.stats.received += 1

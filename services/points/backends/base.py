@@ -43,6 +43,7 @@ def _points(
         image_height=frame.height,
         sets=sets,
         source=source,
+        capture_host=frame.capture_host,
     )
 
 
