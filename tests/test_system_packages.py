@@ -89,6 +89,7 @@ def test_ci_runs_the_readme_test_command_and_every_group() -> None:
             words = line.split("apt-get install", 1)[1].split()
             assert [w for w in words if not w.startswith("-")] == ["make"], line
 
+
 def _installer(*args: str, env: dict[str, str], user: bool = False) -> subprocess.CompletedProcess:
     command = ["bash", str(INSTALLER), *args]
     if user:

@@ -101,4 +101,3 @@ def test_head_pose_follows_the_head(run) -> None:
     assert _mean(outs, "head_yaw", 290, 400) > 12.0
     assert _mean(outs, "head_pitch", 160, 210) > 6.0
     assert _mean(outs, "head_roll", 400, 432) < -12.0
-

@@ -27,6 +27,7 @@ ELF = {
 }
 HARNESS = BUILD / "emulator" / "fs_emulator"
 
+
 def missing_packages() -> list[str]:
     """Debian packages whose files the firmware tests need but cannot find."""
     return host_requirements.missing_packages(host_requirements.FIRMWARE_NEEDS)
