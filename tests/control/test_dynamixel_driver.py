@@ -254,3 +254,36 @@ def test_control_status_reads_the_bus_and_moves_nothing(
     assert "'id': 12, 'model': 'XL430-W250', 'position_us': 1500.0" in out
     assert [p for p in bus.packets if p[1] in (0x03, 0x83)] == []  # no WRITE, no SYNC WRITE
     assert not any(bus.torque().values())
+
+
+async def test_read_backs_follow_writes_at_their_own_rate(bus: FakeDynamixelBus) -> None:
+    """30 poses a second with ``--bus-read-hz 10``: every pose is one Sync Write, and a Sync
+    Read follows about every third (never two between writes: one frame's bus time)."""
+    made = driver(bus, read_hz=10)
+    await made.connect()
+    try:
+        with bus.lock:
+            bus.packets.clear()
+        for frame in range(60):
+            pose = {s.name: s.neutral_us + (frame % 7) for s in PAPER16.servos}
+            await send(made, pose)
+            await asyncio.sleep(1 / 30)
+        with bus.lock:
+            kinds = [packet[1] for packet in bus.packets]
+    finally:
+        await made.close()
+    writes, reads = kinds.count(0x83), kinds.count(0x82)
+    assert writes >= 59 and 13 <= reads <= 24, (writes, reads)  # 2 s: about 20 read-backs
+    between = "".join("w" if k == 0x83 else "r" for k in kinds if k in (0x82, 0x83))
+    assert "rr" not in between
+
+
+def test_read_back_rates_by_protocol() -> None:
+    """One Sync Read for every servo: 15 a second; one READ per servo (1.0): 5."""
+    import dynamixel_sdk
+
+    from services.control.drivers.dynamixel.bus import DynamixelBus
+
+    x = DynamixelBus(dynamixel_sdk, "/dev/null", 1000000, protocol=2, latency_ms=0)
+    ax = DynamixelBus(dynamixel_sdk, "/dev/null", 1000000, protocol=1, latency_ms=0)
+    assert (x.read_hz(IDS), ax.read_hz(IDS)) == (15.0, 5.0)

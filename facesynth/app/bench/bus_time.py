@@ -2,10 +2,13 @@
 
 For the ``dynamixel`` and ``feetech`` drivers a frame is one Sync Write of every servo's goal
 and a read-back of as many servos as fit in the driver's read budget (default 2 ms). The
-Sync Write and the read request are the bytes the vendor's SDK itself writes (captured from
-its port); the answers are the status packets the protocol defines (Dynamixel 2.0: 11 bytes
-+ data each; 1.0 and Feetech: 6 + data). 8N1: 10 bits per byte. ``encode us`` is the CPU
-time of the SDK building the Sync Write (the control process's cost per frame).
+Sync Write is the bytes the driver writes (captured from its port; built by
+``bus_servo/wire.py``, the SDKs' own packets byte for byte), the read request the bytes the
+vendor's SDK writes; the answers are the status packets the protocol defines (Dynamixel 2.0:
+11 bytes + data each; 1.0 and Feetech: 6 + data). 8N1: 10 bits per byte. ``encode us`` is
+the CPU time of building and writing the Sync Write (the control process's cost per frame).
+The frames measured on the emulated buses, and C's CPU per frame: ``--emulated``
+(:mod:`.driver_cpu`).
 """
 
 from __future__ import annotations

@@ -44,7 +44,15 @@ def add_bench_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--frames",
         type=int,
-        help="tracker: frames to measure; robot: the video's first N frames (default: all)",
+        help="tracker: frames to measure; robot: the video's first N frames (default: all); "
+        "drivers --emulated: frames per driver (default 150)",
+    )
+    p.add_argument(
+        "--emulated",
+        action="store_true",
+        help="drivers: also run each driver against its device emulator (a source checkout's "
+        "tests/control/fake_devices) at --fps and print C's CPU per frame and the bus bytes "
+        "the emulators counted",
     )
     p.add_argument(
         "--encoding",
@@ -163,7 +171,8 @@ def add_bench_arguments(p: argparse.ArgumentParser) -> None:
         type=int,
         default=1,
         metavar="N",
-        help="tracker: N interleaved runs, medians reported (default 1; shared machines: 5)",
+        help="tracker, drivers --emulated: N interleaved runs, medians reported (default 1; "
+        "shared machines: 5)",
     )
     p.add_argument(
         "--mediapipe-python",
@@ -193,9 +202,19 @@ def cmd_bench(args: argparse.Namespace) -> int:
         from facesynth.app.bench.bus_time import bus_frames, format_bus_frames
         from facesynth.app.bench.drivers import bench_drivers, format_drivers
 
+        frames = 150 if args.frames is None else args.frames
+        if args.emulated:
+            from facesynth.app.bench.driver_cpu import check_options
+
+            check_options(frames=frames, fps=args.fps, repeat=args.repeat)  # errors first
         profile, costs = bench_drivers(_one_profile(args))
         print(format_drivers(profile, costs))
         print(format_bus_frames(profile, bus_frames(profile)))
+        if args.emulated:
+            from facesynth.app.bench.driver_cpu import bench_cpu, format_cpu
+
+            runs = bench_cpu(profile, frames=frames, fps=args.fps, repeat=args.repeat)
+            print(format_cpu(profile, runs, args.fps))
         return 0
     if args.what == "smoothing":
         from facesynth.app.bench.smoothing import bench_smoothing, format_smoothing

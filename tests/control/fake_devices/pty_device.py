@@ -101,11 +101,16 @@ class FakeDevice:
 
     Every byte received is kept in :attr:`received`; :meth:`handle` is called under a lock,
     so tests can read the device's state with :meth:`snapshot`-style methods safely.
+    :attr:`bytes_in` and :attr:`bytes_out` count the bytes on the line in each direction
+    (what the driver sent, what the device answered) since :meth:`count_bytes` last read them:
+    the bus time a driver really used.
     """
 
     def __init__(self, link: Path) -> None:
         self.lock = threading.RLock()
         self.received = bytearray()
+        self.bytes_in = 0
+        self.bytes_out = 0
         self.end = PtyEnd(link, self._on_bytes)
 
     @property
@@ -129,10 +134,21 @@ class FakeDevice:
         """Power-up state (subclasses extend it)."""
         self.received.clear()
 
+    def count_bytes(self, *, restart: bool = False) -> tuple[int, int]:
+        """Bytes (from the driver, to the driver) so far; ``restart`` zeroes the counts."""
+        with self.lock:
+            counts = self.bytes_in, self.bytes_out
+            if restart:
+                self.bytes_in = self.bytes_out = 0
+            return counts
+
     def _on_bytes(self, data: bytes) -> bytes:
         with self.lock:
             self.received += data
-            return self.handle(data)
+            self.bytes_in += len(data)
+            reply = self.handle(data)
+            self.bytes_out += len(reply) if reply else 0
+            return reply
 
     def handle(self, data: bytes) -> bytes:
         """Bytes from the driver in, the device's answer out."""

@@ -1,20 +1,29 @@
 """What a bus driver asks of its vendor's SDK, on the bus thread: the :class:`ServoBus` seam.
 
 Each vendor (``dynamixel``, ``feetech``) implements it with its own SDK (PortHandler,
-PacketHandler, GroupSyncWrite). Every method blocks (pyserial) and runs on the driver's bus
-thread, never on the event loop. A port that fails raises ``OSError``/``SerialException``
-(the thread then reopens it); a servo that does not answer is a ``None``, not an exception.
+PacketHandler) for the port, pings and settings, and with :mod:`.wire` for the packets of
+every frame (:meth:`ServoBus.send`, :meth:`ServoBus.transact`). Every method blocks (pyserial)
+and runs on the driver's bus thread, except :meth:`ServoBus.write_goals`, which the worker
+also calls from the event loop while it holds the bus (a write into the port's buffer). A port
+that fails raises ``OSError``/``SerialException`` (the thread then reopens it); a servo that
+does not answer is a ``None``, not an exception.
 """
 
 from __future__ import annotations
 
 import abc
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
 from services.control.drivers.bus_servo.native import Model, NativeServo
 from services.control.drivers.bus_servo.sdk_port import port_class
+from services.control.drivers.bus_servo.wire import Status as WireStatus
+
+#: Default read-back rates (C's CPU per frame within the Maestro's, ``bench drivers --emulated``).
+SYNC_READ_HZ, READ_EACH_HZ = 15.0, 5.0
+#: A parser of status packets (:mod:`.wire`): complete packets from a buffer, and the damaged.
+Take = Callable[[bytearray], tuple[list[WireStatus], int]]
 
 
 @dataclass(frozen=True)
@@ -85,6 +94,47 @@ class ServoBus(abc.ABC):
     @abc.abstractmethod
     def relax(self, ids: Sequence[int]) -> None:
         """Torque off (the face goes limp)."""
+
+    def send(self, packet: bytes) -> None:
+        """Write one packet built by :mod:`.wire` (``OSError`` if the port takes less)."""
+        written = self.port.writePort(packet)
+        if written != len(packet):
+            raise OSError(f"a {len(packet)}-byte packet, {written} bytes written")
+
+    def transact(
+        self, request: bytes, answer_bytes: int, take: Take, ids: Sequence[int], size: int
+    ) -> dict[int, tuple[int, bytes]]:
+        """Send ``request`` and read the status packets of ``ids`` (``answer_bytes`` in all)
+        until each has answered with ``size`` data bytes or the answer timeout passes:
+        (error byte, data) by id. Damaged packets, other ids and other sizes are counted in
+        :attr:`garbled` and skipped."""
+        self.send(request)
+        self.port.setPacketTimeout(answer_bytes)
+        waiting = set(ids)
+        got: dict[int, tuple[int, bytes]] = {}
+        buffer = bytearray()
+        while waiting:
+            chunk = self.port.readPort(4096)
+            if not chunk:
+                if self.port.isPacketTimeout():
+                    break
+                continue
+            buffer += chunk
+            packets, damaged = take(buffer)
+            self.garbled += damaged
+            for servo_id, error, data in packets:
+                if servo_id in waiting and len(data) == size:
+                    waiting.discard(servo_id)
+                    got[servo_id] = (error, data)
+                else:
+                    self.garbled += 1
+        return got
+
+    def read_hz(self, ids: Sequence[int]) -> float:
+        """Read-backs a second unless the driver is told (``--bus-read-hz``): one Sync Read
+        for all is cheap enough at :data:`SYNC_READ_HZ`; a bus that reads each servo on its
+        own (a round trip each, parsed in Python) reads at :data:`READ_EACH_HZ`."""
+        return SYNC_READ_HZ
 
     def scan(self) -> dict[int, int]:
         """Every servo on the bus, id -> model number, where the protocol can ask them all

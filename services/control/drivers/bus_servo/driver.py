@@ -36,14 +36,18 @@ AT_EXIT_HELP = (
     "(torque off, the face goes limp)"
 )
 READ_BUDGET_HELP = (
-    "bus time (ms) the read-back of present position/load/temperature may take per frame; "
-    "as many servos as fit are read each frame, in turn"
+    "bus time (ms) one read-back of present position/load/temperature may take; as many "
+    "servos as fit are read each time, in turn"
+)
+READ_HZ_HELP = (
+    "read-backs per second, each after a pose's Sync Write (or on its own when no pose "
+    "comes); default 15 with Sync Read, 5 where each servo is read on its own (Dynamixel "
+    "1.0, Feetech SCS); more read positions sooner and cost C more CPU"
 )
 LATENCY_HELP = (
     "the USB adapter's latency timer in ms, for the answer timeouts (FTDI default 16; "
     "1 after setting /sys/bus/usb-serial/devices/ttyUSB0/latency_timer; 0 on a pty)"
 )
-FRAME_S = 1 / 30
 
 
 class BusServoDriver(ServoDriver):
@@ -59,6 +63,7 @@ class BusServoDriver(ServoDriver):
         port: str,
         baud: int,
         read_budget_ms: float,
+        read_hz: float | None,
         at_exit: AtExit,
         log: logging.Logger,
     ) -> None:
@@ -66,11 +71,15 @@ class BusServoDriver(ServoDriver):
         self.port = port
         self.baud = baud
         self.read_budget_s = read_budget_ms / 1000
+        self.read_hz = read_hz
         self.at_exit = at_exit
         self.log = log
         self.map = NativePose(profile)
         self.pose_us: dict[str, float] = profile.neutral_positions()
         self.worker: BusWorker | None = None
+        # The readings built from the worker's statuses at one version (worker, version, them).
+        self._readings: tuple[BusWorker, int, dict[str, ServoReading]] | None = None
+        self._state: tuple[tuple[Any, ...], str] | None = None
 
     @abc.abstractmethod
     def make_bus(self) -> ServoBus:
@@ -99,7 +108,7 @@ class BusServoDriver(ServoDriver):
             baud=self.baud,
             limits=self.limits(),
             read_budget_s=self.read_budget_s,
-            frame_s=FRAME_S,
+            read_period_s=1 / self.read_hz if self.read_hz else None,
             log=self.log,
         )
         worker.query_only = query_only
@@ -130,6 +139,10 @@ class BusServoDriver(ServoDriver):
         worker = self.worker
         if worker is None or not self.map.servos:
             return {}
+        version = worker.version  # before the snapshot: a newer one is built again next time
+        cached = self._readings
+        if cached is not None and cached[0] is worker and cached[1] == version:
+            return cached[2]
         statuses, faults = worker.snapshot()
         out = {}
         for name, servo_id in self.map.ids.items():
@@ -144,6 +157,7 @@ class BusServoDriver(ServoDriver):
                 temperature_c=status.temperature_c if status else None,
                 fault=fault,
             )
+        self._readings = (worker, version, out)
         return out
 
     def state(self) -> str:
@@ -151,6 +165,20 @@ class BusServoDriver(ServoDriver):
         worker = self.worker
         if worker is None:
             return f"not connected to {self.port}"
+        link = worker.state
+        key = (
+            worker,
+            worker.version,
+            link.connected,
+            link.connects,
+            link.failed_attempts,
+            link.last_error,
+            link.writes_dropped,
+            worker.overtaken,
+            len(worker.found),
+        )
+        if self._state is not None and self._state[0] == key:
+            return self._state[1]  # (asked every frame; it changes far less often)
         parts = [worker.state.describe()]
         if worker.found:
             names = sorted({model.name for model in worker.found.values()})
@@ -162,7 +190,8 @@ class BusServoDriver(ServoDriver):
             parts.append(
                 "faults: " + ", ".join(f"id {i} {text}" for i, text in sorted(faults.items()))
             )
-        return "; ".join(parts)
+        self._state = (key, "; ".join(parts))
+        return self._state[1]
 
     def frame_bus_ms(self) -> tuple[float, float, int]:
         """Bus time of a frame from its bytes: Sync Write ms, read-back ms, servos read."""

@@ -6,11 +6,20 @@ from typing import Annotated
 
 import msgspec
 
-from services.control.drivers.bus_servo.driver import AT_EXIT_HELP, LATENCY_HELP, READ_BUDGET_HELP
+from services.control.drivers.bus_servo.driver import (
+    AT_EXIT_HELP,
+    LATENCY_HELP,
+    READ_BUDGET_HELP,
+    READ_HZ_HELP,
+)
 
 ReadBudget = Annotated[
     float,
     msgspec.Meta(gt=0, le=1000, description=READ_BUDGET_HELP, extra={"flag": "--bus-read-ms"}),
+]
+ReadRate = Annotated[
+    float,
+    msgspec.Meta(gt=0, le=100, description=READ_HZ_HELP, extra={"flag": "--bus-read-hz"}),
 ]
 Latency = Annotated[
     float,

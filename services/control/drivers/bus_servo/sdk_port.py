@@ -8,6 +8,8 @@ timeout. :func:`port_class` derives from the SDK's own class and changes three t
   and device paths are locked, as the other board drivers do;
 - ``readPort`` waits (``select``, at most 1 ms) for bytes instead of spinning on an empty
   port, so a read-back costs the control process no CPU while the servos answer;
+- on a local serial port (a device path), ``readPort`` and ``writePort`` call ``os.read`` and
+  ``os.write`` on its descriptor (pyserial's own loop costs more than the packet a frame);
 - the packet timeout's latency allowance is the driver's (``--bus-latency-ms``; the SDKs
   assume a 16 ms FTDI latency timer; 0 on a pty or an adapter set to 1 ms).
 
@@ -16,10 +18,12 @@ Any baud rate the port accepts is allowed (the SDKs list a fixed set).
 
 from __future__ import annotations
 
+import os
 import select
 from typing import Any
 
 import serial
+import serial.serialposix
 
 from services.control.drivers.base import DriverConfigError
 
@@ -30,6 +34,7 @@ def port_class(base: type[Any]) -> type[Any]:
     class BusPort(base):
         latency_ms = 16.0
         is_open: bool
+        fd: int | None = None  # a local serial port's descriptor, while open
 
         def setupPort(self, cflag_baud: int) -> bool:
             if self.is_open:
@@ -44,6 +49,8 @@ def port_class(base: type[Any]) -> type[Any]:
             self.is_open = True
             self.is_using = False  # an SDK call cut short by a vanished port left it set
             self.ser.reset_input_buffer()
+            local = isinstance(self.ser, serial.serialposix.Serial)
+            self.fd = self.ser.fileno() if local else None
             self.tx_time_per_byte = (1000.0 / self.baudrate) * 10.0
             return True
 
@@ -51,11 +58,15 @@ def port_class(base: type[Any]) -> type[Any]:
             return baudrate
 
         def closePort(self) -> None:
+            self.fd = None  # (a closed descriptor's number may soon be another file's)
             if self.ser is not None:
                 self.ser.close()
             self.is_open = False
 
         def readPort(self, length: int) -> bytes:
+            fd = self.fd
+            if fd is not None and length > 0:
+                return _read_fd(fd, length)
             data = self.ser.read(length)
             if data or length <= 0:
                 return bytes(data)
@@ -66,6 +77,19 @@ def port_class(base: type[Any]) -> type[Any]:
             select.select([fileno], [], [], 0.001)
             return bytes(self.ser.read(length))
 
+        def writePort(self, packet: Any) -> int:
+            fd = self.fd
+            if fd is not None:
+                data = bytes(packet)
+                try:
+                    written = os.write(fd, data)
+                except BlockingIOError:
+                    written = 0
+                if written == len(data):
+                    return written
+                return written + int(self.ser.write(data[written:]) or 0)
+            return int(self.ser.write(packet) or 0)
+
         def setPacketTimeout(self, packet_length: int) -> None:
             self.packet_start_time = self.getCurrentTime()
             self.packet_timeout = (
@@ -73,3 +97,25 @@ def port_class(base: type[Any]) -> type[Any]:
             )
 
     return BusPort
+
+
+def _read_fd(fd: int, length: int) -> bytes:
+    """Up to ``length`` bytes from a serial port's descriptor (VMIN = VTIME = 0: a read
+    returns what is there), waiting at most 1 ms for them."""
+    data = _try_read(fd, length)
+    if data:
+        return data
+    ready, _, _ = select.select([fd], [], [], 0.001)
+    if not ready:
+        return b""
+    data = _try_read(fd, length)
+    if not data:  # readable, nothing there: the device went away (as pyserial says)
+        raise serial.SerialException("device reports readiness to read but returned no data")
+    return data
+
+
+def _try_read(fd: int, length: int) -> bytes:
+    try:
+        return os.read(fd, length)
+    except BlockingIOError:
+        return b""

@@ -1,11 +1,14 @@
-"""The bus thread: the only one that touches a smart servo bus (the vendor SDKs block).
+"""The bus thread: it owns a smart servo bus (the vendor SDKs block), lending it for pose writes.
 
 It opens the port, pings every servo of the profile and checks its model, sets the profile
-velocity/acceleration and turns the torque on, then serves: each new pose goes out as one
-Sync Write, followed by a read-back of as many servos as fit in the read budget (round
-robin; also when no pose comes, once per frame period). A port that fails, or a bus where no
-servo has answered for :data:`SILENT_S`, is closed and reopened with backoff; the pose the
-driver holds is written again on reconnect.
+velocity/acceleration and turns the torque on, then serves. Each pose goes out as one Sync
+Write, written by :meth:`BusWorker.submit` in the caller's thread when the bus is free (about
+100 bytes into the port's buffer: no wait, no thread to wake), else by the thread. A read-back
+of as many servos as fit in the read budget (round robin) follows a write at most every
+``read_period_s`` (default: the bus's :meth:`~.ServoBus.read_hz`; with no pose for two
+periods, it comes on its own): parsing answers costs C CPU, so it runs at its own rate. A
+port that fails, or a bus where no servo has answered for :data:`SILENT_S`, is reopened with
+backoff; the pose held is written again on reconnect.
 
 A servo reporting a hardware error (overload, overheating, voltage) is held: its goal is no
 longer written, one line is logged, the others go on; it moves again once the error clears.
@@ -28,9 +31,9 @@ import serial
 from services.control.drivers.base import DeviceUnavailable, DriverConfigError, DriverError
 from services.control.drivers.bus_servo.budget import read_chunk
 from services.control.drivers.bus_servo.bus import Ping, ServoBus, Status
+from services.control.drivers.bus_servo.models import check_answers
 from services.control.drivers.bus_servo.native import Model, NativePose
-from services.control.drivers.serial_link import Backoff, LinkState
-from services.control.drivers.serial_link import _reason as link_reason
+from services.control.drivers.serial_link import Backoff, LinkState, _reason
 
 #: Errors after which the thread reopens the port (termios: a pty or adapter gone mid-call).
 TRANSIENT = (OSError, serial.SerialException, TimeoutError, DriverError, termios.error)
@@ -54,7 +57,7 @@ class BusWorker:
         baud: int,
         limits: Mapping[int, tuple[float, float]],
         read_budget_s: float,
-        frame_s: float,
+        read_period_s: float | None,
         log: logging.Logger,
     ) -> None:
         self.bus = bus
@@ -63,7 +66,7 @@ class BusWorker:
         self.baud = baud
         self.limits = dict(limits)  # id -> (max_speed µs/s, max_accel µs/s²)
         self.read_budget_s = read_budget_s
-        self.frame_s = frame_s
+        self.read_period_s = read_period_s
         self.log = log
         self.state = LinkState(port)
         self.query_only = False
@@ -73,9 +76,13 @@ class BusWorker:
         self.answers: dict[int, Ping | None] = {}
         self.problems: dict[int, str] = {}
         self.reads = 0
+        #: Counts every change of the statuses or faults (the driver rebuilds its readings).
+        self.version = 0
         #: Poses replaced by a newer one before the bus thread could write them.
         self.overtaken = 0
         self._lock = threading.Condition()
+        #: Held by whoever uses the port (the thread, or :meth:`submit` writing a pose).
+        self._bus_lock = threading.Lock()
         self._goal_us: dict[str, float] = {}
         self._dirty = False
         self._stop = False
@@ -87,6 +94,8 @@ class BusWorker:
         self._last_probe: dict[int, float] = {}
         self._misses: dict[int, int] = {}
         self._next_read = 0.0
+        self._read_due = False  # a pose was just written and a read-back is due
+        self._last_write = 0.0
         self._thread: threading.Thread | None = None
 
     # -- the driver's side (event loop) ------------------------------------------------------
@@ -106,13 +115,32 @@ class BusWorker:
         return first
 
     def submit(self, pose_us: Mapping[str, float]) -> None:
-        """The pose to write next (µs by name, checked and clamped)."""
+        """The pose to write next (µs by name, checked and clamped): written now when the bus
+        is connected and free, else handed to the thread."""
         with self._lock:
             if self._dirty and self.state.connected:
                 self.overtaken += 1  # the bus was busy: the newer pose goes instead
             self._goal_us = dict(pose_us)
             self._dirty = True
-            self._lock.notify()
+            free = self.state.connected and not self._stop and self._bus_lock.acquire(False)
+            if not free:
+                self._lock.notify()
+                return
+            goals = self._take_goals()
+        try:
+            if goals:
+                self.bus.write_goals(goals)
+                self._last_write = time.monotonic()
+        except TRANSIENT:
+            with self._lock:  # the thread writes it again and finds out what the port has
+                self._dirty = True
+                self._lock.notify()
+        finally:
+            self._bus_lock.release()
+        if self._last_write >= self._next_read:  # the read-back goes right after this write
+            with self._lock:
+                self._read_due = True
+                self._lock.notify()
 
     def call(self, fn: Callable[[ServoBus], Any]) -> concurrent.futures.Future[Any]:
         """Run ``fn(bus)`` on the bus thread between frames."""
@@ -146,9 +174,10 @@ class BusWorker:
         try:
             while not self._stopping():
                 try:
-                    self._connect()
+                    with self._bus_lock:
+                        self._connect()
                 except (DriverConfigError, *TRANSIENT) as exc:
-                    self.bus.close()
+                    self._close()
                     fatal = not retry or (isinstance(exc, DriverConfigError) and not first.done())
                     self._failed(exc, first, fatal)
                     if fatal:
@@ -205,7 +234,7 @@ class BusWorker:
         self.log.warning(
             "%s: bus lost (%s); reconnecting, commands are held meanwhile", self.port, _reason(exc)
         )
-        self.bus.close()
+        self._close()
 
     def _connect(self) -> None:
         self.bus.open()
@@ -228,32 +257,8 @@ class BusWorker:
                 f"servo {name!r} (id {servo_id}) does not answer on {self.port} "
                 f"(answering: ids {found}; {len(missing)} missing)"
             )
-        models: dict[int, Model] = {}
-        for name, servo_id in ids:
-            ping = answers[servo_id]
-            if ping is None:
-                continue
-            model = self.bus.model(ping.model_number)
-            expected = self.map.specs[name].model
-            problem = ""
-            if model is None:
-                problem = (
-                    f"servo {name!r} (id {servo_id}) is model number {ping.model_number}, "
-                    f"which the {self.bus.name} driver does not know"
-                )
-            elif expected is not None and expected.lower() != model.name.lower():
-                problem = (
-                    f"servo {name!r} (id {servo_id}) is a {model.name} (model number "
-                    f"{ping.model_number}), but profile {self.map.profile_name!r} expects "
-                    f"a {expected}"
-                )
-            if problem and not self.query_only:
-                raise DriverConfigError(problem)
-            if problem:
-                self.problems[servo_id] = problem
-                continue
-            assert model is not None
-            models[servo_id] = model
+        models, problems = check_answers(self.bus, self.map, answers, strict=not self.query_only)
+        self.problems.update(problems)
         self.problems.update(self.map.bind(models, strict=not self.query_only))
         self.found = models
         if not self.query_only:
@@ -263,6 +268,7 @@ class BusWorker:
         now = time.monotonic()
         with self._lock:
             self._faults = {i: p.fault for i, p in answers.items() if p is not None and p.fault}
+            self.version += 1
             self._last_answer = dict.fromkeys(self.map.servos, now)
             self._misses = {}
             self.state.connected = True
@@ -276,32 +282,42 @@ class BusWorker:
     def _serve(self) -> None:
         ids = sorted(self.map.servos)
         chunk = read_chunk(self.bus.read_bytes, len(ids), self.baud, self.read_budget_s)
+        period = self.read_period_s or 1 / self.bus.read_hz(ids)
         turn = 0
         while True:
             with self._lock:
-                if not (self._dirty or self._stop or self._calls):
-                    self._lock.wait(max(0.0, self._next_read - time.monotonic()))
+                if not (self._dirty or self._stop or self._calls or self._read_due):
+                    # Idle (no pose for two read periods): the read-back comes on its own.
+                    idle_read = max(self._next_read, self._last_write + 2 * period)
+                    self._lock.wait(max(0.0, idle_read - time.monotonic()))
                 stop, calls, self._calls = self._stop, self._calls, []
-                goals = self._take_goals()
-            for fn, future in calls:
-                try:
-                    future.set_result(fn(self.bus))
-                except TRANSIENT as exc:
-                    future.set_exception(exc)
-                    raise
-            if goals:
-                self.bus.write_goals(goals)
-            if stop:
-                if self._relax:
-                    self.bus.relax(ids)
-                return
-            now = time.monotonic()
-            if goals or now >= self._next_read:
-                self._next_read = now + self.frame_s
-                asked = self._chunk(ids, turn, chunk, now)
-                turn += chunk
-                if asked:
-                    self._update(self.bus.read(asked), now)
+                read_due, self._read_due = self._read_due, False
+            with self._bus_lock:
+                with self._lock:
+                    goals = self._take_goals()
+                for fn, future in calls:
+                    try:
+                        future.set_result(fn(self.bus))
+                    except TRANSIENT as exc:
+                        future.set_exception(exc)
+                        raise
+                if goals:
+                    self.bus.write_goals(goals)
+                    self._last_write = time.monotonic()
+                if stop:
+                    if self._relax:
+                        self.bus.relax(ids)
+                    return
+                now = time.monotonic()
+                idle = now - self._last_write >= 2 * period
+                if (goals or read_due or idle) and now >= self._next_read:
+                    # After a write (one a frame at most) or when idle; due 10 % early, so
+                    # 30 poses/s and 15 reads/s read at every other frame despite jitter.
+                    self._next_read = now + period * 0.9
+                    asked = self._chunk(ids, turn, chunk, now)
+                    turn += chunk
+                    if asked:
+                        self._update(self.bus.read(asked), now)
             if self._last_answer and max(self._last_answer.values()) < now - SILENT_S:
                 raise TimeoutError(f"no servo answered for {SILENT_S:g} s")
 
@@ -310,12 +326,12 @@ class BusWorker:
             return {}
         self._dirty = False
         goals = {}
+        ids, servos, faults = self.map.ids, self.map.servos, self._faults
         for name, us in self._goal_us.items():
-            servo_id = self.map.ids[name]
-            fault = self._faults.get(servo_id, "")
-            if fault and fault != NOT_ANSWERING:
+            servo_id = ids[name]
+            if faults and faults.get(servo_id, NOT_ANSWERING) != NOT_ANSWERING:
                 continue  # held
-            goals[servo_id] = self.map.servos[servo_id].native(us)
+            goals[servo_id] = servos[servo_id].native(us)
         return goals
 
     def _chunk(self, ids: list[int], turn: int, size: int, now: float) -> list[int]:
@@ -334,6 +350,7 @@ class BusWorker:
         said: list[tuple[int, str, str]] = []
         with self._lock:
             self.reads += 1
+            self.version += 1
             for servo_id, status in statuses.items():
                 before = self._faults.get(servo_id, "")
                 if status is None:
@@ -375,8 +392,8 @@ class BusWorker:
             calls, self._calls = self._calls, []
         for _, future in calls:
             future.set_exception(DriverError(f"{self.port}: closed"))
-        self.bus.close()
+        self._close()
 
-
-def _reason(exc: BaseException) -> str:
-    return link_reason(exc)
+    def _close(self) -> None:
+        with self._bus_lock:  # never under a pose being written
+            self.bus.close()

@@ -1,11 +1,12 @@
 """A Dynamixel bus through ROBOTIS's ``dynamixel_sdk`` (Protocol 2.0 or 1.0), on the bus thread.
 
-Poses go out as one ``GroupSyncWrite`` of Goal Position. The read-back is one Sync Read of
-the X series block (Protocol 2.0: the SDK's ``syncReadTx``, then each servo's status packet
-through the SDK's ``rxPacket``, which checks the CRC and removes the stuffing; a missing or
-garbled answer leaves that servo out, not the others) or one READ per servo (Protocol 1.0,
-whose AX servos have no Sync Read). A status packet with the Alert bit makes the bus read
-that servo's Hardware Error Status.
+The SDK opens the port, pings, configures and relaxes the servos. The per-frame packets are
+built and parsed by :mod:`..bus_servo.wire` (the SDK's cost a frame was most of the control
+process's CPU): each pose goes out as one Sync Write of Goal Position, and the read-back is one
+Sync Read of the X series block (Protocol 2.0: every status packet's CRC checked and its
+stuffing removed; a missing or garbled answer leaves that servo out, not the others) or one
+READ per servo (Protocol 1.0, whose AX servos have no Sync Read). A status packet with the
+Alert bit makes the bus read that servo's Hardware Error Status (through the SDK).
 """
 
 from __future__ import annotations
@@ -14,7 +15,14 @@ import math
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from services.control.drivers.bus_servo.bus import Ping, ServoBus, Status
+from services.control.drivers.bus_servo import wire
+from services.control.drivers.bus_servo.bus import (
+    READ_EACH_HZ,
+    SYNC_READ_HZ,
+    Ping,
+    ServoBus,
+    Status,
+)
 from services.control.drivers.bus_servo.native import Model, NativeServo
 from services.control.drivers.dynamixel import models as m
 
@@ -37,6 +45,9 @@ class DynamixelBus(ServoBus):
         if result != self.sdk.COMM_SUCCESS:
             return None
         return Ping(number, self._fault(servo_id, error))
+
+    def read_hz(self, ids: Sequence[int]) -> float:
+        return READ_EACH_HZ if self.protocol == 1 else SYNC_READ_HZ
 
     def scan(self) -> dict[int, int]:
         """Every servo on the bus by one broadcast ping (Protocol 2.0; 1.0 has none)."""
@@ -65,42 +76,29 @@ class DynamixelBus(ServoBus):
     def write_goals(self, goals: Mapping[int, int]) -> int:
         if not goals:
             return 0
-        size = 4 if self.protocol == 2 else 2
-        group = self.sdk.GroupSyncWrite(
-            self.port, self.ph, m.X_GOAL if size == 4 else m.P1_GOAL, size
-        )
-        for servo_id, goal in sorted(goals.items()):
-            group.addParam(servo_id, list(int(goal).to_bytes(size, "little", signed=True)))
-        result = group.txPacket()
-        if result != self.sdk.COMM_SUCCESS:
-            raise OSError(f"Sync Write not sent: {self.ph.getTxRxResult(result)}")
-        return self.write_bytes(len(goals))
+        items = sorted(goals.items())
+        if self.protocol == 2:
+            packet = wire.sync_write2(m.X_GOAL, 4, items)
+        else:
+            packet = wire.sync_write1(m.P1_GOAL, 2, [(i, goal & 0xFFFF) for i, goal in items])
+        self.send(packet)
+        return len(packet)
 
     def read(self, ids: Sequence[int]) -> dict[int, Status | None]:
         if self.protocol == 1:
             return {i: self._read_p1(i) for i in ids}
         out: dict[int, Status | None] = dict.fromkeys(ids)
-        result = self.ph.syncReadTx(self.port, m.X_READ, m.X_READ_SIZE, list(ids), len(ids), False)
-        if result != self.sdk.COMM_SUCCESS:
-            raise OSError(f"Sync Read not sent: {self.ph.getTxRxResult(result)}")
-        waiting = set(ids)
-        errors: dict[int, int] = {}
-        for _ in range(len(ids) + 4):
-            packet, result = self.ph.rxPacket(self.port, False)
-            if result == self.sdk.COMM_RX_TIMEOUT:
-                break
-            parsed = (
-                m.parse_status2(packet, m.X_READ_SIZE) if result == self.sdk.COMM_SUCCESS else None
-            )
-            if parsed is None or parsed[0] not in waiting:
-                self.garbled += 1
-                continue
-            servo_id, errors[servo_id], data = parsed
-            waiting.discard(servo_id)
+        asked = tuple(ids)
+        got = self.transact(
+            wire.sync_read2(m.X_READ, m.X_READ_SIZE, asked),
+            (11 + m.X_READ_SIZE) * len(asked),
+            wire.take_status2,
+            asked,
+            m.X_READ_SIZE,
+        )
+        for servo_id, (_, data) in got.items():
             out[servo_id] = m.decode_x(data)
-            if not waiting:
-                break
-        for servo_id, error in errors.items():  # after the answers: a read clears the port
+        for servo_id, (error, _) in got.items():  # after the answers: a read clears the port
             status = out[servo_id]
             if error & m.ALERT and status is not None:
                 fault = self._fault(servo_id, error)
@@ -125,14 +123,17 @@ class DynamixelBus(ServoBus):
     # -- internals -----------------------------------------------------------------------------
 
     def _read_p1(self, servo_id: int) -> Status | None:
-        data, result, error = self.ph.readTxRx(self.port, servo_id, m.P1_READ, m.P1_READ_SIZE)
-        if result != self.sdk.COMM_SUCCESS:
+        got = self.transact(
+            wire.read1(servo_id, m.P1_READ, m.P1_READ_SIZE),
+            6 + m.P1_READ_SIZE,
+            wire.take_status1,
+            (servo_id,),
+            m.P1_READ_SIZE,
+        )
+        if servo_id not in got:
             return None
-        try:
-            return m.decode_p1(bytes(data), error)
-        except ValueError:
-            self.garbled += 1
-            return None
+        error, data = got[servo_id]
+        return m.decode_p1(data, error)
 
     def _fault(self, servo_id: int, error: int) -> str:
         if self.protocol == 1:

@@ -5,7 +5,8 @@ the model number against the profile's ``model``, converts the limits to native 
 sets Profile Velocity/Acceleration (Moving Speed, Goal Acceleration on 1.0) from
 ``max_speed``/``max_accel`` and turns the torque on. Each pose is one Sync Write of Goal
 Position; present position, load and temperature come back by Sync Read (Protocol 2.0) or
-READ (1.0) within ``--bus-read-ms`` of bus time per frame. See :mod:`..bus_servo`.
+READ (1.0) within ``--bus-read-ms`` of bus time a read-back, ``--bus-read-hz`` read-backs
+a second. See :mod:`..bus_servo`.
 """
 
 from __future__ import annotations
@@ -17,10 +18,10 @@ import msgspec
 
 from facesynth.runtime.profiles import Profile
 from services.control.drivers._extras import require
-from services.control.drivers.base import DriverConfigError
 from services.control.drivers.bus_servo.bus import ServoBus
 from services.control.drivers.bus_servo.driver import AtExit, BusServoDriver
-from services.control.drivers.bus_servo.options import AtExitField, Latency, ReadBudget
+from services.control.drivers.bus_servo.models import check_profile_models
+from services.control.drivers.bus_servo.options import AtExitField, Latency, ReadBudget, ReadRate
 from services.control.drivers.dynamixel.bus import DynamixelBus
 from services.control.drivers.dynamixel.models import BY_NAME
 from services.control.drivers.registry import DRIVERS
@@ -58,6 +59,7 @@ class DynamixelConfig(
         ),
     ] = None
     read_budget_ms: ReadBudget = 2.0
+    read_hz: ReadRate | None = None
     latency_ms: Latency = 16.0
     at_exit: AtExitField = "hold"
 
@@ -87,24 +89,14 @@ class DynamixelDriver(BusServoDriver):
         )
         check_port(config.port)
         self.protocol = choose_protocol(config, profile)
-        for spec in profile.servos:
-            model = BY_NAME.get(spec.model.lower()) if spec.model else None
-            if spec.model and model is None:
-                raise DriverConfigError(
-                    f"servo {spec.name!r}: model {spec.model!r} is not a Dynamixel the driver "
-                    f"knows ({', '.join(sorted(m.name for m in BY_NAME.values()))})"
-                )
-            if model is not None and model.protocol != self.protocol:
-                raise DriverConfigError(
-                    f"servo {spec.name!r}: the {model.name} speaks Protocol {model.protocol}.0, "
-                    f"but the bus runs Protocol {self.protocol}.0"
-                )
+        check_profile_models(profile, BY_NAME, "a Dynamixel", protocol=self.protocol)
         baud = config.baud or (profile.bus.baud if profile.bus else None)
         super().__init__(
             profile,
             port=config.port,
             baud=baud or FACTORY_BAUD[self.protocol],
             read_budget_ms=config.read_budget_ms,
+            read_hz=config.read_hz,
             at_exit=_at_exit(config.at_exit),
             log=log,
         )

@@ -83,6 +83,8 @@ def p1_speed_unit(model: Model) -> float:
 
 def hardware_errors(bits: int, names: dict[int, str]) -> str:
     """The hardware error bits named, joined ("" when none)."""
+    if not bits:
+        return ""
     return ", ".join(text for bit, text in sorted(names.items()) if bits >> bit & 1)
 
 
@@ -111,15 +113,3 @@ def decode_p1(data: bytes, error: int) -> Status:
         float(data[7]),
         hardware_errors(error, P1_HW_ERRORS),
     )
-
-
-def parse_status2(packet: list[int] | bytes, size: int) -> tuple[int, int, bytes] | None:
-    """A Protocol 2.0 status packet as the SDK's ``rxPacket`` returns it (header, CRC
-    checked, stuffing removed): (id, error byte, the ``size`` data bytes), or None when it is
-    not a status packet carrying exactly ``size`` bytes."""
-    if len(packet) < 11 or bytes(packet[:4]) != b"\xff\xff\xfd\x00" or packet[7] != 0x55:
-        return None
-    length = packet[5] | packet[6] << 8
-    if length != size + 4 or len(packet) < 7 + length:
-        return None
-    return packet[4], packet[8], bytes(packet[9 : 9 + size])

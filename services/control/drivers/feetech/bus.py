@@ -1,10 +1,12 @@
 """A Feetech bus through Feetech's ``scservo_sdk`` (STS and SCS servos), on the bus thread.
 
-Packets are the SDK's (``FF FF ID LEN INST … CHK``). Poses go out as one ``GroupSyncWrite``
-of Goal Position; the read-back is one Sync Read (``syncReadTx``, then each servo's status
-packet through the SDK's ``rxPacket``, which checks the checksum) when every servo read is an
-STS, one READ per servo otherwise. Words are packed here in each servo's byte order: the
-SDK's own word helpers follow one process-wide setting, which a bus of both series breaks.
+Packets are ``FF FF ID LEN INST … CHK``. The SDK opens the port, asks the models, configures
+and relaxes the servos; the per-frame packets are built and parsed by :mod:`..bus_servo.wire`
+(the SDK's cost a frame was most of the control process's CPU): each pose goes out as one Sync
+Write of Goal Position, and the read-back is one Sync Read (every status packet's checksum
+checked) when every servo read is an STS, one READ per servo otherwise. Words are packed here
+in each servo's byte order: the SDK's own word helpers follow one process-wide setting, which
+a bus of both series breaks.
 """
 
 from __future__ import annotations
@@ -13,7 +15,14 @@ import math
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from services.control.drivers.bus_servo.bus import Ping, ServoBus, Status
+from services.control.drivers.bus_servo import wire
+from services.control.drivers.bus_servo.bus import (
+    READ_EACH_HZ,
+    SYNC_READ_HZ,
+    Ping,
+    ServoBus,
+    Status,
+)
 from services.control.drivers.bus_servo.native import Model, NativeServo
 from services.control.drivers.feetech import models as m
 
@@ -41,6 +50,9 @@ class FeetechBus(ServoBus):
             self.series[servo_id] = model.protocol
         return Ping(number, m.hardware_errors(error))
 
+    def read_hz(self, ids: Sequence[int]) -> float:
+        return READ_EACH_HZ if any(self.series.get(i) == m.SCS for i in ids) else SYNC_READ_HZ
+
     def prepare(self, servo: NativeServo, speed: float, accel: float) -> None:
         i, series = servo.bus_id, servo.model.protocol
         self.series[i] = series
@@ -55,35 +67,28 @@ class FeetechBus(ServoBus):
     def write_goals(self, goals: Mapping[int, int]) -> int:
         if not goals:
             return 0
-        group = self.sdk.GroupSyncWrite(self.port, self.ph, m.GOAL, 2)
-        for servo_id, goal in sorted(goals.items()):
-            group.addParam(servo_id, list(m.word(int(goal), self.series.get(servo_id, m.STS))))
-        result = group.txPacket()
-        if result != self.sdk.COMM_SUCCESS:
-            raise OSError(f"Sync Write not sent: {self.ph.getTxRxResult(result)}")
-        return self.write_bytes(len(goals))
+        words = [
+            (servo_id, m.wire_word(goal, self.series.get(servo_id, m.STS)))
+            for servo_id, goal in sorted(goals.items())
+        ]
+        packet = wire.sync_write1(m.GOAL, 2, words)
+        self.send(packet)
+        return len(packet)
 
     def read(self, ids: Sequence[int]) -> dict[int, Status | None]:
         if any(self.series.get(i) == m.SCS for i in ids):
             return {i: self._read_one(i) for i in ids}
         out: dict[int, Status | None] = dict.fromkeys(ids)
-        result = self.ph.syncReadTx(self.port, m.READ, m.READ_SIZE, list(ids), len(ids))
-        if result != self.sdk.COMM_SUCCESS:
-            raise OSError(f"Sync Read not sent: {self.ph.getTxRxResult(result)}")
-        waiting = set(ids)
-        for _ in range(len(ids) + 4):
-            packet, result = self.ph.rxPacket(self.port)
-            if result == self.sdk.COMM_RX_TIMEOUT:
-                break
-            parsed = parse_status(packet, m.READ_SIZE) if result == self.sdk.COMM_SUCCESS else None
-            if parsed is None or parsed[0] not in waiting:
-                self.garbled += 1
-                continue
-            servo_id, error, data = parsed
-            waiting.discard(servo_id)
+        asked = tuple(ids)
+        got = self.transact(
+            wire.sync_read1(m.READ, m.READ_SIZE, asked),
+            (6 + m.READ_SIZE) * len(asked),
+            wire.take_status1,
+            asked,
+            m.READ_SIZE,
+        )
+        for servo_id, (error, data) in got.items():
             out[servo_id] = m.decode(data, error, m.STS)
-            if not waiting:
-                break
         return out
 
     def relax(self, ids: Sequence[int]) -> None:
@@ -99,14 +104,17 @@ class FeetechBus(ServoBus):
         return 8 + count + count * (6 + m.READ_SIZE)
 
     def _read_one(self, servo_id: int) -> Status | None:
-        data, result, error = self.ph.readTxRx(self.port, servo_id, m.READ, m.READ_SIZE)
-        if result != self.sdk.COMM_SUCCESS:
+        got = self.transact(
+            wire.read1(servo_id, m.READ, m.READ_SIZE),
+            6 + m.READ_SIZE,
+            wire.take_status1,
+            (servo_id,),
+            m.READ_SIZE,
+        )
+        if servo_id not in got:
             return None
-        try:
-            return m.decode(bytes(data), error, self.series.get(servo_id, m.STS))
-        except ValueError:
-            self.garbled += 1
-            return None
+        error, data = got[servo_id]
+        return m.decode(data, error, self.series.get(servo_id, m.STS))
 
     def _write(self, servo_id: int, address: int, data: bytes) -> None:
         for _ in range(3):  # a lost confirmation: write again (it is idempotent)
@@ -115,17 +123,6 @@ class FeetechBus(ServoBus):
                 break
         if result != self.sdk.COMM_SUCCESS:
             raise TimeoutError(f"id {servo_id} did not confirm a write to {address}")
-
-
-def parse_status(packet: list[int] | bytes, size: int) -> tuple[int, int, bytes] | None:
-    """A status packet as the SDK's ``rxPacket`` returns it (header and checksum checked):
-    (id, error byte, the ``size`` data bytes), or None when it does not carry exactly
-    ``size`` bytes."""
-    if len(packet) < 6 or packet[0] != 0xFF or packet[1] != 0xFF:
-        return None
-    if packet[3] != size + 2 or len(packet) < size + 6:
-        return None
-    return packet[2], packet[4], bytes(packet[5 : 5 + size])
 
 
 def _units(native_per_s: float, unit: float, limit: int) -> int:

@@ -5,8 +5,8 @@ profile is asked its model (``bus_id``, default channel + 1; checked against ``m
 Goal Speed and (STS) Acceleration come from ``max_speed``/``max_accel`` and the torque goes
 on; each pose is one Sync Write of Goal Position, and present position, load and
 temperature come back by Sync Read (STS) or READ (SCS) within ``--bus-read-ms`` of bus time
-per frame. A servo whose status packets carry an error bit (overload, overheating, voltage,
-overcurrent, angle sensor) is held and said once.
+a read-back, ``--bus-read-hz`` read-backs a second. A servo whose status packets carry an
+error bit (overload, overheating, voltage, overcurrent, angle sensor) is held and said once.
 """
 
 from __future__ import annotations
@@ -18,10 +18,10 @@ import msgspec
 
 from facesynth.runtime.profiles import Profile
 from services.control.drivers._extras import require
-from services.control.drivers.base import DriverConfigError
 from services.control.drivers.bus_servo.bus import ServoBus
 from services.control.drivers.bus_servo.driver import BusServoDriver
-from services.control.drivers.bus_servo.options import AtExitField, Latency, ReadBudget
+from services.control.drivers.bus_servo.models import check_profile_models
+from services.control.drivers.bus_servo.options import AtExitField, Latency, ReadBudget, ReadRate
 from services.control.drivers.feetech.bus import FeetechBus
 from services.control.drivers.feetech.models import BY_NAME
 from services.control.drivers.registry import DRIVERS
@@ -51,6 +51,7 @@ class FeetechConfig(
         | None
     ) = None
     read_budget_ms: ReadBudget = 2.0
+    read_hz: ReadRate | None = None
     latency_ms: Latency = 16.0
     at_exit: AtExitField = "hold"
 
@@ -67,18 +68,14 @@ class FeetechDriver(BusServoDriver):
             "scservo_sdk", plugin="feetech driver", package="feetech-servo-sdk", extra="feetech"
         )
         check_port(config.port)
-        for spec in profile.servos:
-            if spec.model and spec.model.lower() not in BY_NAME:
-                raise DriverConfigError(
-                    f"servo {spec.name!r}: model {spec.model!r} is not a Feetech servo the "
-                    f"driver knows ({', '.join(sorted(m.name for m in BY_NAME.values()))})"
-                )
+        check_profile_models(profile, BY_NAME, "a Feetech servo")
         baud = config.baud or (profile.bus.baud if profile.bus else None)
         super().__init__(
             profile,
             port=config.port,
             baud=baud or FACTORY_BAUD,
             read_budget_ms=config.read_budget_ms,
+            read_hz=config.read_hz,
             at_exit="relax" if config.at_exit == "relax" else "hold",
             log=log,
         )

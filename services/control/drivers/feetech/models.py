@@ -11,7 +11,7 @@ their error byte: 0 voltage, 1 angle sensor, 2 overheating, 3 overcurrent, 5 ove
 
 from __future__ import annotations
 
-from typing import Literal
+import struct
 
 from services.control.drivers.bus_servo.bus import Status
 from services.control.drivers.bus_servo.native import Model
@@ -50,6 +50,12 @@ def word(value: int, series: int) -> bytes:
     return raw.to_bytes(2, "big" if series == SCS else "little")
 
 
+def wire_word(value: int, series: int) -> int:
+    """:func:`word` as the unsigned number whose low byte goes first on the wire."""
+    raw = (-value | 0x8000) if value < 0 else value
+    return ((raw & 0xFF) << 8 | raw >> 8) if series == SCS else raw
+
+
 def model_from_bytes(data: bytes) -> int:
     """The model number of a Model Number read: the order that gives a known model (STS low
     byte first, SCS high byte first); little-endian when neither does."""
@@ -61,6 +67,8 @@ def model_from_bytes(data: bytes) -> int:
 
 def hardware_errors(bits: int) -> str:
     """The status error bits named, joined ("" when none)."""
+    if not bits:
+        return ""
     return ", ".join(text for bit, text in sorted(HW_ERRORS.items()) if bits >> bit & 1)
 
 
@@ -70,9 +78,7 @@ def decode(data: bytes, error: int, series: int) -> Status:
     bytes."""
     if len(data) != READ_SIZE:
         raise ValueError(f"a read-back of {len(data)} bytes (expected {READ_SIZE})")
-    order: Literal["big", "little"] = "big" if series == SCS else "little"
-    raw_position = int.from_bytes(data[0:2], order)
-    raw_load = int.from_bytes(data[4:6], order)
+    raw_position, _, raw_load = struct.unpack_from(">HHH" if series == SCS else "<HHH", data)
     position = -(raw_position & 0x7FFF) if raw_position & 0x8000 else raw_position
     magnitude = min(raw_load & 0x3FF, 1000) / 1000
     load = -magnitude if raw_load & 0x400 else magnitude
