@@ -47,6 +47,17 @@ test-faults: $(BIN)/.installed
 	@$(SYSTEM_PACKAGES) faults
 	$(BIN)/python -m pytest -q -s -m faults tests/faults
 
+## The soak (not in CI): the router and the five stages as processes on loopback, the bundled
+## video looped through the tracker, for HOURS hours (fractions too: HOURS=0.1), with a fault every
+## minute in turn (kill -9 of a stage or the router, a 3 s stall of points, a flood, oversized
+## messages). Prints RSS steps and slopes per process, the largest servo step against its limit,
+## stale commands and the longest gaps; the report in runs/soak-<date>.json, logs and the record
+## beside it. SOAK_ARGS adds options (`python -m tools.soak --help`: --interval, --kinds, --kill).
+.PHONY: soak
+HOURS ?= 2
+soak: $(BIN)/.installed
+	$(BIN)/python -m tools.soak --hours $(HOURS) $(SOAK_ARGS)
+
 ## Fuzz: 10,000 hypothesis cases for every decoder, loader and protocol parser, in two shards
 ## of about equal time run side by side (one per core); each prints its own tally, then the other's.
 ## A test past its timeout ends its shard with every thread's stack (pytest-timeout's thread

@@ -1,0 +1,120 @@
+"""Record lines and faults -> stale commands, gaps, the largest step (tools/soak/commands.py)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import msgspec
+import pytest
+
+from facesynth.runtime.profiles import load_profile
+from services.control.drivers.record import RecordLine, SessionInfo, SessionMarker
+from tools.soak.commands import executed, gaps, motion, stale
+from tools.soak.schedule import Fault
+
+MS = 1_000_000
+T0 = 1_800_000_000 * 1_000_000_000  # a wall clock reading (ns)
+PAPER16 = load_profile("paper16")
+
+
+def line(t_ms: float, frame: int | None = 1, latency_ms: float | None = 20, **servos: float):
+    sent = T0 + round(t_ms * MS)
+    capture = (
+        sent - round(latency_ms * MS) if latency_ms is not None and frame is not None else None
+    )
+    return RecordLine(
+        seq=0, frame=frame, t_capture_ns=capture, t_sent_ns=sent, face=True,
+        servos=servos or {"jaw": 1500.0},
+    )  # fmt: skip
+
+
+def fault(kind: str, target: str, t_ms: float) -> Fault:
+    return Fault(kind, target, T0 + round(t_ms * MS), T0 + round(t_ms * MS) + 1000 * MS)
+
+
+def stream(start_ms: float, end_ms: float, every_ms: float = 33.3) -> list[RecordLine]:
+    count = int((end_ms - start_ms) / every_ms)
+    return [line(start_ms + i * every_ms, frame=i) for i in range(count)]
+
+
+def test_commands_older_than_the_limit_from_capture_are_stale_and_put_down_to_a_fault() -> None:
+    lines = [
+        *stream(0, 1000),
+        line(5000, frame=900, latency_ms=3020),  # a frame from before the stall, 3 s late
+        line(5033, frame=901, latency_ms=2990),
+        line(5066, frame=None),  # C's own move: not aged
+        line(5100, frame=902, latency_ms=269),  # 249 ms over the fastest way: not stale
+        line(5133, frame=903, latency_ms=20),
+    ]
+    figures = stale(lines, [fault("kill", "translator", 500), fault("stall", "points", 1500)], 0.25)
+    assert figures.fastest_s == pytest.approx(0.020)
+    assert figures.count == 2
+    assert figures.by_kind == {"stall": 2}
+    assert [(c.frame, round(c.age_s, 3), c.after) for c in figures.listed] == [
+        (900, 3.0, "stall"),
+        (901, 2.97, "stall"),
+    ]
+    assert figures.oldest_s == pytest.approx(3.0)
+    assert figures.checked == len(lines) - 1 and figures.unstamped == 0
+
+
+def test_commands_without_a_capture_stamp_are_counted_not_aged() -> None:
+    figures = stale([line(0, latency_ms=None), line(33, latency_ms=None)], [], 0.25)
+    assert (figures.checked, figures.unstamped, figures.count, figures.fastest_s) == (0, 2, 0, None)
+
+
+def test_the_longest_gap_per_fault_kind() -> None:
+    before, first, second, third = (
+        stream(0, 1000),  # steady before any fault
+        stream(1200, 2000),  # silent from ~1000 ms: the first kill
+        stream(3500, 4000),  # silent from ~2000 ms: the router's kill
+        stream(4100, 5000),  # silent from ~4000 ms, during the flood
+    )
+    lines = [
+        *before, *first, *second, *third,
+        line(5400, frame=None),  # C's own move in between does not close a gap
+        *stream(5800, 6000),
+    ]  # fmt: skip
+    faults = [
+        fault("kill", "points", 990),
+        fault("kill", "router", 2000),
+        fault("flood", "input", 4050),
+        fault("stall", "points", 5000),
+    ]
+    found = gaps(lines, faults)
+    assert set(found) == {"none", "kill", "flood", "stall"}
+    assert found["kill"].target == "router"
+
+    def after(lines: list[RecordLine], t_ms: float) -> float:
+        return (T0 + t_ms * MS - lines[-1].t_sent_ns) / 1e9
+
+    assert found["kill"].seconds == pytest.approx(after(first, 3500))
+    assert found["flood"].seconds == pytest.approx(after(second, 4100))
+    assert found["stall"].seconds == pytest.approx(after(third, 5800))
+    assert found["none"].seconds == pytest.approx(0.0333)
+
+
+def test_counts_of_executed_commands() -> None:
+    assert executed([line(0), line(33, frame=None), line(66)]) == (2, 1)
+
+
+def _record(path: Path, *sessions: list[RecordLine]) -> Path:
+    encoder = msgspec.json.Encoder()
+    with open(path, "wb") as out:
+        for number, lines in enumerate(sessions):
+            marker = SessionMarker(session=SessionInfo(started_ns=T0 + number, profile="paper16"))
+            out.write(encoder.encode(marker) + b"\n")
+            for item in lines:
+                out.write(encoder.encode(item) + b"\n")
+    return path
+
+
+def test_the_largest_step_against_its_speed_limit(tmp_path: Path) -> None:
+    # right_eyebrow may move 3000 µs/s: 60 µs in 33.3 ms is 0.6 of it, 150 µs is over.
+    ok = [line(0, right_eyebrow=1500), line(33.3, right_eyebrow=1560)]
+    report = motion(_record(tmp_path / "a.jsonl", ok), PAPER16)
+    assert report.worst_ratio == pytest.approx(60 / (3000 * (0.0333 + 0.0002) + 0.002), rel=1e-3)
+    assert report.over == [] and report.sessions == 1
+    fast = [line(100, right_eyebrow=1500), line(133.3, right_eyebrow=1650)]
+    report = motion(_record(tmp_path / "b.jsonl", ok, fast), PAPER16)
+    assert report.worst_ratio > 1 and len(report.over) == 1 and report.sessions == 2

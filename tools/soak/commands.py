@@ -1,0 +1,143 @@
+"""What the executed commands of a soak show, pure: record lines and faults in, figures out.
+
+The lines are the ``record`` driver's (one per command C executed, with ``t_capture_ns``, the
+capture stamp of the frame it came from, and ``t_sent_ns``, C's wall clock when it decided it).
+Commands that follow the performer carry a ``frame``; C's own moves (the return to neutral)
+carry none.
+
+- **Stale commands**: executed commands whose age from capture is over the profile's
+  ``max_command_age_s``. One host stamps both times, so the age is ``t_sent - t_capture`` less
+  the fastest way through seen in the soak (as C ages a command: how much later than the
+  fastest way it arrived).
+- **Gaps**: the intervals between consecutive commands that carry a frame, each put down to
+  the fault that began last before it ended (``"none"`` before the first fault); the longest
+  per fault kind.
+
+The largest step against its speed limit is ``tests/motion_check.py``'s (every session of the
+record file, each pair of lines); :func:`motion` runs it.
+"""
+
+from __future__ import annotations
+
+import bisect
+import itertools
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+from motion_check import MotionReport, check_motion
+
+from facesynth.runtime.profiles import Profile
+from services.control.drivers.record import RecordLine
+from tools.soak.schedule import Fault
+
+#: How many stale commands a report lists (all are counted).
+LISTED = 20
+
+
+def motion(path: Path, profile: Profile) -> MotionReport:
+    """Every step of every session of the record file against ``profile``'s speed limits."""
+    return check_motion(path, profile)
+
+
+def _followed(faults: Sequence[Fault], t_ns: int) -> Fault | None:
+    """The fault that began last at or before ``t_ns``."""
+    starts = [fault.start_ns for fault in faults]
+    index = bisect.bisect_right(starts, t_ns) - 1
+    return faults[index] if index >= 0 else None
+
+
+def _kind(fault: Fault | None) -> str:
+    return fault.kind if fault is not None else "none"
+
+
+@dataclass(frozen=True)
+class StaleCommand:
+    """An executed command older than the limit: its frame, when C decided it (wall ns), its
+    age (s, over the fastest way through), and the fault it followed."""
+
+    frame: int
+    t_sent_ns: int
+    age_s: float
+    after: str
+
+
+@dataclass(frozen=True)
+class StaleFigures:
+    """Stale commands among the executed ones."""
+
+    limit_s: float
+    #: The fastest way from capture to command (s); ``None`` when no command had a stamp.
+    fastest_s: float | None
+    checked: int
+    #: Executed commands without a capture stamp (not aged).
+    unstamped: int
+    count: int
+    oldest_s: float
+    by_kind: dict[str, int]
+    listed: list[StaleCommand]
+
+
+def stale(lines: Sequence[RecordLine], faults: Sequence[Fault], limit_s: float) -> StaleFigures:
+    """The executed commands older than ``limit_s`` from capture (see the module doc)."""
+    following = [line for line in lines if line.frame is not None]
+    stamped = [line for line in following if line.t_capture_ns]
+    latencies = [line.t_sent_ns - (line.t_capture_ns or 0) for line in stamped]
+    fastest = min(latencies, default=None)
+    old: list[StaleCommand] = []
+    oldest = 0.0
+    ordered = sorted(faults, key=lambda f: f.start_ns)
+    for line, latency in zip(stamped, latencies, strict=True):
+        age_s = (latency - (fastest or 0)) / 1e9
+        oldest = max(oldest, age_s)
+        if age_s > limit_s:
+            after = _kind(_followed(ordered, line.t_sent_ns))
+            old.append(StaleCommand(line.frame or 0, line.t_sent_ns, age_s, after))
+    by_kind: dict[str, int] = {}
+    for command in old:
+        by_kind[command.after] = by_kind.get(command.after, 0) + 1
+    return StaleFigures(
+        limit_s=limit_s,
+        fastest_s=fastest / 1e9 if fastest is not None else None,
+        checked=len(stamped),
+        unstamped=len(following) - len(stamped),
+        count=len(old),
+        oldest_s=oldest,
+        by_kind=by_kind,
+        listed=old[:LISTED],
+    )
+
+
+@dataclass(frozen=True)
+class Gap:
+    """No command carrying a frame from ``start_ns`` to ``end_ns`` (wall), after a fault."""
+
+    start_ns: int
+    end_ns: int
+    kind: str
+    target: str
+
+    @property
+    def seconds(self) -> float:
+        return (self.end_ns - self.start_ns) / 1e9
+
+
+def gaps(lines: Sequence[RecordLine], faults: Sequence[Fault]) -> dict[str, Gap]:
+    """The longest gap between commands carrying a frame, per fault kind (``"none"``: before
+    the first fault)."""
+    times = sorted(line.t_sent_ns for line in lines if line.frame is not None)
+    ordered = sorted(faults, key=lambda f: f.start_ns)
+    longest: dict[str, Gap] = {}
+    for start, end in itertools.pairwise(times):
+        fault = _followed(ordered, end)
+        kind = _kind(fault)
+        gap = Gap(start, end, kind, fault.target if fault else "")
+        if kind not in longest or gap.seconds > longest[kind].seconds:
+            longest[kind] = gap
+    return longest
+
+
+def executed(lines: Sequence[RecordLine]) -> tuple[int, int]:
+    """How many commands C executed: (carrying a frame, its own moves)."""
+    following = sum(1 for line in lines if line.frame is not None)
+    return following, len(lines) - following
