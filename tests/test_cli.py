@@ -84,9 +84,12 @@ def _files(tmp: Path) -> dict[str, Path]:
     truncated = tmp / "truncated.mp4"
     video = sample_video().read_bytes()
     truncated.write_bytes(video[: len(video) // 20])
+    # a learned profile from a later facesynth (msgpack: {format: ..., version: 3})
+    future = tmp / "future.learned"
+    future.write_bytes(b"\x82\xa6format\xb9facesynth.learned_profile\xa7version\x03")
     folder = tmp / "a-folder"
     folder.mkdir()
-    return {**paths, "truncated.mp4": truncated, "a-folder": folder}
+    return {**paths, "truncated.mp4": truncated, "a-folder": folder, "future.learned": future}
 
 
 CASES = [
@@ -301,6 +304,11 @@ CASES = [
         "--pca9685-frequency: 2000 Hz needs PRE_SCALE 2, outside 3..255",
     ),
     (
+        "a smart bus read-back rate of nothing",
+        ["control", "--driver", "dynamixel", "--port", "/dev/null", "--bus-read-hz", "0"],
+        "driver dynamixel: --bus-read-hz: Expected `float` > 0.0",
+    ),
+    (
         "malformed port URL",
         ["control", "--driver", "ssc32", "--port", "socket://nohost"],
         "socket://nohost: expected socket://HOST:PORT",
@@ -399,6 +407,21 @@ CASES = [
     ("bench fanout robots", ["bench", "fanout", "--robots", "a,b"], "--robots: not a list"),
     ("bench fanout no robots", ["bench", "fanout", "--robots", "0"], "counts of at least 1"),
     ("bench fanout layout", ["bench", "fanout", "--layout", "threads"], "unknown layout 'threads'"),
+    (
+        "bench drivers emulated frames",
+        ["bench", "drivers", "--emulated", "--frames", "0"],
+        "--frames must be at least 1",
+    ),
+    (
+        "bench drivers emulated repeat",
+        ["bench", "drivers", "--emulated", "--repeat", "0"],
+        "--repeat must be at least 1",
+    ),
+    (
+        "bench drivers emulated fps",
+        ["bench", "drivers", "--emulated", "--fps", "0"],
+        "--fps must be a positive number, not 0",
+    ),
     (
         "bench fanout one model",
         ["bench", "fanout", "--models", "fast,full"],
@@ -506,6 +529,11 @@ CASES = [
         "missing learned profile",
         ["translator", "--profile", "/nonexistent/robot.learned"],
         "profile file /nonexistent/robot.learned does not exist",
+    ),
+    (
+        "learned profile of a later version",
+        ["translator", "--profile", "{future.learned}"],
+        "learned profile version 3 is not supported (this reads 1, 2)",
     ),
     ("bench robot frames", ["bench", "robot", "--frames", "0"], "--frames must be at least 1"),
     ("bench robot profile", ["bench", "robot", "--profile", "robo9"], "robo9: no profile"),

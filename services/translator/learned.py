@@ -3,7 +3,12 @@ robot's, then run the inverse model (:mod:`facesynth.runtime.profiles.learned`).
 
 Per frame, for each of the mapping's inputs ``i`` (a key of ``Features.raw``):
 
-1. **Retarget.** ``r`` is the performer's raw value (relative to the performer's neutral) and
+1. **Retarget.** A file fitted with retargeting options (``retarget``, file version 2) goes
+   through :mod:`services.translator.retarget`: 0.9 of the performer's change, scaled into the
+   robot's reach and clipped into it, features the robot cannot show held at its neutral, and
+   each feature weighted in the plan by how much the performer moves it. A file without
+   (version 1) is retargeted as follows.
+   ``r`` is the performer's raw value (relative to the performer's neutral) and
    ``n`` its calibrated scale (``Features.named``: 0 neutral, ±1 the performer's extremes).
    The robot's face should move ``t = sign(r) · min(|r|, |n| · reach)``, ``reach`` being how
    far the robot moved that input on that side while babbling: the performer's own movement
@@ -42,6 +47,7 @@ from facesynth.runtime.profiles import Profile, Smoothing, has_source
 from facesynth.runtime.profiles.learned import PolyRidge, command_range, unpack
 from facesynth.runtime.profiles.learned_predict import predictor
 from services.translator.filters import OneEuroFilter
+from services.translator.retarget import Retargeter
 from services.translator.self_model import SelfModelPlanner
 
 
@@ -57,6 +63,13 @@ class LearnedTargets:
         self.low, self.high = unpack(learned.reach_low), unpack(learned.reach_high)
         self.mean, self.scale = unpack(learned.input_mean), unpack(learned.input_scale)
         self.predict = predictor(learned.inverse)
+        noise = None if learned.noise is None else unpack(learned.noise)
+        self.retargeter = (
+            None
+            if learned.retarget is None
+            else Retargeter(self.inputs, self.low, self.high, self.scale, noise, learned.retarget)
+        )
+        self.weights: np.ndarray | None = None
         self.u_low, self.u_high = command_range(learned)
         self.planner = (
             SelfModelPlanner(
@@ -80,12 +93,22 @@ class LearnedTargets:
         self.max_us = np.array([s.max_us for s in specs])
         self.fixed = {name: profile.servo(name).neutral_us for name in learned.dead}
 
-    def retarget(self, raw: Mapping[str, float], named: Mapping[str, float]) -> np.ndarray | None:
-        """The robot's input values ``t`` for a frame (None: none of the inputs is there)."""
+    def retarget(
+        self, raw: Mapping[str, float], named: Mapping[str, float], t_ns: int | None = None
+    ) -> np.ndarray | None:
+        """The robot's input values ``t`` for a frame (None: none of the inputs is there).
+
+        With the file's ``retarget`` options, :mod:`services.translator.retarget` gives them
+        (and, when ``t_ns`` is given, updates each feature's weight in the plan, ``weights``);
+        without, step 1 of the module's docstring does."""
         r = np.array([raw.get(name, np.nan) for name in self.inputs], dtype=np.float64)
         present = np.isfinite(r)
         if not present.any():
             return None
+        if self.retargeter is not None:
+            if t_ns is not None:
+                self.weights = self.retargeter.weights.update(r, t_ns)
+            return self.retargeter.targets(np.where(present, r, 0.0))
         r = np.where(present, r, 0.0)
         n = np.array([named.get(name, np.nan) for name in self.inputs], dtype=np.float64)
         reach = np.where(r >= 0, self.high, -self.low)
@@ -104,7 +127,10 @@ class LearnedTargets:
             out: np.ndarray = np.clip(self.predict(x[None, :])[0], self.u_low, self.u_high)
         out = np.where(np.isfinite(out), out, np.nan)
         if self.planner is not None and np.isfinite(x).all() and np.isfinite(out).all():
-            out = self.planner.plan(x, out)
+            weights = self.weights
+            if weights is None and self.retargeter is not None:
+                weights = self.retargeter.weights.weights()
+            out = self.planner.plan(x, out, weights)
         return out
 
     def positions(self, u: np.ndarray) -> np.ndarray:
@@ -118,7 +144,7 @@ class LearnedTargets:
         self, raw: Mapping[str, float], named: Mapping[str, float], t_ns: int | None
     ) -> list[float | None]:
         """Every servo's target in the profile's order (None: hold); filtered when ``t_ns``."""
-        t = self.retarget(raw, named)
+        t = self.retarget(raw, named, t_ns)
         if t is None:
             return [None] * len(self.names)
         u = self.commands(t)

@@ -8,10 +8,11 @@ a regression says little. The forward model (commands → face, the self-model) 
 judge there: :class:`SelfModelPlanner` starts from the inverse model's guess ``u0`` and takes a
 few damped Gauss-Newton steps on
 
-    ‖f(u) − x‖² + prior · ‖u − u0‖²,   low ≤ u ≤ high
+    Σ w · (f(u) − x)² + prior · ‖u − u0‖²,   low ≤ u ≤ high
 
 where ``f`` is the forward model (ridge on polynomial features), ``x`` the standardized target
-face, and each step is projected onto the servos' bounds (their responsive range, a learned
+face, ``w`` each feature's weight (1 unless given: :mod:`services.translator.retarget`), and
+each step is projected onto the servos' bounds (their responsive range, a learned
 profile's ``command_low`` .. ``command_high``; [-1, 1] by default). Where the target is
 reachable the result is the command that makes it; where it is not, the reachable face nearest
 to it (in the robot's own standardized units), rather than an extrapolation. A step the
@@ -67,22 +68,27 @@ class SelfModelPlanner:
         jacobian: np.ndarray = self.coef @ d_terms[:, : self.n_servos]
         return face, jacobian
 
-    def plan(self, x: np.ndarray, u0: np.ndarray) -> np.ndarray:
-        """Commands within the bounds for the standardized target face ``x``, from ``u0``."""
+    def plan(self, x: np.ndarray, u0: np.ndarray, weights: np.ndarray | None = None) -> np.ndarray:
+        """Commands within the bounds for the standardized target face ``x``, from ``u0``;
+        ``weights`` (one per face feature, >= 0; None: all 1) weigh each feature's squared
+        error (0: the feature takes no part in the plan)."""
         u = np.clip(u0, self.low, self.high)
         for _ in range(self.steps):
-            step = self._step(x, u, u0)
+            step = self._step(x, u, u0, weights)
             if step is None:
                 break  # the self-model overflows here (extreme coefficients): keep this plan
             u = np.clip(u + step, self.low, self.high)
         return u
 
-    def _step(self, x: np.ndarray, u: np.ndarray, u0: np.ndarray) -> np.ndarray | None:
+    def _step(
+        self, x: np.ndarray, u: np.ndarray, u0: np.ndarray, weights: np.ndarray | None = None
+    ) -> np.ndarray | None:
         """One damped Gauss-Newton step from ``u`` (None: not computable in finite numbers)."""
         with np.errstate(all="ignore"):
             face, jacobian = self.face(u)
-            gradient = jacobian.T @ (x - face) - self.prior * (u - u0)
-            normal = jacobian.T @ jacobian + self.eye
+            weighted = jacobian if weights is None else jacobian * weights[:, None]
+            gradient = weighted.T @ (x - face) - self.prior * (u - u0)
+            normal = weighted.T @ jacobian + self.eye
             if not (np.isfinite(gradient).all() and np.isfinite(normal).all()):
                 return None
             try:

@@ -37,7 +37,15 @@ from facesynth.runtime.profiles import (
     load_profile,
     parse_learned_profile,
 )
-from facesynth.runtime.profiles.learned import KNN, MLP, Layer, PolyRidge, Report, pack
+from facesynth.runtime.profiles.learned import (
+    KNN,
+    MLP,
+    Layer,
+    PolyRidge,
+    Report,
+    Retarget,
+    pack,
+)
 from schemas.messages import Features
 from services.control.core import Arrival, CommandError, ControlCore, StaleCommand
 from services.translator.core import Translator
@@ -121,6 +129,15 @@ VALID = [
         )
     ),
     PLANNING,
+    # retargeting into the robot's reach (file version 2): its noise and options fuzzed too
+    msgspec.structs.replace(
+        PLANNING,
+        learned=msgspec.structs.replace(
+            PLANNING.learned,
+            noise=pack(np.array([0.001, 0.2, 0.01])),
+            retarget=Retarget(region_floor=0.5),
+        ),
+    ),
 ]
 VALID_BYTES = [encode_learned_profile(profile) for profile in VALID]
 VALID_TREES = [msgspec.msgpack.decode(data) for data in VALID_BYTES]

@@ -255,7 +255,8 @@ def _build_parts(
     """The robot's nodes, built as ``facesynth run`` builds a graph's."""
     source, backend, driver = configs["sensor"], configs["points"], configs["control"]
     nodes: dict[str, Any] = {
-        "sensor": SensorNode(source=msgspec.to_builtins(source)),
+        # The robot's camera measures the face: its frames are never dropped for their age.
+        "sensor": SensorNode(source=msgspec.to_builtins(source), capture_age=False),
         "points": PointsNode(backend=msgspec.to_builtins(backend), queue=1),
         "features": FeaturesNode(
             neutral_seconds=profile.neutral_seconds, keep_state=False, neutral_held=True

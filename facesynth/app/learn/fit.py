@@ -36,6 +36,10 @@ hardware profile it was babbled with and returns that profile with its
    two held-out errors: *raw* (predicted against babbled command) and *effective* (both
    clipped into the range first). Candidates are compared, and issue 17's goal (<= 0.05 of
    range) is measured, on the effective error.
+6. **Retargeting.** Each input's ``noise``: the standard deviation of what the commands do
+   not explain (:mod:`facesynth.app.learn.unexplained`: camera jitter, tracker hysteresis, a
+   feature moved by nothing the robot commands), from which T tells the features the robot
+   can show; and T's retargeting options (``retarget``; :mod:`services.translator.retarget`).
 
 scikit-learn is imported here only (the ``learn`` extra); the board side runs the result in
 numpy (:func:`facesynth.runtime.profiles.learned_predict.predictor`, which gives what these
@@ -58,6 +62,7 @@ from facesynth.app.learn.coverage import UnsweptError, coverage
 from facesynth.app.learn.dataset import BabbleSet
 from facesynth.app.learn.report import format_report
 from facesynth.app.learn.responsive import clip_commands, responsive_range
+from facesynth.app.learn.unexplained import unexplained
 from facesynth.runtime.feature_names import BY_NAME
 from facesynth.runtime.profiles import Learned, Profile
 from facesynth.runtime.profiles.learned import (
@@ -67,6 +72,7 @@ from facesynth.runtime.profiles.learned import (
     Model,
     PolyRidge,
     Report,
+    Retarget,
     pack,
 )
 
@@ -359,6 +365,9 @@ def _fit(babble: BabbleSet, profile: Profile, options: FitOptions) -> Profile:
         errors[label] = command_error(profile, live, predicted, y[test])
         seconds[label] = time.perf_counter() - begun
     best = min(errors, key=lambda label: float(errors[label].mean()))
+    noise = scale * unexplained(
+        x, y, data.groups, lambda a, b, c: sklearn_predict(_poly_ridge(a, b, options)[0], c)
+    )
     family, variant = variants[best]
     _, inverse = fit_model(family, x, y, variant)
     _, forward = _poly_ridge(y, x, options)
@@ -396,6 +405,8 @@ def _fit(babble: BabbleSet, profile: Profile, options: FitOptions) -> Profile:
         plan_prior=options.plan_prior,
         command_low=pack(u_low),
         command_high=pack(u_high),
+        noise=pack(noise),
+        retarget=Retarget(),
         report=report,
     )
     return msgspec.structs.replace(profile, learned=learned)

@@ -15,6 +15,9 @@ own babbling (``facesynth learn``):
   so ``reversed`` is ignored for a learned servo);
 * ``forward``: ``u`` of the outputs → standardized inputs (the robot's self-model), or None;
 * ``command_low`` / ``command_high``: each output's responsive range (optional; [-1, 1]);
+* ``noise``: each input's jitter at the robot's neutral (optional, from file version 2), and
+  ``retarget``: how T retargets the performer's face into the robot's reach (optional; a file
+  without it retargets as version 1 files did; :mod:`services.translator.retarget`);
 * ``report``: how the fit went (held-out command error per servo, as a fraction of its range).
 
 Arrays travel as :class:`ArrayData` (little-endian float32/float64 bytes with a shape), never
@@ -34,6 +37,8 @@ import msgspec
 import numpy as np
 
 from facesynth.runtime.feature_names import NAMES
+
+from .learned_retarget import Retarget, showable
 
 #: The most planning steps a file may ask of T per frame (each costs about 30 µs).
 MAX_PLAN_STEPS = 20
@@ -149,6 +154,10 @@ class Learned(msgspec.Struct, forbid_unknown_fields=True, kw_only=True):
     #: (``facesynth.app.learn.responsive``). T never commands a servo outside it.
     command_low: ArrayData | None = None
     command_high: ArrayData | None = None
+    #: Each input's jitter at the robot's neutral (standard deviation over the neutral
+    #: samples, raw units; None: unknown, every input counts as one the robot can show).
+    noise: ArrayData | None = None
+    retarget: Retarget | None = None
     report: Report
 
 
@@ -298,6 +307,35 @@ def learned_problems(learned: Learned, servos: list[str]) -> list[str]:
     if learned.plan_steps and not isinstance(learned.forward, PolyRidge):
         problems.append("plan_steps needs a poly_ridge forward model")
     problems.extend(_range_problems(learned))
+    problems.extend(_retarget_problems(learned))
+    return problems
+
+
+def _retarget_problems(learned: Learned) -> list[str]:
+    problems = []
+    if learned.noise is not None:
+        problem = array_problem(learned.noise)
+        if problem is None and learned.noise.shape != [len(learned.inputs)]:
+            problem = f"shape {learned.noise.shape} is not [{len(learned.inputs)}] (one per input)"
+        if problem is None and np.any(unpack(learned.noise) < 0):
+            problem = "must be >= 0"
+        if problem is not None:
+            problems.append(f"noise: {problem}")
+    options = learned.retarget
+    if options is not None:
+        bounds = {
+            "gain": (0.0, 2.0, options.gain),
+            "tau_s": (0.0, 3600.0, options.tau_s),
+            "min_weight": (0.0, 1.0, options.min_weight),
+            "region_floor": (0.0, 1.0, options.region_floor),
+        }
+        for name, (low, high, value) in bounds.items():
+            if not (math.isfinite(value) and low < value <= high):
+                problems.append(f"retarget.{name} {value!r} is outside ({low:g}, {high:g}]")
+        for name in ("show_noise", "extent"):
+            value = getattr(options, name)
+            if not (math.isfinite(value) and 0 <= value <= 100):
+                problems.append(f"retarget.{name} {value!r} is outside [0, 100]")
     return problems
 
 
@@ -328,6 +366,16 @@ def command_range(learned: Learned) -> tuple[np.ndarray, np.ndarray]:
     return low, high
 
 
+def shown_inputs(learned: Learned) -> list[str]:
+    """The inputs of a valid mapping the robot can show (:func:`showable`; every input when
+    the file has no ``retarget`` options)."""
+    if learned.retarget is None:
+        return list(learned.inputs)
+    noise = None if learned.noise is None else unpack(learned.noise)
+    mask = showable(unpack(learned.input_scale), noise, learned.retarget.show_noise)
+    return [name for name, shown in zip(learned.inputs, mask, strict=True) if shown]
+
+
 def describe_learned(learned: Learned) -> str:
     """One line about a learned mapping (for ``facesynth profile show``)."""
     report = learned.report
@@ -338,7 +386,14 @@ def describe_learned(learned: Learned) -> str:
         error += f", effective {np.mean(effective):.3f} (worst {max(effective):.3f})"
     unknown = len(report.not_exercised) + len(report.one_way)
     kept = f"{len(learned.dead) - unknown} dead" + (f", {unknown} not swept" if unknown else "")
+    retarget = ""
+    if learned.retarget is not None:
+        shown = len(shown_inputs(learned))
+        retarget = (
+            f", retargets {learned.retarget.gain:g} of the performer's change into the robot's "
+            f"reach over the {shown} inputs it can show"
+        )
     return (
         f"learned: {report.model} from {len(learned.inputs)} inputs to {len(learned.outputs)} "
-        f"servos ({kept}){error}, {report.samples} samples"
+        f"servos ({kept}){error}, {report.samples} samples{retarget}"
     )

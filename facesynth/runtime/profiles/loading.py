@@ -19,7 +19,7 @@ import msgspec
 from facesynth.runtime.named_files import NamedFiles
 from facesynth.runtime.oneline import one_line
 
-from .learned_file import FORMAT, SUFFIX, VERSION, Header, LearnedFile, split_file
+from .learned_file import FORMAT, SUFFIX, VERSIONS, Header, LearnedFile, split_file
 from .model import Profile, ServoSpec
 from .validation import validate_profile
 
@@ -186,10 +186,11 @@ def parse_learned_profile(data: bytes, source: str = "<learned profile>") -> Pro
         raise _error(source, [f"not a learned profile (not msgpack: {exc})"]) from None
     if header.format != FORMAT:
         raise _error(source, [f"not a learned profile (format {header.format!r}, not {FORMAT!r})"])
-    if header.version != VERSION:
+    if type(header.version) is not int or header.version not in VERSIONS:
+        reads = ", ".join(map(str, VERSIONS))
         raise _error(
             source,
-            [f"learned profile version {header.version!r} is not supported (this reads {VERSION})"],
+            [f"learned profile version {header.version!r} is not supported (this reads {reads})"],
         )
     try:
         document = msgspec.msgpack.decode(data, type=LearnedFile)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
+import msgspec
 import numpy as np
 import pytest
 from synthetic_babble import DEAD, MOVED, STILL, SyntheticHead, hardware, synthetic_babble
@@ -19,7 +20,7 @@ from facesynth.app.learn.fit import (
     format_report,
 )
 from facesynth.runtime.profiles import load_profile, save_learned_profile
-from facesynth.runtime.profiles.learned import unpack
+from facesynth.runtime.profiles.learned import Retarget, shown_inputs, unpack
 from facesynth.runtime.profiles.learned_predict import predictor
 from services.translator.core import Translator
 from services.translator.timing import time_translator
@@ -74,7 +75,10 @@ def test_the_saved_profile_drives_the_head_back_to_the_commanded_pose(
     u[:, list(DEAD)] = 0.0
     faces = head.features(u)
     column = {name: i for i, name in enumerate(MOVED)}
-    translator = Translator(loaded)
+    # the robot's own face asked for as it is (gain 1), not as 0.9 of a performer's
+    assert learned.retarget == Retarget()
+    whole = msgspec.structs.replace(learned, retarget=Retarget(gain=1.0))
+    translator = Translator(msgspec.structs.replace(loaded, learned=whole))
     got = []
     for face in faces:
         raw = {name: float(face[column[name]]) for name in learned.inputs}
@@ -116,6 +120,24 @@ def test_a_quick_fit_with_chosen_candidates() -> None:
     assert profile.learned.report.model == "poly_ridge"
     assert profile.learned.forward is not None
     assert profile.name == "head16_hardware" and profile.servos == hardware().servos
+
+
+def test_the_fit_tells_the_features_the_robot_can_show_from_those_only_jitter_moves() -> None:
+    """A head without a neck whose head-pose readings jitter by 3 degrees (past the inputs'
+    spread threshold): the commands explain none of it, so T leaves it out of the plan."""
+    babble = _small()
+    faces = babble.faces.copy()
+    still = [list(babble.inputs).index(name) for name in STILL]
+    faces[:, still] = np.random.default_rng(5).normal(0.0, 3.0, (len(faces), len(STILL)))
+    babble = BabbleSet(babble.servos, babble.commands, babble.inputs, faces, babble.kinds)
+    learned = fit_learned_profile(
+        babble, hardware(), FitOptions(candidates=("poly_ridge",))
+    ).learned
+    assert set(STILL) <= set(learned.inputs)  # moved enough to be an input ...
+    assert learned.retarget == Retarget() and learned.noise is not None
+    shown = shown_inputs(learned)
+    assert not set(STILL) & set(shown)  # ... but not by the robot
+    assert set(shown) == set(learned.inputs) - set(STILL)
 
 
 def test_unfittable_babbling_is_a_clear_error() -> None:

@@ -21,7 +21,7 @@ from facesynth.runtime.profiles import (
     parse_profile,
     save_learned_profile,
 )
-from facesynth.runtime.profiles.learned import command_range, pack
+from facesynth.runtime.profiles.learned import Retarget, command_range, pack
 from facesynth.runtime.profiles.learned_predict import ACTIVATIONS, predictor
 
 
@@ -79,6 +79,29 @@ def test_responsive_ranges_round_trip_and_default_to_the_whole_travel(tmp_path: 
     assert low.tolist() == [-1.0, 0.0, -0.5] and high.tolist() == [0.0, 1.0, 0.5]
     text = describe_learned(loaded.learned)
     assert "held-out error 0.200" in text and "effective 0.040" in text
+
+
+def test_retargeting_round_trips_and_a_version_1_file_loads_without_it(tmp_path: Path) -> None:
+    profile = learned_profile()
+    assert profile.learned.retarget is None and profile.learned.noise is None
+    retargeted = msgspec.structs.replace(
+        profile,
+        learned=msgspec.structs.replace(
+            profile.learned, noise=pack(np.full(3, 0.001)), retarget=Retarget(gain=0.8)
+        ),
+    )
+    path = save_learned_profile(retargeted, tmp_path / "new.learned")
+    assert msgspec.msgpack.decode(path.read_bytes())["version"] == 2
+    assert load_profile(str(path)) == retargeted
+    assert "retargets 0.8 of the performer's change into the robot's reach over the 3 inputs" in (
+        describe_learned(retargeted.learned)
+    )
+    assert "retargets" not in describe_learned(profile.learned)
+    # a file written before version 2: no noise, no retarget, version 1
+    old = _document(version=1)
+    del old["noise"], old["retarget"]
+    (tmp_path / "old.learned").write_bytes(_bytes(old))
+    assert load_profile(str(tmp_path / "old.learned")) == profile
 
 
 def test_knn_and_float32_arrays_round_trip(tmp_path: Path) -> None:
@@ -153,7 +176,19 @@ MALFORMED = [
     ("a list", _bytes([1, 2]), "not a learned profile (Expected `object`"),
     ("wrong format", _bytes(_document(format="facesynth.calibration")), "format 'facesynth.calib"),
     ("no format", _bytes({"version": 1}), "format None"),
-    ("wrong version", _bytes(_document(version=2)), "version 2 is not supported"),
+    ("wrong version", _bytes(_document(version=3)), "version 3 is not supported (this reads 1, 2)"),
+    ("version true", _bytes(_document(version=True)), "version True is not supported"),
+    ("noise shape", _bytes(_document(noise=_array([0.1, 0.1]))), "noise: shape [2] is not [3]"),
+    ("noise sign", _bytes(_document(noise=_array([0.1, -0.1, 0]))), "noise: must be >= 0"),
+    ("noise nan", _bytes(_document(noise=NAN)), "noise: holds values that are not finite"),
+    ("retarget gain", _bytes(_document(retarget={"gain": 0.0})), "retarget.gain 0.0 is outside"),
+    ("retarget tau", _bytes(_document(retarget={"tau_s": float("inf")})), "retarget.tau_s inf"),
+    ("retarget weight", _bytes(_document(retarget={"min_weight": 2})), "retarget.min_weight 2"),
+    ("retarget region", _bytes(_document(retarget={"region_floor": 0})), "retarget.region_floor"),
+    ("retarget extent", _bytes(_document(retarget={"extent": -2.5})), "retarget.extent -2.5"),
+    ("retarget show", _bytes(_document(retarget={"show_noise": -1})), "retarget.show_noise -1"),
+    ("retarget field", _bytes(_document(retarget={"boost": 2})), "unknown field `boost`"),
+    ("retarget type", _bytes(_document(retarget=[0.9])), "`$.retarget`"),
     # Found by fuzzing: msgspec raises UnicodeDecodeError for a string that is not UTF-8.
     (
         "format not utf-8",

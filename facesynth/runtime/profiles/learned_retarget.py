@@ -1,0 +1,48 @@
+"""How T retargets the performer's face into a learned robot's reach: the options a learned
+profile file carries (``retarget``, from file version 2) and the rule for the features the
+robot can show. T runs them in :mod:`services.translator.retarget`; they live here, with the
+file's other parts, so the loader can check them and ``facesynth profile show`` describe them.
+"""
+
+from __future__ import annotations
+
+import msgspec
+import numpy as np
+
+
+class Retarget(msgspec.Struct, forbid_unknown_fields=True, kw_only=True):
+    """How T turns the performer's face into the robot's target face
+    (:mod:`services.translator.retarget`; a file without it retargets as files fitted before
+    it did). ``gain``: the share of the performer's change (from her neutral) the robot is
+    asked for, before it is clipped into the robot's reach (Emo's 0.9); ``tau_s``: the time
+    constant of the running estimate of how much the performer moves each feature;
+    ``min_weight``: the least weight a feature she hardly moves keeps in the plan (weights are
+    in [min_weight, 1]); ``show_noise``: an input is one the robot can show when its
+    ``noise`` (what the commands do not explain) is at most this share of its spread while
+    babbling (``input_scale``): 0.85, the commands explain 28 % of its variance or more (a
+    feature only jitter moves: none; on simhead16 and simhead16_reversed, each babbled 600
+    times, every feature but one the commands move: 33 % or more, the most nonlinear
+    blendshapes included); ``region_floor``:
+    how far a face region's change may be scaled down as one, keeping its shape, before its
+    features are clipped one by one (1: not at all, each feature is clipped on its own; on
+    simhead16 scaling regions down to 0.5 kept ρ and cost amplitude: 0.47 against 0.55);
+    ``extent``: the performer's extent on a feature is taken as this many times her running
+    root mean square change, and where it exceeds the robot's reach her change is scaled by
+    reach / extent before the clip (0: never, Emo's clip alone; on simhead16 scaling gave
+    ρ 0.59 against the clip's 0.57 at the same amplitude)."""
+
+    gain: float = 0.9
+    tau_s: float = 10.0
+    min_weight: float = 0.2
+    show_noise: float = 0.85
+    region_floor: float = 1.0
+    extent: float = 2.5
+
+
+def showable(scale: np.ndarray, noise: np.ndarray | None, ratio: float) -> np.ndarray:
+    """Per input, whether the robot can show it: its ``noise`` is at most ``ratio`` times its
+    spread while babbling, ``scale`` (every input when the noise is unknown)."""
+    if noise is None:
+        return np.ones(len(scale), dtype=bool)
+    shown: np.ndarray = noise <= ratio * scale
+    return shown
