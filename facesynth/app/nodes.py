@@ -84,6 +84,14 @@ class SensorNode(_Node, tag="sensor"):
     wait_timeout: Annotated[
         float, Meta(ge=0, description="seconds to wait for --wait-for (default 30)")
     ] = 30.0
+    capture_age: Annotated[
+        bool,
+        Meta(
+            description="name this host as the frames' capture host, so the stages downstream "
+            "drop frames too old to act on after a stall (default on; off for a camera that "
+            "only measures, as learn's robot camera; --fast frames are never aged)"
+        ),
+    ] = True
 
 
 class PointsNode(_Node, tag="points"):

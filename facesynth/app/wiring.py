@@ -221,6 +221,7 @@ def sensor_options(node: SensorNode) -> SensorOptions:
         max_frames=node.max_frames,
         wait_for=list(node.wait_for),
         wait_timeout=node.wait_timeout,
+        capture_age=node.capture_age,
     )
 
 

@@ -7,7 +7,8 @@ loses no frame and gives the same commands every time. Pacing, the credit window
 
 Real-time frames name this host as their ``capture_host``, so the stages downstream drop them
 once they are too old (after a stall); ``fast`` frames wait for credit by design and name none
-(they are never aged from capture).
+(they are never aged from capture), nor do a measuring camera's (``capture_age`` off: learn's
+robot camera, whose frames are measured, never acted on).
 """
 
 from __future__ import annotations
@@ -45,6 +46,8 @@ class SensorOptions:
     max_frames: int | None = None
     wait_for: list[str] = field(default_factory=list)
     wait_timeout: float = 10.0
+    #: Name this host as the frames' capture host (they are then aged downstream).
+    capture_age: bool = True
 
 
 async def wait_for_services(ctx: ServiceContext, services: list[str], timeout: float) -> bool:
@@ -99,7 +102,8 @@ class SensorService:
         self.last_seq = -1
         self.credit = CreditGate(options.window, options.ack_timeout, "frame")
         #: Whose wall clock stamps the frames (none for ``fast``: see the module doc).
-        self.capture_host = "" if options.fast else socket.gethostname()
+        aged = options.capture_age and not options.fast
+        self.capture_host = socket.gethostname() if aged else ""
 
     @property
     def stalls(self) -> int:

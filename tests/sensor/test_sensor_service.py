@@ -66,6 +66,10 @@ async def test_real_time_frames_name_this_host_as_their_capture_host_fast_ones_n
     async with run:
         await run.finish(timeout=0.0)
         assert {f.capture_host for f in run.messages("input")} == {""}
+    run, _ = sensor_run(ticks(2, 10.0), capture_age=False)  # a camera that only measures
+    async with run:
+        await run.finish(timeout=10.0)
+        assert {f.capture_host for f in run.messages("input")} == {""}
 
 
 class Replayed(FrameSource):
