@@ -15,7 +15,8 @@ own babbling (``facesynth learn``):
   so ``reversed`` is ignored for a learned servo);
 * ``forward``: ``u`` of the outputs → standardized inputs (the robot's self-model), or None;
 * ``command_low`` / ``command_high``: each output's responsive range (optional; [-1, 1]);
-* ``noise``: each input's jitter at the robot's neutral (optional, from file version 2), and
+* ``noise``: what the commands leave unexplained of each input (a self-model's held-out residual
+  spread, :mod:`facesynth.app.learn.unexplained`; optional, from file version 2), and
   ``retarget``: how T retargets the performer's face into the robot's reach (optional; a file
   without it retargets as version 1 files did; :mod:`services.translator.retarget`);
 * ``report``: how the fit went (held-out command error per servo, as a fraction of its range).
