@@ -13,6 +13,7 @@ interface): the flag is declared once and applies to each of them.
 from __future__ import annotations
 
 import argparse
+import functools
 import re
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
@@ -69,6 +70,13 @@ def _annotated(
 
 def struct_flags(struct: type[msgspec.Struct], skip: Iterable[str] = ()) -> list[Flag]:
     """The flags of a struct's fields (the tag and ``skip`` left out)."""
+    return list(_struct_flags(struct, frozenset(skip)))
+
+
+@functools.cache
+def _struct_flags(struct: type[msgspec.Struct], skip: frozenset[str]) -> tuple[Flag, ...]:
+    # Cached: msgspec.inspect evaluates every annotation each time (about 1 ms a struct), and
+    # building the parser asks for the same plugin structs some 2,700 times.
     info = msgspec.inspect.type_info(struct)
     assert isinstance(info, msgspec.inspect.StructType)
     flags = []
@@ -88,7 +96,7 @@ def struct_flags(struct: type[msgspec.Struct], skip: Iterable[str] = ()) -> list
                 selects=bool(extra.get("selects", False)),
             )
         )
-    return flags
+    return tuple(flags)
 
 
 def add_flags(group: argparse._ArgumentGroup, flags: Iterable[Flag], seen: set[str]) -> None:
