@@ -14,20 +14,19 @@ from facesynth.app.chain import (
     build_chain,
     build_nodes,
     freeze_startup_objects,
-    run_chain,
     serve_nodes,
 )
 from facesynth.app.command_registry import Command
 from facesynth.app.common_arguments import zenoh_arguments
-from facesynth.app.engine.router import RUN_LISTEN, embedded_bus, joined_bus
+from facesynth.app.engine.chain_run import run_embedded_chain
+from facesynth.app.engine.router import RUN_LISTEN, joined_bus
 from facesynth.app.graph import Graph, check_node, graph_help, load_graph
 from facesynth.app.profile_choice import settle_profiles
-from facesynth.app.recording.attach import add_attach_arguments, attached
+from facesynth.app.recording.attach import add_attach_arguments
 from facesynth.app.stage_args import add_stage_arguments, apply_arguments
 from facesynth.app.tuning import tune_process
 from facesynth.app.wiring import OptionError
 from facesynth.runtime import keys
-from facesynth.runtime.bus.zenoh_bus import endpoints
 from facesynth.runtime.outputs import check_output
 from facesynth.runtime.service import run_async
 from services.control.drivers.record import RecordConfig, earlier_sessions, record_summary
@@ -52,23 +51,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         c.out: earlier_sessions(c.out) for c in configs.values() if isinstance(c, RecordConfig)
     }
     parts = build_chain(graph, configs)
-    listen = endpoints(args.listen) or [RUN_LISTEN]
-    options = wiring.zenoh_options(args, default_mode="router")
-    options.connect = endpoints(args.connect)
-
-    async def main() -> ChainResult:
-        async with embedded_bus(listen, options, rig=rig, fallback=not args.listen) as (bus, _):
-            freeze_startup_objects()
-            async with attached(bus, rig, args):
-                return await run_chain(
-                    bus,
-                    rig,
-                    parts,
-                    drain_timeout=args.drain_timeout,
-                    stats_interval=args.stats_interval,
-                )
-
-    result = run_async(main())
+    result = run_embedded_chain(args, rig, parts)
     outs = [
         getattr(configs[name], "out", configs[name].__struct_config__.tag)
         for name in graph.of_stage("control")

@@ -13,17 +13,13 @@ import argparse
 import logging
 from typing import Any
 
-from facesynth.app.chain import ChainResult, freeze_startup_objects, run_chain
-from facesynth.app.engine.router import RUN_LISTEN, embedded_bus
+from facesynth.app.engine.chain_run import run_embedded_chain
 from facesynth.app.graph import load_graph
 from facesynth.app.nodes import stage_of
 from facesynth.app.profile_choice import settle_profiles
-from facesynth.app.recording.attach import attached
 from facesynth.app.recording.replay import Replayer
 from facesynth.app.stage_args import apply_arguments
-from facesynth.app.wiring import OptionError, StageParts, build_node, zenoh_options
-from facesynth.runtime.bus.zenoh_bus import endpoints
-from facesynth.runtime.service import run_async
+from facesynth.app.wiring import OptionError, StageParts, build_node
 
 log = logging.getLogger("facesynth")
 
@@ -64,24 +60,8 @@ def replay_through_graph(
     Returns the replay's outcome (``None`` when interrupted), the rig, and what the chain did.
     """
     parts, rig, configs = graph_parts(replayer, args)
-    listen = endpoints(args.listen) or [RUN_LISTEN]
-    options = zenoh_options(args, default_mode="router")
-    options.connect = endpoints(args.connect)
     replay_part = StageParts("replay", "replay", replayer.serve, replayer)
-
-    async def main() -> ChainResult:
-        async with embedded_bus(listen, options, rig=rig, fallback=not args.listen) as (bus, _):
-            freeze_startup_objects()
-            async with attached(bus, rig, args):
-                return await run_chain(
-                    bus,
-                    rig,
-                    [replay_part, *parts],
-                    drain_timeout=args.drain_timeout,
-                    stats_interval=args.stats_interval,
-                )
-
-    result = run_async(main())
+    result = run_embedded_chain(args, rig, [replay_part, *parts])
     outs = [out for config in configs.values() if (out := getattr(config, "out", None))]
     chain = {
         "commands": result.commands,
