@@ -116,7 +116,7 @@ lint: $(BIN)/.installed
 	$(BIN)/ruff check .
 	$(BIN)/mypy
 	$(BIN)/lint-imports --no-cache
-	$(BIN)/python -m schemas.export --check
+	$(BIN)/python -m facesynth.schemas.export --check
 
 ## The servo firmware: host unit tests, Uno build with size report, simavr harness, tests/firmware.
 firmware-test: $(BIN)/.installed

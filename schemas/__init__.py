@@ -1,6 +1,6 @@
 """facesynth message schemas: msgspec structs for every topic (see ``messages``)."""
 
-from schemas.messages import (
+from facesynth.schemas.messages import (
     ALL_MESSAGES,
     BabbleSample,
     Features,

@@ -13,7 +13,7 @@ from typing import Any
 
 import msgspec
 
-from schemas.messages import ALL_MESSAGES
+from facesynth.schemas.messages import ALL_MESSAGES
 
 SCHEMA_PATH = Path(__file__).with_name("facesynth.schema.json")
 
@@ -59,7 +59,9 @@ def main() -> int:
     if "--check" in sys.argv[1:]:
         current = SCHEMA_PATH.read_text() if SCHEMA_PATH.exists() else ""
         if current != text:
-            print(f"{SCHEMA_PATH} is stale: run python -m schemas.export", file=sys.stderr)
+            print(
+                f"{SCHEMA_PATH} is stale: run python -m facesynth.schemas.export", file=sys.stderr
+            )
             return 1
         return 0
     tmp = SCHEMA_PATH.with_suffix(".tmp")

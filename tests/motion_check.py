@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from facesynth.runtime.profiles import Profile
-from services.control.drivers.record import read_sessions
+from facesynth.services.control.drivers.record import read_sessions
 
 SLACK_S = 0.0002
 

@@ -18,9 +18,9 @@ from facesynth.app.graph import GraphError, parse_graph
 from facesynth.runtime import codec
 from facesynth.runtime.calibration import CalibrationError, parse_calibration
 from facesynth.runtime.codec import MessageError
-from schemas.messages import Points
-from services.control.drivers.record import RecordError, read_sessions
-from services.features.state import StateError, parse_state
+from facesynth.schemas.messages import Points
+from facesynth.services.control.drivers.record import RecordError, read_sessions
+from facesynth.services.features.state import StateError, parse_state
 
 NOT_UTF8 = b'{"\xf3name": "ann"}\n'
 

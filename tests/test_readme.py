@@ -240,6 +240,8 @@ def name_problem(name: str) -> str | None:
     if name in _names_in_code():
         return None
     parts = name.split(".")
+    if parts[0] in ("services", "schemas"):
+        return f"installed as facesynth.{name}: write it so"
     for cut in range(len(parts), 0, -1):
         try:
             module = importlib.import_module(".".join(parts[:cut]))
@@ -368,6 +370,9 @@ def test_name_problems() -> None:
     assert name_problem("facesynth.nosuch_group") is not None
     assert name_problem("facesynth.profiles.FORMAT_REFERENCE") is not None
     assert name_problem("facesynth.runtime.feature_names.NOPE") is not None
+    assert name_problem("services.translator.core") == (
+        "installed as facesynth.services.translator.core: write it so"
+    )
 
 
 def test_links_that_lead_nowhere_are_found() -> None:

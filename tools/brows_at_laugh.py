@@ -22,10 +22,10 @@ from facesynth.app.data import sample_video
 from facesynth.runtime import blendshapes
 from facesynth.runtime.frames import encode_frame
 from facesynth.runtime.profiles import load_profile
-from schemas.messages import Points
-from services.features.core import FeatureProcessor, blendshape_scores
-from services.points.backends.tracker import TrackerBackend, TrackerConfig
-from services.translator.core import Translator
+from facesynth.schemas.messages import Points
+from facesynth.services.features.core import FeatureProcessor, blendshape_scores
+from facesynth.services.points.backends.tracker import TrackerBackend, TrackerConfig
+from facesynth.services.translator.core import Translator
 
 PROFILES = ("virtual", "virtual_bs", "head16", "paper16")
 BROW_SHAPES = (

@@ -25,8 +25,8 @@ from facesynth.runtime.calibration import CALIBRATIONS, save_calibration
 from facesynth.runtime.frames import encode_frame
 from facesynth.runtime.keys import check_name
 from facesynth.runtime.outputs import check_output
-from schemas.messages import Frame
-from services.features.calibrate import (
+from facesynth.schemas.messages import Frame
+from facesynth.services.features.calibrate import (
     PROMPTS,
     STEPS,
     CalibrationRecorder,
@@ -34,9 +34,9 @@ from services.features.calibrate import (
     parse_schedule,
     step_at,
 )
-from services.features.expressions import raw_features
-from services.sensor.service import TICK_SIZE
-from services.sensor.sources.base import pixels
+from facesynth.services.features.expressions import raw_features
+from facesynth.services.sensor.service import TICK_SIZE
+from facesynth.services.sensor.sources.base import pixels
 
 #: Seconds skipped at the start of each live step: the performer is still changing expression.
 LIVE_SETTLE_S = 0.7

@@ -33,9 +33,9 @@ from facesynth.runtime.service import (
     run_service,
     until_signalled,
 )
-from schemas.messages import ServoCommands
-from services.points.backends.base import PointsBackend
-from services.sensor.service import SensorService
+from facesynth.schemas.messages import ServoCommands
+from facesynth.services.points.backends.base import PointsBackend
+from facesynth.services.sensor.service import SensorService
 
 log = logging.getLogger("facesynth")
 

@@ -19,7 +19,7 @@ from facesynth import __version__
 from facesynth.app.command_registry import add_commands
 from facesynth.app.library_logs import quiet_libraries
 from facesynth.app.usage import parse_arguments
-from services.control.drivers.base import DriverError
+from facesynth.services.control.drivers.base import DriverError
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -91,7 +91,7 @@ def graph_arguments(parser: argparse.ArgumentParser) -> None:
 
 def model_arguments(parser: argparse.ArgumentParser) -> None:
     """``--model`` (choices and help from the tracker-model registry) and ``--no-blendshapes``."""
-    from services.points.tracker.landmarkers import TRACKER_MODELS
+    from facesynth.services.points.tracker.landmarkers import TRACKER_MODELS
 
     summaries = "; ".join(f"{p.name}: {p.summary.rstrip('.')}" for p in TRACKER_MODELS)
     parser.add_argument(

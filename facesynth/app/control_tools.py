@@ -23,10 +23,10 @@ from facesynth.app.stage_args import apply_arguments
 from facesynth.app.wiring import OptionError, build_profile
 from facesynth.runtime.profiles import Profile
 from facesynth.runtime.service import run_async
-from services.control.core import CommandInfo
-from services.control.drivers.base import DeviceUnavailable, ServoDriver
-from services.control.drivers.registry import DRIVERS
-from services.control.sweep import sweep
+from facesynth.services.control.core import CommandInfo
+from facesynth.services.control.drivers.base import DeviceUnavailable, ServoDriver
+from facesynth.services.control.drivers.registry import DRIVERS
+from facesynth.services.control.sweep import sweep
 
 #: Steps per second of a sweep.
 SWEEP_RATE_HZ = 50

@@ -35,9 +35,9 @@ from facesynth.app.toml_text import toml_value
 from facesynth.runtime import keys
 from facesynth.runtime.oneline import one_line
 from facesynth.runtime.plugins import PluginError, Registry
-from services.control.drivers.registry import DRIVERS
-from services.points.backends.registry import BACKENDS
-from services.sensor.sources.registry import SOURCES
+from facesynth.services.control.drivers.registry import DRIVERS
+from facesynth.services.points.backends.registry import BACKENDS
+from facesynth.services.sensor.sources.registry import SOURCES
 
 GRAPHS_DIR = Path(__file__).parent / "graphs"
 #: The graph ``facesynth run`` runs without one: the demo.

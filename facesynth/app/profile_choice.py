@@ -18,8 +18,8 @@ import msgspec
 from facesynth.app.graph import Graph
 from facesynth.app.nodes import DEFAULT_PROFILE, ControlNode, TranslatorNode
 from facesynth.runtime.profiles import Profile, ProfileError, available_profiles, load_profile
-from services.control.drivers.base import ServoDriver
-from services.control.drivers.registry import DRIVERS
+from facesynth.services.control.drivers.base import ServoDriver
+from facesynth.services.control.drivers.registry import DRIVERS
 
 __all__ = ["DEFAULT_PROFILE", "ProfileFitError", "check_fit", "settle_profiles"]
 

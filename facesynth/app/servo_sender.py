@@ -13,7 +13,7 @@ from __future__ import annotations
 import socket
 
 from facesynth.runtime.service import ServiceContext
-from schemas.messages import ServoCommands
+from facesynth.schemas.messages import ServoCommands
 
 
 class ServoSender:

@@ -19,7 +19,7 @@ log = logging.getLogger("facesynth")
 def cmd_status(args: argparse.Namespace) -> int:
     """``facesynth status``: live services and their latest stats."""
     from facesynth.runtime.codec import decode
-    from schemas.messages import ServiceStats
+    from facesynth.schemas.messages import ServiceStats
 
     options = wiring.zenoh_options(args)
     rig = None if args.all_rigs else args.rig

@@ -33,22 +33,22 @@ from facesynth.runtime.calibration import Calibration, load_calibration, resolve
 from facesynth.runtime.feature_names import BLENDSHAPE_NAMES
 from facesynth.runtime.profiles import Profile, load_profile
 from facesynth.runtime.service import ServiceContext
-from services.control.drivers.registry import DRIVERS
-from services.control.service import ControlService
-from services.features.core import FeatureProcessor
-from services.features.service import StateKeeping, serve_features
-from services.features.state import StateError
-from services.features.state import check_name as check_state_name
-from services.points.backends.base import PointsBackend, Replay
-from services.points.backends.registry import BACKENDS
-from services.points.service import serve_points
-from services.sensor.service import SensorOptions, SensorService
-from services.sensor.sources.base import FrameSource, SourceError
-from services.sensor.sources.registry import SOURCES
-from services.sensor.sources.ticks import TicksConfig
-from services.sensor.sources.video import VideoConfig
-from services.translator.core import Translator
-from services.translator.service import serve_translator
+from facesynth.services.control.drivers.registry import DRIVERS
+from facesynth.services.control.service import ControlService
+from facesynth.services.features.core import FeatureProcessor
+from facesynth.services.features.service import StateKeeping, serve_features
+from facesynth.services.features.state import StateError
+from facesynth.services.features.state import check_name as check_state_name
+from facesynth.services.points.backends.base import PointsBackend, Replay
+from facesynth.services.points.backends.registry import BACKENDS
+from facesynth.services.points.service import serve_points
+from facesynth.services.sensor.service import SensorOptions, SensorService
+from facesynth.services.sensor.sources.base import FrameSource, SourceError
+from facesynth.services.sensor.sources.registry import SOURCES
+from facesynth.services.sensor.sources.ticks import TicksConfig
+from facesynth.services.sensor.sources.video import VideoConfig
+from facesynth.services.translator.core import Translator
+from facesynth.services.translator.service import serve_translator
 
 ServiceBody = Callable[[ServiceContext], Awaitable[Any]]
 

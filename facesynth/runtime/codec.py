@@ -19,7 +19,14 @@ import numpy as np
 from facesynth.runtime import blendshapes, limits
 from facesynth.runtime.jpeg import JpegHeaderError, jpeg_size
 from facesynth.runtime.oneline import one_line
-from schemas.messages import BabbleSample, Features, Frame, Points, ServiceStats, ServoCommands
+from facesynth.schemas.messages import (
+    BabbleSample,
+    Features,
+    Frame,
+    Points,
+    ServiceStats,
+    ServoCommands,
+)
 
 M = TypeVar("M", Frame, Points, Features, ServoCommands, ServiceStats, BabbleSample)
 

@@ -1,11 +1,11 @@
-"""Frame pixels to and from :class:`schemas.messages.Frame` (JPEG or raw BGR)."""
+"""Frame pixels to and from :class:`facesynth.schemas.messages.Frame` (JPEG or raw BGR)."""
 
 from __future__ import annotations
 
 import numpy as np
 
 from facesynth.runtime.opencv import import_cv2
-from schemas.messages import Frame
+from facesynth.schemas.messages import Frame
 
 
 class FrameError(ValueError):

@@ -23,7 +23,7 @@ key               limit         largest valid message
 ``servo_*``       64 KiB        a profile's positions with the sender stamps: 16 servos ~0.6 KB
 ``babble``        64 KiB        one settled pose: 16 positions twice, ~120 features averaged
                                 and their spread: ~8 KB
-``stats``         16 KiB        one :class:`~schemas.messages.ServiceStats`: ~0.3 KB
+``stats``         16 KiB        one :class:`~facesynth.schemas.messages.ServiceStats`: ~0.3 KB
 ================  ============  =================================================================
 """
 

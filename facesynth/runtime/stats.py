@@ -11,7 +11,7 @@ import time
 import numpy as np
 
 from facesynth.runtime.bus.link import LinkFigures
-from schemas.messages import ServiceStats
+from facesynth.schemas.messages import ServiceStats
 
 RATE_WINDOW_NS = 5_000_000_000
 #: A service that has not published for this long (and for three of its recent intervals) is

@@ -32,7 +32,7 @@ from facesynth.runtime.bus.base import Subscription
 from facesynth.runtime.bus.memory import MemoryNetwork
 from facesynth.runtime.clock import FakeClock, IdleTimeout
 from facesynth.runtime.service import Body, ServiceContext, run_service
-from schemas.messages import Features, Frame, Points, ServiceStats, ServoCommands
+from facesynth.schemas.messages import Features, Frame, Points, ServiceStats, ServoCommands
 
 #: The message type published on each topic of a rig (stats keys are topic ``"stats"``).
 TOPIC_TYPES: dict[str, type[Frame | Points | Features | ServoCommands | ServiceStats]] = {

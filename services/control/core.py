@@ -5,7 +5,7 @@ profile, with more positions than the profile has servos, naming servos it does 
 with a NaN position are refused whole (never half applied); every position is clamped to its
 servo's limits. Commands older than the profile's ``max_command_age_s`` (since their sender sent
 them, or since their frame was captured), or not newer than one already applied from the same
-sender, are refused too (:mod:`services.control.freshness`).
+sender, are refused too (:mod:`facesynth.services.control.freshness`).
 
 Then nothing moves faster than the profile allows (:mod:`services.control.motion`): each step
 toward the commanded targets is bounded by each servo's ``max_speed`` and ``max_accel``,
@@ -34,9 +34,9 @@ from dataclasses import dataclass
 from typing import Literal
 
 from facesynth.runtime.profiles import Profile
-from schemas.messages import ServoCommands
-from services.control.freshness import Arrival, Freshness, StaleCommand, Verdict
-from services.control.motion import MAX_STEP_S, FaceMotion
+from facesynth.schemas.messages import ServoCommands
+from facesynth.services.control.freshness import Arrival, Freshness, StaleCommand, Verdict
+from facesynth.services.control.motion import MAX_STEP_S, FaceMotion
 
 __all__ = [
     "MAX_STEP_S",

@@ -51,7 +51,7 @@ from facesynth.runtime.capture_age import (
     OffsetBaseline,
     learn_host,
 )
-from schemas.messages import ServoCommands
+from facesynth.schemas.messages import ServoCommands
 
 __all__ = [
     "RELEARN_COUNT",

@@ -25,10 +25,10 @@ from facesynth.runtime.clock import Clock
 from facesynth.runtime.profiles import Profile
 from facesynth.runtime.rig_view import RigView
 from facesynth.runtime.service import ServiceContext
-from schemas.messages import ServoCommands
-from services.control.core import RAMP_RATE_HZ, Arrival, ControlCore, MotionTime, Move
-from services.control.drivers.base import ServoDriver, ServoReading
-from services.control.freshness import StaleCapture
+from facesynth.schemas.messages import ServoCommands
+from facesynth.services.control.core import RAMP_RATE_HZ, Arrival, ControlCore, MotionTime, Move
+from facesynth.services.control.drivers.base import ServoDriver, ServoReading
+from facesynth.services.control.freshness import StaleCapture
 
 __all__ = ["RAMP_RATE_HZ", "ControlService"]
 

@@ -41,7 +41,7 @@ from typing import Final, Literal
 import numpy as np
 
 from facesynth.runtime import blendshapes
-from services.features.neutral import NeutralWindow, Sample
+from facesynth.services.features.neutral import NeutralWindow, Sample
 
 #: The tracker's brow blendshapes.
 BROW_SHAPES: Final = (

@@ -20,8 +20,8 @@ import numpy as np
 from facesynth.runtime.calibration import Calibration
 from facesynth.runtime.feature_names import BY_NAME
 from facesynth.runtime.landmarks import IRIS10, N_IBUG
-from schemas.messages import Points
-from services.features.core import (
+from facesynth.schemas.messages import Points
+from facesynth.services.features.core import (
     FeatureError,
     blendshape_features,
     blendshape_scores,
@@ -31,8 +31,8 @@ from services.features.core import (
     optional_points,
     paper_frame,
 )
-from services.features.expressions import relative
-from services.features.pose import MeshReference
+from facesynth.services.features.expressions import relative
+from facesynth.services.features.pose import MeshReference
 
 #: The paper's face-section expressions (section 3.2.1), in the order they are asked for.
 STEPS: tuple[str, ...] = (

@@ -16,7 +16,7 @@ Beyond the paper, once the neutral is known every face frame also carries:
   (IOD units, y up);
 * ``raw`` / ``named``: the named features of ``feature_names`` relative to the neutral,
   unscaled / scaled to the calibrated (or default) ranges (``services.features.expressions``);
-  gaze goes through the blink/wink rule of ``services.features.gaze``.
+  gaze goes through the blink/wink rule of ``facesynth.services.features.gaze``.
 
 The neutral covers the 68 distances, the 68 points (for displacements), the named features and
 the neutral mesh (the face frame and head-pose origin when points carry a 3D ``mesh468``). A
@@ -25,7 +25,7 @@ features come from the mesh when the neutral has one (then a frame without a 3D 
 none: its 2D values would not match the neutral's), else from the 68 points alone (also when a
 calibration has a named neutral but no neutral mesh). With
 ``auto_range=True`` the neutral then follows a rolling median and the ranges adapt
-(``services.features.autorange``).
+(``facesynth.services.features.autorange``).
 """
 
 from __future__ import annotations
@@ -35,9 +35,9 @@ import numpy as np
 from facesynth.runtime import blendshapes
 from facesynth.runtime.calibration import Calibration
 from facesynth.runtime.landmarks import IBUG68, IRIS10, MESH468, MESH478, N_IBUG, NOSE_TIP
-from schemas.messages import Features, Points
-from services.features.brow_rest import BROW_NAMED, BROW_POINTS, BrowRest, window_at_rest
-from services.features.expressions import (
+from facesynth.schemas.messages import Features, Points
+from facesynth.services.features.brow_rest import BROW_NAMED, BROW_POINTS, BrowRest, window_at_rest
+from facesynth.services.features.expressions import (
     HEAD,
     default_ranges,
     ranges_from,
@@ -45,11 +45,17 @@ from services.features.expressions import (
     relative,
     scale,
 )
-from services.features.frame import MIN_IOD_PX, FeatureError, normalise
-from services.features.frontal import paper_frame
-from services.features.gaze import SIDES, GazeHold
-from services.features.neutral import AutoNeutral, NeutralFace, NeutralWindow, Sample, neutral_face
-from services.features.pose import N_MESH, MeshReference
+from facesynth.services.features.frame import MIN_IOD_PX, FeatureError, normalise
+from facesynth.services.features.frontal import paper_frame
+from facesynth.services.features.gaze import SIDES, GazeHold
+from facesynth.services.features.neutral import (
+    AutoNeutral,
+    NeutralFace,
+    NeutralWindow,
+    Sample,
+    neutral_face,
+)
+from facesynth.services.features.pose import N_MESH, MeshReference
 
 __all__ = [
     "MIN_IOD_PX",

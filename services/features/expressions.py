@@ -50,9 +50,9 @@ import numpy as np
 
 from facesynth.runtime.feature_names import BY_NAME, NAMES, SCALED_LIMIT
 from facesynth.runtime.landmarks import LEFT_EYE_OUTER, RIGHT_EYE_OUTER
-from services.features.frame import normalise
-from services.features.gaze import gaze_features, gaze_features_3d
-from services.features.pose import (
+from facesynth.services.features.frame import normalise
+from facesynth.services.features.gaze import gaze_features, gaze_features_3d
+from facesynth.services.features.pose import (
     N_MESH,
     MeshReference,
     apply,
@@ -220,7 +220,7 @@ def raw_features(
 
     Raises:
         services.features.frame.FeatureError: degenerate eye corners (no 2D face frame) or a
-            degenerate mesh (:class:`~services.features.pose.PoseError`, a subclass).
+            degenerate mesh (:class:`~facesynth.services.features.pose.PoseError`, a subclass).
     """
     reference = _reference(neutral_mesh)
     out: dict[str, float] = {}

@@ -28,8 +28,8 @@ import contextlib
 import numpy as np
 
 from facesynth.runtime.ibug_mesh import ibug68_depth
-from services.features.frame import normalise
-from services.features.pose import (
+from facesynth.services.features.frame import normalise
+from facesynth.services.features.pose import (
     STABLE_VERTICES,
     MeshReference,
     PoseError,
@@ -47,7 +47,7 @@ def frontalized(ibug: np.ndarray, mesh: np.ndarray, reference: MeshReference) ->
     """The 68 image points (68, 2) moved rigidly from the head's pose in ``mesh`` (468, 3) to
     its pose in the neutral mesh of ``reference`` (image coordinates): the head's rotation,
     position and distance since the neutral taken out. Raise
-    :class:`~services.features.pose.PoseError` for a mesh the fit cannot use."""
+    :class:`~facesynth.services.features.pose.PoseError` for a mesh the fit cannot use."""
     transform = similarity_fit(mesh[_STABLE], reference.mesh[_STABLE])
     moved: np.ndarray = apply(transform, np.column_stack([ibug, ibug68_depth(mesh)]))[:, :2]
     if not np.all(np.isfinite(moved)):

@@ -31,7 +31,7 @@ from typing import Final
 
 import numpy as np
 
-from services.features.pose import Similarity, apply
+from facesynth.services.features.pose import Similarity, apply
 
 SIDES: Final = ("right", "left")
 

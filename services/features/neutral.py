@@ -16,10 +16,10 @@ import numpy as np
 from facesynth.runtime.blendshapes import SHAPES
 from facesynth.runtime.feature_names import NAMES
 from facesynth.runtime.landmarks import N_IBUG
-from services.features.autorange import AutoRange, RollingNeutral
-from services.features.expressions import raw_features
-from services.features.frame import FeatureError
-from services.features.pose import (
+from facesynth.services.features.autorange import AutoRange, RollingNeutral
+from facesynth.services.features.expressions import raw_features
+from facesynth.services.features.frame import FeatureError
+from facesynth.services.features.pose import (
     MIN_SCALE,
     STABLE_VERTICES,
     MeshReference,

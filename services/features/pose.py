@@ -27,7 +27,7 @@ from typing import Final
 import numpy as np
 
 from facesynth.runtime.ibug_mesh import mesh_to_ibug68
-from services.features.frame import FeatureError
+from facesynth.services.features.frame import FeatureError
 
 N_MESH: Final = 468
 

@@ -4,7 +4,7 @@ With a :class:`StateKeeping` (no calibration), what F learns of the performer (t
 with ``auto_range`` the rolling neutral and ranges) is read at start from
 ``<state dir>/<rig>/<performer>.json`` and written back when it is learned, every
 ``SAVE_INTERVAL_S`` while it changes, and on the way out; each time is logged
-(:mod:`services.features.state`).
+(:mod:`facesynth.services.features.state`).
 """
 
 from __future__ import annotations
@@ -15,9 +15,9 @@ from pathlib import Path
 
 from facesynth.runtime.capture_age import DEFAULT_MAX_AGE_S
 from facesynth.runtime.service import ServiceContext, serve_transform
-from schemas.messages import Features, Points
-from services.features.core import FeatureProcessor
-from services.features.state import (
+from facesynth.schemas.messages import Features, Points
+from facesynth.services.features.core import FeatureProcessor
+from facesynth.services.features.state import (
     SAVE_INTERVAL_S,
     LearnedState,
     StateError,

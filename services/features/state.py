@@ -28,9 +28,9 @@ from facesynth.runtime.calibration import MAX_VALUE, finite_within
 from facesynth.runtime.feature_names import NAMES
 from facesynth.runtime.landmarks import N_IBUG
 from facesynth.runtime.oneline import one_line
-from services.features.core import FeatureProcessor
-from services.features.neutral import AutoNeutral
-from services.features.pose import N_MESH, MeshReference, PoseError
+from facesynth.services.features.core import FeatureProcessor
+from facesynth.services.features.neutral import AutoNeutral
+from facesynth.services.features.pose import N_MESH, MeshReference, PoseError
 
 #: While ``auto_range`` adapts the neutral and ranges, they are written at most this often.
 SAVE_INTERVAL_S = 10.0

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from facesynth.runtime.capture_age import DEFAULT_MAX_AGE_S
 from facesynth.runtime.service import ServiceContext, serve_transform
-from schemas.messages import Frame
-from services.points.backends import PointsBackend
+from facesynth.schemas.messages import Frame
+from facesynth.services.points.backends import PointsBackend
 
 
 async def serve_points(ctx: ServiceContext, backend: PointsBackend, queue: int = 2) -> None:

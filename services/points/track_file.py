@@ -1,6 +1,6 @@
 """The ``facesynth track`` file: JSON Lines, one :class:`TrackLine` per video frame.
 
-Written by :func:`services.points.tracker.offline.track_video` and replayed by
+Written by :func:`facesynth.services.points.tracker.offline.track_video` and replayed by
 :class:`services.points.backends.TrackReplay`; both use :class:`TrackLine`, so the format is
 defined here only. A line, in frame pixels::
 

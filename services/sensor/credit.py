@@ -14,8 +14,8 @@ import contextlib
 
 from facesynth.runtime import codec, keys, limits
 from facesynth.runtime.service import ServiceContext
-from schemas.messages import ServoCommands
-from services.sensor.core import FlowWindow, SlowestCredit
+from facesynth.schemas.messages import ServoCommands
+from facesynth.services.sensor.core import FlowWindow, SlowestCredit
 
 
 def _decode_ack(payload: bytes) -> ServoCommands:

@@ -24,11 +24,11 @@ import msgspec
 from facesynth.runtime import keys
 from facesynth.runtime.frames import FrameError
 from facesynth.runtime.service import ServiceContext
-from schemas.messages import Frame
-from services.sensor.core import Pacer
-from services.sensor.credit import CreditGate, ack_stage
-from services.sensor.sources import FrameSource, JpegImage
-from services.sensor.sources.base import Image
+from facesynth.schemas.messages import Frame
+from facesynth.services.sensor.core import Pacer
+from facesynth.services.sensor.credit import CreditGate, ack_stage
+from facesynth.services.sensor.sources import FrameSource, JpegImage
+from facesynth.services.sensor.sources.base import Image
 
 #: A nominal image size for frames without pixels (ticks).
 TICK_SIZE = (640, 480)

@@ -52,10 +52,10 @@ import numpy as np
 from facesynth.runtime.calibration import Calibration
 from facesynth.runtime.landmarks import MIRROR, N_IBUG
 from facesynth.runtime.profiles import Profile, ServoSpec, Smoothing
-from schemas.messages import Features, ServoCommands
-from services.translator.filters import OneEuroFilter, RateLimiter
-from services.translator.learned import learned_targets, unsourced
-from services.translator.safety import apply_exclusive
+from facesynth.schemas.messages import Features, ServoCommands
+from facesynth.services.translator.filters import OneEuroFilter, RateLimiter
+from facesynth.services.translator.learned import learned_targets, unsourced
+from facesynth.services.translator.safety import apply_exclusive
 
 Raw = Mapping[str, float] | None  # Features.raw (a learned profile's inputs)
 
@@ -310,7 +310,7 @@ class Translator:
     def _targets(
         self, deltas: np.ndarray | None, named: Mapping[str, float], t_ns: int | None, raw: Raw
     ) -> list[float | None]:
-        if self._learned is not None:  # services.translator.learned
+        if self._learned is not None:  # facesynth.services.translator.learned
             return self._learned.targets(raw or {}, named, t_ns)
         cache: dict[object, float] = {}
         return [self._target(servo, deltas, named, t_ns, cache) for servo in self._servos]

@@ -22,13 +22,13 @@ Per frame, for each of the mapping's inputs ``i`` (a key of ``Features.raw``):
    .. ``command_high``, [-1, 1] when the file has none: a learned profile never drives a
    servo into travel that moves nothing, so there is no slack to take up and less wear); with
    ``plan_steps``, that guess is refined through the forward model toward the reachable face
-   nearest the target, within the same bounds (:mod:`services.translator.self_model`). A
+   nearest the target, within the same bounds (:mod:`facesynth.services.translator.self_model`). A
    file's checks bound shapes and signs, not magnitudes: an output whose command is not finite
    (a model whose arithmetic overflows on extreme but finite parameters) holds its servo, as a
    missing source does.
 3. **Smoothing.** Each output's ``u`` goes through a One Euro filter with the profile's
    (per-servo) smoothing parameters, in range units (the filters belong to the translator, so
-   :meth:`~services.translator.core.Translator.reset` and ``resume`` restart them).
+   :meth:`~facesynth.services.translator.core.Translator.reset` and ``resume`` restart them).
 4. **Position.** ``u`` → µs as :func:`services.translator.core.scaled_position` maps it (+1
    ``max_us``, -1 ``min_us``) but never reversed: the model learned the wiring. Dead servos
    stay at ``neutral_us``.
@@ -46,9 +46,9 @@ import numpy as np
 from facesynth.runtime.profiles import Profile, Smoothing, has_source
 from facesynth.runtime.profiles.learned import PolyRidge, command_range, unpack
 from facesynth.runtime.profiles.learned_predict import predictor
-from services.translator.filters import OneEuroFilter
-from services.translator.retarget import Retargeter
-from services.translator.self_model import SelfModelPlanner
+from facesynth.services.translator.filters import OneEuroFilter
+from facesynth.services.translator.retarget import Retargeter
+from facesynth.services.translator.self_model import SelfModelPlanner
 
 
 class LearnedTargets:

@@ -21,8 +21,8 @@ from __future__ import annotations
 import msgspec
 
 from facesynth.runtime.bus.base import Subscription
-from schemas.messages import Features, ServoCommands
-from services.translator.core import Translator
+from facesynth.schemas.messages import Features, ServoCommands
+from facesynth.services.translator.core import Translator
 
 #: Moves on ``…/servo_state`` during which the controller follows a sender's commands.
 FOLLOWING = ("command", "catch-up")

@@ -1,7 +1,7 @@
 """Translator T, service shell: ``…/features`` → ``…/servo_commands``.
 
 The pure parts are :class:`~services.translator.core.Translator` (features → positions) and
-:class:`~services.translator.resume.ResumingTranslator` (where to resume from, after the
+:class:`~facesynth.services.translator.resume.ResumingTranslator` (where to resume from, after the
 control interface's reports on ``…/servo_state``, and the stamps for its freshness checks).
 """
 
@@ -12,9 +12,9 @@ import socket
 
 from facesynth.runtime import codec, limits
 from facesynth.runtime.service import ServiceContext, serve_transform
-from schemas.messages import Features, ServoCommands
-from services.translator.core import Translator
-from services.translator.resume import ResumingTranslator, ServoStateWatch
+from facesynth.schemas.messages import Features, ServoCommands
+from facesynth.services.translator.core import Translator
+from facesynth.services.translator.resume import ResumingTranslator, ServoStateWatch
 
 __all__ = ["ServoStateWatch", "serve_translator"]
 

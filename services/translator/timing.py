@@ -16,8 +16,8 @@ from facesynth.runtime.feature_names import NAMES
 from facesynth.runtime.landmarks import N_IBUG
 from facesynth.runtime.profiles import Profile
 from facesynth.runtime.profiles.learned import unpack
-from schemas.messages import Features
-from services.translator.core import Translator
+from facesynth.schemas.messages import Features
+from facesynth.services.translator.core import Translator
 
 FRAME_NS = 33_333_333
 

@@ -29,7 +29,7 @@ from facesynth.app.bench.processes import CpuWindow, ProcessGroup, cpu_seconds
 from facesynth.app.data import sample_openface_csv
 from facesynth.runtime import codec, keys
 from facesynth.runtime.bus.memory import MemoryNetwork
-from schemas.messages import ServoCommands
+from facesynth.schemas.messages import ServoCommands
 
 MS = 1_000_000
 

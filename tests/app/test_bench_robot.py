@@ -21,7 +21,7 @@ from facesynth.app.bench.robot import (
 from facesynth.app.bench.robot_report import format_robot
 from facesynth.app.data import sample_video
 from facesynth.runtime.profiles import load_profile
-from services.points.tracker.offline import iter_video_frames
+from facesynth.services.points.tracker.offline import iter_video_frames
 
 FRAMES = 36
 

@@ -22,9 +22,9 @@ from facesynth.app.cli import main
 from facesynth.app.data import sample_video
 from facesynth.app.simhead import SimHead, load_head
 from facesynth.runtime.profiles import Profile, load_profile
-from services.control.core import CommandInfo
-from services.control.drivers.base import ServoDriver
-from services.sensor.sources.base import FrameSource, SourceError, SourceInfo
+from facesynth.services.control.core import CommandInfo
+from facesynth.services.control.drivers.base import ServoDriver
+from facesynth.services.sensor.sources.base import FrameSource, SourceError, SourceInfo
 
 FRAMES = 36
 

@@ -19,7 +19,7 @@ from profile_files import write_profile
 from uno_rig import UnoRig, firmware_ready, near
 
 from facesynth.app.cli import main
-from services.control.drivers.arduino import protocol as proto
+from facesynth.services.control.drivers.arduino import protocol as proto
 
 __all__ = ["firmware_ready", "ssc32"]
 

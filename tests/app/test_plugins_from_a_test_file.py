@@ -16,13 +16,13 @@ from facesynth.app.cli import main
 from facesynth.app.data import sample_openface_csv
 from facesynth.runtime.landmarks import IBUG68
 from facesynth.runtime.profiles import Profile
-from schemas.messages import Frame, Points
-from services.control.core import CommandInfo
-from services.control.drivers.base import ServoDriver
-from services.control.drivers.registry import DRIVERS
-from services.points.backends.base import PointsBackend, face_points, point_set
-from services.points.backends.registry import BACKENDS
-from services.points.openface_csv import load_openface_csv
+from facesynth.schemas.messages import Frame, Points
+from facesynth.services.control.core import CommandInfo
+from facesynth.services.control.drivers.base import ServoDriver
+from facesynth.services.control.drivers.registry import DRIVERS
+from facesynth.services.points.backends.base import PointsBackend, face_points, point_set
+from facesynth.services.points.backends.registry import BACKENDS
+from facesynth.services.points.openface_csv import load_openface_csv
 
 SENT: list[tuple[str, int | None, dict[str, float]]] = []
 

@@ -19,8 +19,8 @@ from facesynth.app.profile_choice import (
     settle_profiles,
 )
 from facesynth.runtime.profiles import load_profile
-from services.control.drivers.virtual import VirtualDriver
-from services.control.drivers.vmc import VmcConfig, VmcDriver
+from facesynth.services.control.drivers.virtual import VirtualDriver
+from facesynth.services.control.drivers.vmc import VmcConfig, VmcDriver
 
 EXPECTS = "driver expects"
 

@@ -15,7 +15,7 @@ from facesynth.app.data import sample_video
 from facesynth.app.graph import DEFAULT_GRAPH, load_graph
 from facesynth.app.render import render_graph
 from facesynth.app.render.video import Progress, RenderError
-from services.control.drivers.record import read_record
+from facesynth.services.control.drivers.record import read_record
 
 FRAMES = 36
 

@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from facesynth.app.cli import main
-from services.control.drivers.record import read_sessions
+from facesynth.services.control.drivers.record import read_sessions
 
 
 def _run(out: Path, capsys: pytest.CaptureFixture[str]) -> dict[str, object]:

@@ -8,8 +8,8 @@ from facesynth.app.cli import build_parser
 from facesynth.app.graph import parse_graph
 from facesynth.app.nodes import ControlNode, TranslatorNode
 from facesynth.app.stage_args import apply_arguments
-from services.control.drivers.record import RecordConfig
-from services.sensor.sources.video import VideoConfig
+from facesynth.services.control.drivers.record import RecordConfig
+from facesynth.services.sensor.sources.video import VideoConfig
 
 GRAPH = parse_graph(
     {

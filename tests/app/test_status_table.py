@@ -6,7 +6,7 @@ import msgspec
 
 from facesynth.app.status import describe_link, describe_state, format_status
 from facesynth.runtime.stats import StageStats
-from schemas.messages import ServiceStats
+from facesynth.schemas.messages import ServiceStats
 
 S = 1_000_000_000
 

@@ -16,7 +16,7 @@ from facesynth.app.bench.synthetic_faces import (
     warp,
 )
 from facesynth.app.data import sample_video
-from services.points.tracker import FaceTracker
+from facesynth.services.points.tracker import FaceTracker
 
 
 @pytest.fixture(scope="module")

@@ -23,7 +23,7 @@ import pytest
 from conftest import BOARD_IMAGE, PLATFORM, TRACKED_FRAMES, TRACKED_RUNTIMES, Arm64
 
 from facesynth.runtime.profiles import load_profile
-from services.control.drivers.record import RecordLine, read_record
+from facesynth.services.control.drivers.record import RecordLine, read_record
 
 ROOT = Path(__file__).resolve().parents[2]
 SAMPLE_CSV = ROOT / "facesynth" / "app" / "data" / "OpenFace_Test.csv"

@@ -26,8 +26,8 @@ from host_requirements import require_packages
 
 from facesynth.app.certs import CertRequest, make_certs
 from facesynth.runtime import codec, keys
-from schemas.messages import ServoCommands
-from services.control.drivers.record import read_record
+from facesynth.schemas.messages import ServoCommands
+from facesynth.services.control.drivers.record import read_record
 
 ROOT = Path(__file__).resolve().parents[2]
 UNIT = ROOT / "deploy" / "board" / "facesynth-control.service"
@@ -76,6 +76,15 @@ def test_the_board_install_has_no_opencv_or_inference_runtime(board_venv: Path) 
             timeout=60,
         )
         assert help_run.returncode == 0, help_run.stderr
+
+
+def test_the_board_install_puts_only_facesynth_at_the_top(board_venv: Path) -> None:
+    site = next((board_venv / "lib").glob("python3*/site-packages"))
+    (record,) = site.glob("facesynth-*.dist-info/RECORD")
+    tops = {line.split(",")[0].split("/")[0] for line in record.read_text().splitlines()}
+    tops = {top for top in tops if not top.endswith(".dist-info") and top != ".."}
+    assert tops == {"facesynth"}, sorted(tops)
+    assert not (site / "services").exists() and not (site / "schemas").exists()
 
 
 def test_systemd_accepts_the_unit(board_venv: Path, tmp_path: Path) -> None:

@@ -21,7 +21,7 @@ from facesynth_processes import Processes  # noqa: E402
 from fake_devices.dynamixel import FakeDynamixelBus  # noqa: E402
 
 from facesynth.runtime.profiles import load_profile  # noqa: E402
-from services.control.drivers.bus_servo.native import Model, native_servo  # noqa: E402
+from facesynth.services.control.drivers.bus_servo.native import Model, native_servo  # noqa: E402
 from tests.browser.conftest import js, wait_js  # noqa: E402
 
 pytestmark = pytest.mark.browser

@@ -19,10 +19,10 @@ from facesynth.runtime import codec, keys
 from facesynth.runtime.bus.memory import MemoryBus
 from facesynth.runtime.frames import encode_frame
 from facesynth.runtime.profiles import load_profile
-from schemas.messages import Points, PointSet, ServiceStats
-from services.control.core import CommandInfo
-from services.control.drivers.virtual import VirtualDriver
-from services.control.drivers.virtual.geometry import MOUTH, face_geometry
+from facesynth.schemas.messages import Points, PointSet, ServiceStats
+from facesynth.services.control.core import CommandInfo
+from facesynth.services.control.drivers.virtual import VirtualDriver
+from facesynth.services.control.drivers.virtual.geometry import MOUTH, face_geometry
 from tests.browser.conftest import js, wait_js
 from tests.control.virtual.conftest import open_page, start_driver
 

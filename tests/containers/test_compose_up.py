@@ -22,8 +22,8 @@ from container_engine import CLONE_USER, Engine, free_port, project_name
 
 from facesynth.runtime import codec, keys
 from facesynth.runtime.profiles import load_profile
-from schemas.messages import ServoCommands
-from services.control.drivers.record import RecordLine, read_record
+from facesynth.schemas.messages import ServoCommands
+from facesynth.services.control.drivers.record import RecordLine, read_record
 
 SERVOS = {spec.name: spec for spec in load_profile("paper16").servos}
 

@@ -27,12 +27,12 @@ from osc_receiver import Receiver, osc_receiver
 from uno_rig import TICK_US, UnoRig
 
 from facesynth.runtime.profiles import Profile, load_profile
-from services.control.drivers.base import ServoDriver
-from services.control.drivers.pca9685 import PCA9685Config, PCA9685Driver
-from services.control.drivers.record import read_record
-from services.control.drivers.registry import DRIVERS
-from services.control.drivers.virtual import VirtualDriver
-from services.control.drivers.vmc import AvatarMapping
+from facesynth.services.control.drivers.base import ServoDriver
+from facesynth.services.control.drivers.pca9685 import PCA9685Config, PCA9685Driver
+from facesynth.services.control.drivers.record import read_record
+from facesynth.services.control.drivers.registry import DRIVERS
+from facesynth.services.control.drivers.virtual import VirtualDriver
+from facesynth.services.control.drivers.vmc import AvatarMapping
 
 PAPER16 = load_profile("paper16")
 VIRTUAL = load_profile("virtual")

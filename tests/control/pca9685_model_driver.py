@@ -10,8 +10,8 @@ from collections.abc import Iterator
 from fake_devices.pca9685 import FakeI2CAdapter
 
 from facesynth.runtime.profiles import Profile
-from services.control.drivers.pca9685 import PCA9685Config, PCA9685Driver
-from services.control.drivers.registry import DRIVERS
+from facesynth.services.control.drivers.pca9685 import PCA9685Config, PCA9685Driver
+from facesynth.services.control.drivers.registry import DRIVERS
 
 NAME = "pca9685-model"
 

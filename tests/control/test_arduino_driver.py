@@ -17,11 +17,11 @@ from profile_files import write_profile
 from uno_rig import UnoRig, near
 
 from facesynth.runtime.profiles import Profile, load_profile
-from services.control.core import CommandInfo
-from services.control.drivers.arduino import ArduinoConfig, ArduinoDriver
-from services.control.drivers.arduino import protocol as proto
-from services.control.drivers.arduino.driver import firmware_limits
-from services.control.drivers.base import DriverConfigError
+from facesynth.services.control.core import CommandInfo
+from facesynth.services.control.drivers.arduino import ArduinoConfig, ArduinoDriver
+from facesynth.services.control.drivers.arduino import protocol as proto
+from facesynth.services.control.drivers.arduino.driver import firmware_limits
+from facesynth.services.control.drivers.base import DriverConfigError
 
 pytestmark = pytest.mark.firmware
 

@@ -10,12 +10,12 @@ import msgspec
 import pytest
 
 from facesynth.runtime.profiles import Profile, load_profile
-from services.control.drivers.base import DriverConfigError
-from services.control.drivers.bus_servo.bus import Ping
-from services.control.drivers.bus_servo.models import check_answers
-from services.control.drivers.bus_servo.native import NativePose
-from services.control.drivers.dynamixel.bus import DynamixelBus
-from services.control.drivers.registry import DRIVERS
+from facesynth.services.control.drivers.base import DriverConfigError
+from facesynth.services.control.drivers.bus_servo.bus import Ping
+from facesynth.services.control.drivers.bus_servo.models import check_answers
+from facesynth.services.control.drivers.bus_servo.native import NativePose
+from facesynth.services.control.drivers.dynamixel.bus import DynamixelBus
+from facesynth.services.control.drivers.registry import DRIVERS
 
 PAPER16 = load_profile("paper16")
 

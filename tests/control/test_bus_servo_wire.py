@@ -14,11 +14,11 @@ import scservo_sdk
 from fake_devices.dynamixel import packet1 as doc_packet1
 from fake_devices.dynamixel import packet2 as doc_packet2
 
-from services.control.drivers.bus_servo import wire
-from services.control.drivers.dynamixel import models as dxl
-from services.control.drivers.dynamixel.bus import DynamixelBus
-from services.control.drivers.feetech import models as ft
-from services.control.drivers.feetech.bus import FeetechBus
+from facesynth.services.control.drivers.bus_servo import wire
+from facesynth.services.control.drivers.dynamixel import models as dxl
+from facesynth.services.control.drivers.dynamixel.bus import DynamixelBus
+from facesynth.services.control.drivers.feetech import models as ft
+from facesynth.services.control.drivers.feetech.bus import FeetechBus
 
 
 class CapturePort:

@@ -1,4 +1,4 @@
-"""services.control.core: which commands reach the servos (checks), and the watchdog that
+"""facesynth.services.control.core: which commands reach the servos (checks), and the watchdog that
 returns them to neutral. Motion, freshness and the core's own moves: test_control_motion.py,
 test_control_freshness.py, test_control_moves.py."""
 
@@ -11,8 +11,14 @@ import msgspec
 import pytest
 
 from facesynth.runtime.profiles import Profile, ServoSpec
-from schemas.messages import ServoCommands
-from services.control.core import Arrival, CommandError, CommandInfo, ControlCore, Watchdog
+from facesynth.schemas.messages import ServoCommands
+from facesynth.services.control.core import (
+    Arrival,
+    CommandError,
+    CommandInfo,
+    ControlCore,
+    Watchdog,
+)
 
 PROFILE = Profile(
     name="rig",

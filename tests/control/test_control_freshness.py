@@ -8,8 +8,8 @@ import msgspec
 import pytest
 
 from facesynth.runtime import codec
-from schemas.messages import ServoCommands
-from services.control.freshness import (
+from facesynth.schemas.messages import ServoCommands
+from facesynth.services.control.freshness import (
     RELEARN_COUNT,
     RELEARN_S,
     WINDOW_S,

@@ -1,4 +1,4 @@
-"""services.control.motion: no step of any servo is faster than its profile allows."""
+"""facesynth.services.control.motion: no step of any servo is faster than its profile allows."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import msgspec
 import pytest
 
 from facesynth.runtime.profiles import Profile, ServoSpec, load_profile
-from services.control.motion import MAX_STEP_S, FaceMotion
+from facesynth.services.control.motion import MAX_STEP_S, FaceMotion
 
 
 def servo(name: str, channel: int, **limits: float) -> ServoSpec:

@@ -10,8 +10,8 @@ import msgspec
 import pytest
 
 from facesynth.runtime.profiles import Profile, ServoSpec, load_profile
-from schemas.messages import ServoCommands
-from services.control.core import (
+from facesynth.schemas.messages import ServoCommands
+from facesynth.services.control.core import (
     MAX_STEP_S,
     RAMP_RATE_HZ,
     REPORT_S,

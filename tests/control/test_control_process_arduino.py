@@ -26,8 +26,8 @@ from uno_rig import UnoRig
 
 from facesynth.runtime import codec, keys
 from facesynth.runtime.bus.zenoh_bus import ZenohBus, ZenohOptions
-from schemas.messages import ServiceStats, ServoCommands
-from services.control.drivers.arduino import protocol as proto
+from facesynth.schemas.messages import ServiceStats, ServoCommands
+from facesynth.services.control.drivers.arduino import protocol as proto
 
 pytestmark = pytest.mark.firmware
 

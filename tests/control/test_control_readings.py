@@ -14,10 +14,10 @@ from facesynth.runtime import codec
 from facesynth.runtime.clock import FakeClock
 from facesynth.runtime.profiles import Profile, ServoSpec
 from facesynth.runtime.testing import StageRun
-from schemas.messages import ServoCommands
-from services.control.core import CommandInfo
-from services.control.drivers.base import ServoDriver, ServoReading
-from services.control.service import ControlService
+from facesynth.schemas.messages import ServoCommands
+from facesynth.services.control.core import CommandInfo
+from facesynth.services.control.drivers.base import ServoDriver, ServoReading
+from facesynth.services.control.service import ControlService
 
 FACE = Profile(
     name="free",

@@ -8,9 +8,9 @@ from pathlib import Path
 from facesynth.runtime.clock import FakeClock
 from facesynth.runtime.profiles import load_profile
 from facesynth.runtime.testing import StageRun
-from schemas.messages import ServoCommands
-from services.control.drivers.record import RecordConfig, RecordDriver, read_record
-from services.control.service import ControlService
+from facesynth.schemas.messages import ServoCommands
+from facesynth.services.control.drivers.record import RecordConfig, RecordDriver, read_record
+from facesynth.services.control.service import ControlService
 
 PAPER16 = load_profile("paper16")
 

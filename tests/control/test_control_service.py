@@ -16,10 +16,10 @@ import pytest
 from facesynth.runtime.clock import FakeClock
 from facesynth.runtime.profiles import Profile, ServoSpec, load_profile
 from facesynth.runtime.testing import StageRun
-from schemas.messages import ServoCommands
-from services.control.core import MAX_STEP_S, CommandInfo
-from services.control.drivers.base import DriverError, ServoDriver
-from services.control.service import RAMP_RATE_HZ, ControlService
+from facesynth.schemas.messages import ServoCommands
+from facesynth.services.control.core import MAX_STEP_S, CommandInfo
+from facesynth.services.control.drivers.base import DriverError, ServoDriver
+from facesynth.services.control.service import RAMP_RATE_HZ, ControlService
 
 MS = 1_000_000
 PAPER16 = load_profile("paper16")  # neutral 1500 µs everywhere, max_speed 2500-6000 µs/s

@@ -15,11 +15,11 @@ from facesynth.runtime import codec, keys
 from facesynth.runtime.bus.memory import MemoryNetwork
 from facesynth.runtime.profiles import load_profile
 from facesynth.runtime.service import ServiceContext, run_service
-from schemas.messages import ServiceStats, ServoCommands
-from services.control.core import CommandInfo
-from services.control.drivers.base import DriverError, ServoDriver
-from services.control.drivers.ssc32 import SSC32Config, SSC32Driver
-from services.control.service import ControlService
+from facesynth.schemas.messages import ServiceStats, ServoCommands
+from facesynth.services.control.core import CommandInfo
+from facesynth.services.control.drivers.base import DriverError, ServoDriver
+from facesynth.services.control.drivers.ssc32 import SSC32Config, SSC32Driver
+from facesynth.services.control.service import ControlService
 
 RIG = "drv"
 

@@ -23,9 +23,9 @@ from driver_rigs import ELSEWHERE, RIGS, DriverRig
 
 from facesynth.runtime.plugins import PluginError
 from facesynth.runtime.profiles import Profile
-from services.control.core import CommandInfo
-from services.control.drivers.base import DriverConfigError, DriverError, ServoDriver
-from services.control.drivers.registry import DRIVERS
+from facesynth.services.control.core import CommandInfo
+from facesynth.services.control.drivers.base import DriverConfigError, DriverError, ServoDriver
+from facesynth.services.control.drivers.registry import DRIVERS
 
 
 async def _rig(request: pytest.FixtureRequest, tmp_path: Path) -> AsyncIterator[DriverRig]:

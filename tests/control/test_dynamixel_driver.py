@@ -16,10 +16,10 @@ import pytest
 from fake_devices.dynamixel import FakeDynamixelBus
 
 from facesynth.runtime.profiles import Profile, load_profile
-from services.control.core import CommandInfo
-from services.control.drivers.base import DriverConfigError
-from services.control.drivers.dynamixel import DynamixelDriver
-from services.control.drivers.registry import DRIVERS
+from facesynth.services.control.core import CommandInfo
+from facesynth.services.control.drivers.base import DriverConfigError
+from facesynth.services.control.drivers.dynamixel import DynamixelDriver
+from facesynth.services.control.drivers.registry import DRIVERS
 
 PAPER16 = load_profile("paper16")
 IDS = list(range(1, 17))
@@ -284,7 +284,7 @@ def test_read_back_rates_by_protocol() -> None:
     """One Sync Read for every servo: 15 a second; one READ per servo (1.0): 5."""
     import dynamixel_sdk
 
-    from services.control.drivers.dynamixel.bus import DynamixelBus
+    from facesynth.services.control.drivers.dynamixel.bus import DynamixelBus
 
     x = DynamixelBus(dynamixel_sdk, "/dev/null", 1000000, protocol=2, latency_ms=0)
     ax = DynamixelBus(dynamixel_sdk, "/dev/null", 1000000, protocol=1, latency_ms=0)

@@ -15,10 +15,10 @@ import pytest
 from fake_devices.feetech import FakeFeetechBus
 
 from facesynth.runtime.profiles import Profile, load_profile
-from services.control.core import CommandInfo
-from services.control.drivers.base import DriverConfigError
-from services.control.drivers.feetech import FeetechDriver
-from services.control.drivers.registry import DRIVERS
+from facesynth.services.control.core import CommandInfo
+from facesynth.services.control.drivers.base import DriverConfigError
+from facesynth.services.control.drivers.feetech import FeetechDriver
+from facesynth.services.control.drivers.registry import DRIVERS
 
 PAPER16 = load_profile("paper16")
 IDS = list(range(1, 17))

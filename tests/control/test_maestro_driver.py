@@ -11,11 +11,11 @@ from fake_devices.maestro import PROTOCOL_ERROR, FakeMaestro
 from profile_files import write_profile
 
 from facesynth.runtime.profiles import load_profile
-from services.control.core import CommandInfo
-from services.control.drivers.base import DriverConfigError
-from services.control.drivers.maestro import MaestroConfig, MaestroDriver
-from services.control.drivers.maestro import driver as maestro_driver
-from services.control.drivers.maestro import protocol as mp
+from facesynth.services.control.core import CommandInfo
+from facesynth.services.control.drivers.base import DriverConfigError
+from facesynth.services.control.drivers.maestro import MaestroConfig, MaestroDriver
+from facesynth.services.control.drivers.maestro import driver as maestro_driver
+from facesynth.services.control.drivers.maestro import protocol as mp
 
 INFO = CommandInfo(frame=1, t_capture_ns=None, face=True)
 

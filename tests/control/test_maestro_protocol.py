@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from services.control.drivers.maestro import protocol as mp
+from facesynth.services.control.drivers.maestro import protocol as mp
 
 
 def test_set_target_in_quarter_microseconds() -> None:

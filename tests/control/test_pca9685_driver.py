@@ -14,10 +14,10 @@ from profile_files import write_profile
 
 from facesynth.app.control_tools import run_test, show_status
 from facesynth.runtime.profiles import load_profile
-from services.control.core import CommandInfo
-from services.control.drivers.base import DeviceUnavailable
-from services.control.drivers.pca9685 import PCA9685Config, PCA9685Driver
-from services.control.drivers.registry import DRIVERS
+from facesynth.services.control.core import CommandInfo
+from facesynth.services.control.drivers.base import DeviceUnavailable
+from facesynth.services.control.drivers.pca9685 import PCA9685Config, PCA9685Driver
+from facesynth.services.control.drivers.registry import DRIVERS
 
 PAPER16 = load_profile("paper16")
 INFO = CommandInfo(1, None, True)

@@ -12,7 +12,7 @@ from fake_devices.pca9685 import FakePCA9685, FakeSMBus
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from services.control.drivers.pca9685 import registers as reg
+from facesynth.services.control.drivers.pca9685 import registers as reg
 
 ADDRESS = 0x40
 

@@ -12,9 +12,9 @@ import pytest
 
 from facesynth.runtime.plugins import PluginError
 from facesynth.runtime.profiles import load_profile
-from services.control.core import CommandInfo
-from services.control.drivers.base import DriverConfigError, DriverError
-from services.control.drivers.record import (
+from facesynth.services.control.core import CommandInfo
+from facesynth.services.control.drivers.base import DriverConfigError, DriverError
+from facesynth.services.control.drivers.record import (
     RecordConfig,
     RecordDriver,
     RecordError,
@@ -24,7 +24,7 @@ from services.control.drivers.record import (
     read_sessions,
     record_summary,
 )
-from services.control.drivers.registry import DRIVERS
+from facesynth.services.control.drivers.registry import DRIVERS
 
 KEYS = {"seq", "frame", "t_capture_ns", "t_sent_ns", "face", "servos"}
 SESSION_KEYS = {"started_ns", "profile", "host", "pid"}

@@ -1,4 +1,4 @@
-"""services.control.drivers.replies: answers matched to requests in order."""
+"""facesynth.services.control.drivers.replies: answers matched to requests in order."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import asyncio
 
 import pytest
 
-from services.control.drivers.replies import ReplyQueue
+from facesynth.services.control.drivers.replies import ReplyQueue
 
 
 async def test_answers_by_size_and_terminator_in_order() -> None:

@@ -24,11 +24,11 @@ from uno_rig import UnoRig
 from facesynth.app.data import sample_openface_csv, sample_video
 from facesynth.app.recording.reader import Recording
 from facesynth.runtime.profiles import load_profile
-from schemas.messages import Frame
-from services.control.drivers.arduino import protocol as proto
-from services.features.core import FeatureProcessor
-from services.points.backends.openface import OpenFaceConfig, OpenFaceReplay
-from services.translator.core import Translator
+from facesynth.schemas.messages import Frame
+from facesynth.services.control.drivers.arduino import protocol as proto
+from facesynth.services.features.core import FeatureProcessor
+from facesynth.services.points.backends.openface import OpenFaceConfig, OpenFaceReplay
+from facesynth.services.translator.core import Translator
 
 CSV = str(sample_openface_csv())
 FPS = 30.0

@@ -15,7 +15,7 @@ from test_run_with_boards import moved, recorded, run
 from facesynth.app.data import sample_video
 from facesynth.app.recording.reader import Recording
 from facesynth.runtime.profiles import load_profile
-from services.control.drivers.bus_servo.native import Model, native_servo
+from facesynth.services.control.drivers.bus_servo.native import Model, native_servo
 
 PROFILE = load_profile("paper16")
 X = Model("XL430-W250", 1060, 4096, 360.0)

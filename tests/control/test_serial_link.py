@@ -12,10 +12,15 @@ from fake_devices.network import NetworkPort
 from fake_devices.ssc32 import FakeSSC32
 
 from facesynth.runtime.profiles import load_profile
-from services.control.core import CommandInfo
-from services.control.drivers.base import DeviceUnavailable, DriverConfigError
-from services.control.drivers.serial_link import Backoff, LinkState, SerialLink, check_port
-from services.control.drivers.ssc32 import SSC32Config, SSC32Driver
+from facesynth.services.control.core import CommandInfo
+from facesynth.services.control.drivers.base import DeviceUnavailable, DriverConfigError
+from facesynth.services.control.drivers.serial_link import (
+    Backoff,
+    LinkState,
+    SerialLink,
+    check_port,
+)
+from facesynth.services.control.drivers.ssc32 import SSC32Config, SSC32Driver
 
 INFO = CommandInfo(frame=1, t_capture_ns=None, face=True)
 

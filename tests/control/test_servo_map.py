@@ -1,4 +1,4 @@
-"""services.control.drivers.servo_map: channels, inward-rounded limits, the last clamp."""
+"""facesynth.services.control.drivers.servo_map: channels, inward-rounded limits, the last clamp."""
 
 from __future__ import annotations
 
@@ -10,8 +10,8 @@ import pytest
 from profile_files import write_profile
 
 from facesynth.runtime.profiles import Profile, load_profile
-from services.control.drivers.base import DriverConfigError, DriverError
-from services.control.drivers.servo_map import ServoMap
+from facesynth.services.control.drivers.base import DriverConfigError, DriverError
+from facesynth.services.control.drivers.servo_map import ServoMap
 
 
 def odd_profile(tmp_path: Path) -> Profile:

@@ -12,9 +12,9 @@ from fake_devices.ssc32 import FakeSSC32
 from profile_files import write_profile
 
 from facesynth.runtime.profiles import load_profile
-from services.control.core import CommandInfo
-from services.control.drivers.ssc32 import SSC32Config, SSC32Driver
-from services.control.drivers.ssc32 import driver as ssc32_driver
+from facesynth.services.control.core import CommandInfo
+from facesynth.services.control.drivers.ssc32 import SSC32Config, SSC32Driver
+from facesynth.services.control.drivers.ssc32 import driver as ssc32_driver
 
 INFO = CommandInfo(frame=1, t_capture_ns=None, face=True)
 

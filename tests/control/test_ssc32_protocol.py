@@ -1,10 +1,10 @@
-"""services.control.drivers.ssc32.protocol against the SSC-32U user guide's examples."""
+"""facesynth.services.control.drivers.ssc32.protocol against the SSC-32U user guide's examples."""
 
 from __future__ import annotations
 
 import pytest
 
-from services.control.drivers.ssc32 import protocol as sp
+from facesynth.services.control.drivers.ssc32 import protocol as sp
 
 
 def test_group_moves() -> None:

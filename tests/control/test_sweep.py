@@ -1,4 +1,4 @@
-"""services.control.sweep: the bring-up sweep, as steps."""
+"""facesynth.services.control.sweep: the bring-up sweep, as steps."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import itertools
 import pytest
 
 from facesynth.runtime.profiles import ServoSpec
-from services.control.sweep import sweep
+from facesynth.services.control.sweep import sweep
 
 
 def spec(**limits: float) -> ServoSpec:

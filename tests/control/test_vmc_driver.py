@@ -10,10 +10,10 @@ import pytest
 
 from facesynth.runtime.plugins import PluginError
 from facesynth.runtime.profiles import Profile, load_profile
-from services.control.core import CommandInfo
-from services.control.drivers.base import DriverError
-from services.control.drivers.registry import DRIVERS
-from services.control.drivers.vmc import (
+from facesynth.services.control.core import CommandInfo
+from facesynth.services.control.drivers.base import DriverError
+from facesynth.services.control.drivers.registry import DRIVERS
+from facesynth.services.control.drivers.vmc import (
     ARKIT52,
     VIRTUAL_TO_ARKIT,
     AvatarMapping,

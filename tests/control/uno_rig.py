@@ -16,7 +16,7 @@ from fake_devices.cable import Cable
 from host_requirements import FIRMWARE_NEEDS, require_packages
 from uno_emulator import EmulatedUno, Pulse, build_firmware
 
-from services.control.drivers.arduino import protocol as proto
+from facesynth.services.control.drivers.arduino import protocol as proto
 
 #: PCA9685 at PRE_SCALE 121: 4.88 µs per step; a width is the request to within half a step.
 TICK_US = 122 / 25

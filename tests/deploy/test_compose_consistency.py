@@ -15,9 +15,9 @@ from facesynth.app.cli import build_parser
 from facesynth.app.compose import compose_file, override_file, secure_file
 from facesynth.app.graph import load_graph
 from facesynth.app.nodes import stage_of
-from services.control.core import CommandInfo
-from services.control.drivers.base import ServoDriver
-from services.control.drivers.registry import DRIVERS
+from facesynth.services.control.core import CommandInfo
+from facesynth.services.control.drivers.base import ServoDriver
+from facesynth.services.control.drivers.registry import DRIVERS
 
 ROOT = Path(__file__).resolve().parents[2]
 COMPOSE = yaml.safe_load((ROOT / "docker-compose.yml").read_text())

@@ -14,7 +14,7 @@ import time
 import zenoh
 
 from facesynth.runtime import codec
-from schemas.messages import Frame, ServoCommands
+from facesynth.schemas.messages import Frame, ServoCommands
 
 
 def payload(kind: str) -> bytes:

@@ -18,7 +18,7 @@ import pytest
 from facesynth_processes import Processes, free_port
 
 from facesynth.app.data import sample_openface_csv
-from services.control.drivers.record import RecordLine, read_record
+from facesynth.services.control.drivers.record import RecordLine, read_record
 
 #: What each process says once it listens (the line its readiness is taken from).
 READY = {

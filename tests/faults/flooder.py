@@ -20,7 +20,14 @@ import msgspec
 import zenoh
 
 from facesynth.runtime import codec, limits
-from schemas.messages import Features, Frame, Points, PointSet, ServiceStats, ServoCommands
+from facesynth.schemas.messages import (
+    Features,
+    Frame,
+    Points,
+    PointSet,
+    ServiceStats,
+    ServoCommands,
+)
 
 
 def bad_messages(stage: str) -> list[bytes]:

@@ -24,8 +24,8 @@ from facesynth_processes import Processes
 from motion_check import check_motion
 
 from facesynth.runtime.profiles import load_profile
-from services.control.drivers.record import RecordLine
-from services.control.freshness import WINDOW_S
+from facesynth.services.control.drivers.record import RecordLine
+from facesynth.services.control.freshness import WINDOW_S
 
 pytestmark = pytest.mark.faults
 

@@ -6,8 +6,8 @@ import cv2
 
 from facesynth.app.data import sample_video
 from facesynth.runtime.frames import encode_frame
-from schemas.messages import Points
-from services.points.backends.tracker import TrackerBackend, TrackerConfig
+from facesynth.schemas.messages import Points
+from facesynth.services.points.backends.tracker import TrackerBackend, TrackerConfig
 
 #: Frames of the sample video (a face on every one).
 SAMPLE_FRAMES = 472

@@ -18,10 +18,10 @@ from pathlib import Path
 
 import numpy as np
 
-from schemas.messages import Points, PointSet
-from services.features.pose import apply, own_frame
-from services.points.tracker.ibug68 import load_mapping
-from services.points.tracker.iris import EYE_CONTOUR_VERTICES
+from facesynth.schemas.messages import Points, PointSet
+from facesynth.services.features.pose import apply, own_frame
+from facesynth.services.points.tracker.ibug68 import load_mapping
+from facesynth.services.points.tracker.iris import EYE_CONTOUR_VERTICES
 
 
 def to_face_frame(mesh: np.ndarray) -> np.ndarray:
@@ -182,9 +182,9 @@ def make_fixture(path: Path = FIXTURE) -> None:
 
     from facesynth.app.data import sample_video
     from facesynth.runtime.frames import encode_frame
-    from services.features.gaze import IRIS_CENTRE, MESH_EYE_CORNERS, eye_gaze
-    from services.features.pose import median_mesh
-    from services.points.backends.tracker import TrackerBackend, TrackerConfig
+    from facesynth.services.features.gaze import IRIS_CENTRE, MESH_EYE_CORNERS, eye_gaze
+    from facesynth.services.features.pose import median_mesh
+    from facesynth.services.points.backends.tracker import TrackerBackend, TrackerConfig
 
     capture = cv2.VideoCapture(str(sample_video()))
     backend, meshes, irises = TrackerBackend(TrackerConfig(model="fast")), [], []

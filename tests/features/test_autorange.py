@@ -10,9 +10,9 @@ import pytest
 from synthetic_face import IRIS, MESH, S, move, points_message
 
 from facesynth.runtime.feature_names import BY_NAME
-from services.features.autorange import AutoRange, RollingNeutral, nan_median
-from services.features.core import FeatureProcessor
-from services.features.expressions import BROW, LIP_CORNER
+from facesynth.services.features.autorange import AutoRange, RollingNeutral, nan_median
+from facesynth.services.features.core import FeatureProcessor
+from facesynth.services.features.expressions import BROW, LIP_CORNER
 
 MS = 1_000_000
 

@@ -8,10 +8,10 @@ from synthetic_face import IRIS, MESH, S, points_message
 
 from facesynth.runtime import blendshapes, codec
 from facesynth.runtime.feature_names import BLENDSHAPE_NAMES, BY_NAME, LANDMARK_NAMES, NAMES
-from schemas.messages import Features, Points, ScoreSet
-from services.features.calibrate import CalibrationRecorder
-from services.features.core import FeatureError, FeatureProcessor, blendshape_scores
-from services.features.expressions import raw_features
+from facesynth.schemas.messages import Features, Points, ScoreSet
+from facesynth.services.features.calibrate import CalibrationRecorder
+from facesynth.services.features.core import FeatureError, FeatureProcessor, blendshape_scores
+from facesynth.services.features.expressions import raw_features
 
 FPS = 30
 REST = np.full(blendshapes.COUNT, 0.1)

@@ -1,4 +1,4 @@
-"""The brows' rest search (services.features.brow_rest) on hand-made blendshape scores."""
+"""The brows' rest search (facesynth.services.features.brow_rest) on hand-made blendshape scores."""
 
 from __future__ import annotations
 
@@ -6,8 +6,14 @@ import numpy as np
 import pytest
 
 from facesynth.runtime import blendshapes
-from services.features.brow_rest import BrowRest, Found, brows_at_rest, eyes_open, window_at_rest
-from services.features.neutral import Sample
+from facesynth.services.features.brow_rest import (
+    BrowRest,
+    Found,
+    brows_at_rest,
+    eyes_open,
+    window_at_rest,
+)
+from facesynth.services.features.neutral import Sample
 
 SECOND = 1_000_000_000
 STEP = SECOND // 10

@@ -51,10 +51,15 @@ from sample_points import track_sample
 
 from facesynth.runtime import blendshapes
 from facesynth.runtime.profiles import Profile, load_profile
-from schemas.messages import Points, ScoreSet
-from services.features.brow_rest import BROW_SHAPES, GIVE_UP_S, OPEN_EYES_SCORE, REST_SCORE
-from services.features.core import FeatureProcessor, blendshape_scores
-from services.translator.core import Translator
+from facesynth.schemas.messages import Points, ScoreSet
+from facesynth.services.features.brow_rest import (
+    BROW_SHAPES,
+    GIVE_UP_S,
+    OPEN_EYES_SCORE,
+    REST_SCORE,
+)
+from facesynth.services.features.core import FeatureProcessor, blendshape_scores
+from facesynth.services.translator.core import Translator
 
 #: A brow control this close to neutral (share of its travel) is in its neutral band.
 BAND = 0.25

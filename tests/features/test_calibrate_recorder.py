@@ -14,8 +14,8 @@ from facesynth.app.calibrate_cli import guided_schedule
 from facesynth.app.cli import main
 from facesynth.app.data import sample_openface_csv
 from facesynth.runtime.calibration import load_calibration, validate_calibration
-from schemas.messages import Points
-from services.features.calibrate import (
+from facesynth.schemas.messages import Points
+from facesynth.services.features.calibrate import (
     PROMPTS,
     STEPS,
     CalibrationRecorder,
@@ -23,7 +23,7 @@ from services.features.calibrate import (
     parse_schedule,
     step_at,
 )
-from services.features.expressions import BROW, raw_features
+from facesynth.services.features.expressions import BROW, raw_features
 
 CSV = str(sample_openface_csv())
 

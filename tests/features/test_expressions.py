@@ -16,7 +16,7 @@ import pytest
 from synthetic_face import IRIS, MESH, ibug_of, look, look_3d, move, to_face_frame, transform
 
 from facesynth.runtime.feature_names import BY_NAME, LANDMARK_NAMES, SCALED_LIMIT
-from services.features.expressions import (
+from facesynth.services.features.expressions import (
     BROW,
     BROW_INNER,
     CHEEK,
@@ -32,9 +32,9 @@ from services.features.expressions import (
     scale,
     scale_value,
 )
-from services.features.frame import FeatureError
-from services.features.pose import MeshReference
-from services.points.tracker.iris import EYE_CONTOUR_VERTICES
+from facesynth.services.features.frame import FeatureError
+from facesynth.services.features.pose import MeshReference
+from facesynth.services.points.tracker.iris import EYE_CONTOUR_VERTICES
 
 REFERENCE = MeshReference(MESH)
 CANON = to_face_frame(MESH)

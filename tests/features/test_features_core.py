@@ -10,8 +10,8 @@ import pytest
 
 from facesynth.runtime import codec
 from facesynth.runtime.landmarks import LEFT_EYE_OUTER, NOSE_TIP, RIGHT_EYE_OUTER
-from schemas.messages import Features, Points, PointSet
-from services.features.core import (
+from facesynth.schemas.messages import Features, Points, PointSet
+from facesynth.services.features.core import (
     FeatureError,
     FeatureProcessor,
     NeutralEstimator,
@@ -19,7 +19,7 @@ from services.features.core import (
     normalise,
     nose_distances,
 )
-from services.points.openface_csv import load_openface_csv
+from facesynth.services.points.openface_csv import load_openface_csv
 
 S = 1_000_000_000
 RIGHT_BROW = list(range(17, 22))

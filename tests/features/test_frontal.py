@@ -8,9 +8,9 @@ import pytest
 from synthetic_face import IRIS, MESH, ibug_of, move, points_message, transform
 
 from facesynth.runtime.ibug_mesh import mesh_to_ibug68
-from services.features.core import FeatureProcessor, normalise, nose_distances
-from services.features.frontal import frontalized, paper_frame
-from services.features.pose import MeshReference
+from facesynth.services.features.core import FeatureProcessor, normalise, nose_distances
+from facesynth.services.features.frontal import frontalized, paper_frame
+from facesynth.services.features.pose import MeshReference
 
 REFERENCE = MeshReference(MESH)
 NEUTRAL = nose_distances(normalise(ibug_of(MESH)))

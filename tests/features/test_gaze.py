@@ -1,4 +1,4 @@
-"""services.features.gaze: iris against the eye corners, and the blink/wink rule."""
+"""facesynth.services.features.gaze: iris against the eye corners, and the blink/wink rule."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from synthetic_face import IRIS, MESH, ibug_of, look, look_3d, transform
 
-from services.features.gaze import (
+from facesynth.services.features.gaze import (
     CLOSED_BELOW,
     GazeHold,
     eye_gaze,
@@ -16,7 +16,7 @@ from services.features.gaze import (
     gaze_features_3d,
     iris_depth,
 )
-from services.features.pose import apply, own_frame
+from facesynth.services.features.pose import apply, own_frame
 
 
 @pytest.mark.parametrize(

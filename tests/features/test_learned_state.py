@@ -14,10 +14,10 @@ from synthetic_face import MESH, S, move, points_message
 
 from facesynth.runtime.clock import FAKE_EPOCH_NS
 from facesynth.runtime.testing import StageRun
-from services.features.core import FeatureProcessor
-from services.features.expressions import BROW
-from services.features.service import StateKeeping, serve_features
-from services.features.state import (
+from facesynth.services.features.core import FeatureProcessor
+from facesynth.services.features.expressions import BROW
+from facesynth.services.features.service import StateKeeping, serve_features
+from facesynth.services.features.state import (
     LearnedState,
     StateError,
     check_name,

@@ -9,8 +9,8 @@ from synthetic_face import IRIS, MESH, S, ibug_of, look, move, points_message, t
 from facesynth.runtime import codec
 from facesynth.runtime.calibration import Calibration
 from facesynth.runtime.feature_names import BY_NAME, LANDMARK_NAMES, NAMES
-from schemas.messages import Features, PointSet
-from services.features.core import (
+from facesynth.schemas.messages import Features, PointSet
+from facesynth.services.features.core import (
     FeatureError,
     FeatureProcessor,
     Sample,
@@ -18,9 +18,9 @@ from services.features.core import (
     normalise,
     nose_distances,
 )
-from services.features.expressions import BROW, LID_UPPER, MESH_ONLY, raw_features
-from services.features.pose import STABLE_VERTICES
-from services.points.tracker.iris import EYE_CONTOUR_VERTICES
+from facesynth.services.features.expressions import BROW, LID_UPPER, MESH_ONLY, raw_features
+from facesynth.services.features.pose import STABLE_VERTICES
+from facesynth.services.points.tracker.iris import EYE_CONTOUR_VERTICES
 
 FPS = 30
 GAZE = [n for n in NAMES if n.startswith("gaze_")]

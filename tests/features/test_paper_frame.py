@@ -9,8 +9,13 @@ import pytest
 from synthetic_face import IRIS, MESH, ibug_of, points_message, transform
 
 from facesynth.runtime.ibug_mesh import ibug68_depth, mapping_matrix
-from services.features.core import FeatureProcessor, normalise, nose_distances, paper_frame
-from services.features.pose import PoseError, unturned
+from facesynth.services.features.core import (
+    FeatureProcessor,
+    normalise,
+    nose_distances,
+    paper_frame,
+)
+from facesynth.services.features.pose import PoseError, unturned
 
 FRONTAL = nose_distances(normalise(ibug_of(MESH)))
 #: The brows' points (17-26): a head turn shortened one side's distances in 2D.

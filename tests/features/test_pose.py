@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 from synthetic_face import IRIS, MESH, ibug_of, rotation_from_euler, to_face_frame, transform
 
-from services.features.frame import FeatureError
-from services.features.pose import (
+from facesynth.services.features.frame import FeatureError
+from facesynth.services.features.pose import (
     STABLE_VERTICES,
     MeshReference,
     PoseError,

@@ -9,7 +9,7 @@ import pytest
 from host_requirements import FIRMWARE_NEEDS, require_packages
 from uno_emulator import EmulatedUno, build_firmware
 
-from services.control.drivers.arduino import protocol as proto
+from facesynth.services.control.drivers.arduino import protocol as proto
 
 
 @pytest.fixture(scope="session")

@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from services.control.drivers.arduino import protocol as proto
+from facesynth.services.control.drivers.arduino import protocol as proto
 
 
 def reply_frame(seq: int, name: str, *values: int) -> bytes:

@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 from uno_emulator import EmulatedUno, Pulse
 
-from services.control.drivers.arduino import protocol as proto
+from facesynth.services.control.drivers.arduino import protocol as proto
 
 pytestmark = pytest.mark.firmware
 

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from services.control.drivers.arduino import protocol as proto
+from facesynth.services.control.drivers.arduino import protocol as proto
 
 FIRMWARE = Path(__file__).resolve().parents[2] / "firmware"
 HEADER = FIRMWARE / "facesynth_servo" / "protocol.h"

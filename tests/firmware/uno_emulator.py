@@ -16,7 +16,7 @@ from pathlib import Path
 import host_requirements
 import serial
 
-from services.control.drivers.arduino import protocol as proto
+from facesynth.services.control.drivers.arduino import protocol as proto
 
 REPO = Path(__file__).resolve().parents[2]
 FIRMWARE = REPO / "firmware"

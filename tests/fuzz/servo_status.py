@@ -102,7 +102,7 @@ def check_status_parser(
     streams: Any,
     valid: Callable[[bytes], Found],
 ) -> None:
-    """Fuzz a status packet parser of :mod:`services.control.drivers.bus_servo.wire` over
+    """Fuzz a status packet parser of :mod:`facesynth.services.control.drivers.bus_servo.wire` over
     streams fed in two parts: it never raises, keeps at most what it was given, and every
     packet it returns is a valid one of the stream (error byte and data as sent)."""
     record = tally(target)

@@ -19,8 +19,8 @@ from facesynth.runtime import codec
 from facesynth.runtime.frames import FrameError, decode_frame
 from facesynth.runtime.jpeg import JpegHeaderError, jpeg_size
 from facesynth.runtime.profiles import Profile, load_profile
-from schemas.messages import Features, Frame, Points, ServiceStats, ServoCommands
-from services.control.core import Arrival, CommandError, ControlCore, Move, StaleCommand
+from facesynth.schemas.messages import Features, Frame, Points, ServiceStats, ServoCommands
+from facesynth.services.control.core import Arrival, CommandError, ControlCore, Move, StaleCommand
 
 pytestmark = [pytest.mark.fuzz, pytest.mark.timeout(600)]
 

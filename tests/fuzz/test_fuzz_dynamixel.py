@@ -26,9 +26,9 @@ from servo_status import (
 sys.path.insert(0, str(Path(__file__).parents[1] / "control"))
 from fake_devices.dynamixel import HEADER2, packet1, packet2, split1, split2
 
-from services.control.drivers.bus_servo import wire
-from services.control.drivers.dynamixel import models as m
-from services.control.drivers.dynamixel.bus import DynamixelBus
+from facesynth.services.control.drivers.bus_servo import wire
+from facesynth.services.control.drivers.dynamixel import models as m
+from facesynth.services.control.drivers.dynamixel.bus import DynamixelBus
 
 pytestmark = [pytest.mark.fuzz, pytest.mark.timeout(600)]
 

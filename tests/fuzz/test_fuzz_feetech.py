@@ -24,9 +24,9 @@ from servo_status import (
 sys.path.insert(0, str(Path(__file__).parents[1] / "control"))
 from fake_devices.dynamixel import packet1, split1
 
-from services.control.drivers.bus_servo import wire
-from services.control.drivers.feetech import models as m
-from services.control.drivers.feetech.bus import FeetechBus
+from facesynth.services.control.drivers.bus_servo import wire
+from facesynth.services.control.drivers.feetech import models as m
+from facesynth.services.control.drivers.feetech.bus import FeetechBus
 
 pytestmark = [pytest.mark.fuzz, pytest.mark.timeout(600)]
 

@@ -22,11 +22,11 @@ from facesynth.app.recording.reader import Recording, RecordingError
 from facesynth.app.recording.writer import SessionWriter
 from facesynth.runtime import blendshapes, codec
 from facesynth.runtime.frames import encode_frame
-from schemas.messages import Features, Frame, Points, PointSet, ServoCommands
-from services.control.drivers.record import RecordError, read_sessions
-from services.points.backends.base import BackendError
-from services.points.backends.track import TrackFileConfig, TrackReplay
-from services.points.openface_csv import OpenFaceError, parse_openface_csv
+from facesynth.schemas.messages import Features, Frame, Points, PointSet, ServoCommands
+from facesynth.services.control.drivers.record import RecordError, read_sessions
+from facesynth.services.points.backends.base import BackendError
+from facesynth.services.points.backends.track import TrackFileConfig, TrackReplay
+from facesynth.services.points.openface_csv import OpenFaceError, parse_openface_csv
 
 pytestmark = [pytest.mark.fuzz, pytest.mark.timeout(600)]
 

@@ -23,7 +23,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 from mutations import damaged
 
-from services.control.drivers.arduino import protocol as proto
+from facesynth.services.control.drivers.arduino import protocol as proto
 
 pytestmark = [pytest.mark.fuzz, pytest.mark.timeout(900)]
 

@@ -46,9 +46,9 @@ from facesynth.runtime.profiles.learned import (
     Retarget,
     pack,
 )
-from schemas.messages import Features
-from services.control.core import Arrival, CommandError, ControlCore, StaleCommand
-from services.translator.core import Translator
+from facesynth.schemas.messages import Features
+from facesynth.services.control.core import Arrival, CommandError, ControlCore, StaleCommand
+from facesynth.services.translator.core import Translator
 
 pytestmark = [pytest.mark.fuzz, pytest.mark.timeout(600)]
 

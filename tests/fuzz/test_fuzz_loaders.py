@@ -30,12 +30,12 @@ from facesynth.runtime.profiles import (
     parse_profile,
     resolve_profile,
 )
-from schemas.messages import Features, Points
-from services.control.core import Arrival, CommandError, ControlCore, StaleCommand
-from services.features.core import FeatureProcessor
-from services.features.state import LearnedState, StateError, parse_state, restore
-from services.translator.core import TranslationError, Translator
-from services.translator.learned import unsourced
+from facesynth.schemas.messages import Features, Points
+from facesynth.services.control.core import Arrival, CommandError, ControlCore, StaleCommand
+from facesynth.services.features.core import FeatureProcessor
+from facesynth.services.features.state import LearnedState, StateError, parse_state, restore
+from facesynth.services.translator.core import TranslationError, Translator
+from facesynth.services.translator.learned import unsourced
 
 pytestmark = [pytest.mark.fuzz, pytest.mark.timeout(600)]
 

@@ -1,6 +1,6 @@
 """Fuzz the MJPEG passthrough's parsers: the ``multipart/x-mixed-replace`` parser
-(:mod:`services.sensor.sources.multipart`) and a part's JPEG check
-(:func:`services.sensor.sources.mjpeg.part_image`).
+(:mod:`facesynth.services.sensor.sources.multipart`) and a part's JPEG check
+(:func:`facesynth.services.sensor.sources.mjpeg.part_image`).
 
 Streams are built from well-formed parts (with and without Content-Length, before a closing
 boundary or not) mixed with broken pieces (another boundary, a header line without a name, a
@@ -22,8 +22,8 @@ from mutations import damaged
 
 from facesynth.runtime.jpeg import JpegHeaderError, jpeg_size
 from facesynth.runtime.opencv import import_cv2
-from services.sensor.sources.mjpeg import part_image
-from services.sensor.sources.multipart import MultipartError, MultipartParser, Part
+from facesynth.services.sensor.sources.mjpeg import part_image
+from facesynth.services.sensor.sources.multipart import MultipartError, MultipartParser, Part
 
 pytestmark = [pytest.mark.fuzz, pytest.mark.timeout(600)]
 

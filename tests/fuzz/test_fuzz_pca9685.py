@@ -8,8 +8,8 @@ from fuzzing import FUZZ, check_tally, outcome, tally
 from hypothesis import given
 from hypothesis import strategies as st
 
-from services.control.drivers.base import DriverConfigError
-from services.control.drivers.pca9685 import registers as reg
+from facesynth.services.control.drivers.base import DriverConfigError
+from facesynth.services.control.drivers.pca9685 import registers as reg
 
 pytestmark = [pytest.mark.fuzz, pytest.mark.timeout(600)]
 

@@ -1,4 +1,4 @@
-"""Fuzz the ROS 2 image decoder (:mod:`services.sensor.sources.ros2_images`), which reads
+"""Fuzz the ROS 2 image decoder (:mod:`facesynth.services.sensor.sources.ros2_images`), which reads
 fields a camera on the network sends: any encoding, sizes, step and bytes, and any compressed
 format and bytes (a JPEG, cut or damaged, or random). Every case gives BGR pixels of the size
 the message says (or the JPEG's size), or an :class:`UnsupportedImage` / :class:`BadImage`
@@ -15,7 +15,7 @@ from mutations import damaged
 
 from facesynth.runtime.jpeg import jpeg_size
 from facesynth.runtime.opencv import import_cv2
-from services.sensor.sources.ros2_images import (
+from facesynth.services.sensor.sources.ros2_images import (
     BadImage,
     UnsupportedImage,
     compressed_image,

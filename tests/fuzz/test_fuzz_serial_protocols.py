@@ -14,9 +14,9 @@ from hypothesis import given
 from hypothesis import strategies as st
 from mutations import damaged
 
-from services.control.drivers.arduino import protocol as proto
-from services.control.drivers.maestro import protocol as mp
-from services.control.drivers.replies import ReplyQueue
+from facesynth.services.control.drivers.arduino import protocol as proto
+from facesynth.services.control.drivers.maestro import protocol as mp
+from facesynth.services.control.drivers.replies import ReplyQueue
 
 pytestmark = [pytest.mark.fuzz, pytest.mark.timeout(600)]
 

@@ -10,9 +10,14 @@ from hypothesis import strategies as st
 
 from facesynth.app.recording.convert import ConvertError, parse_size
 from facesynth.app.recording.recorder import RecordOptionError, parse_keys
-from services.control.drivers.virtual import AddressError, parse_address
-from services.control.drivers.virtual.wire import ClientMessageError, Hello, Ping, parse_client
-from services.features.calibrate import CalibrationStepError, parse_schedule
+from facesynth.services.control.drivers.virtual import AddressError, parse_address
+from facesynth.services.control.drivers.virtual.wire import (
+    ClientMessageError,
+    Hello,
+    Ping,
+    parse_client,
+)
+from facesynth.services.features.calibrate import CalibrationStepError, parse_schedule
 
 pytestmark = [pytest.mark.fuzz, pytest.mark.timeout(600)]
 

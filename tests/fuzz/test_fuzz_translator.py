@@ -16,9 +16,9 @@ from mutations import damaged, mutated
 
 from facesynth.runtime import codec
 from facesynth.runtime.profiles import Profile, available_profiles, load_profile
-from schemas.messages import Features, ServoCommands
-from services.control.core import Arrival, CommandError, ControlCore, StaleCommand
-from services.translator.core import Translator
+from facesynth.schemas.messages import Features, ServoCommands
+from facesynth.services.control.core import Arrival, CommandError, ControlCore, StaleCommand
+from facesynth.services.translator.core import Translator
 
 pytestmark = [pytest.mark.fuzz, pytest.mark.timeout(600)]
 

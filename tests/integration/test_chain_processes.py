@@ -22,11 +22,18 @@ from facesynth.app.data import sample_openface_csv
 from facesynth.runtime import codec, keys
 from facesynth.runtime.bus.zenoh_bus import ZenohBus, ZenohOptions
 from facesynth.runtime.profiles import load_profile
-from schemas.messages import Features, Frame, Points, PointSet, ServiceStats, ServoCommands
-from services.control.drivers.record import RecordLine, read_record
-from services.features.core import FeatureProcessor
-from services.points.backends.openface import OpenFaceConfig, OpenFaceReplay
-from services.translator.core import Translator
+from facesynth.schemas.messages import (
+    Features,
+    Frame,
+    Points,
+    PointSet,
+    ServiceStats,
+    ServoCommands,
+)
+from facesynth.services.control.drivers.record import RecordLine, read_record
+from facesynth.services.features.core import FeatureProcessor
+from facesynth.services.points.backends.openface import OpenFaceConfig, OpenFaceReplay
+from facesynth.services.translator.core import Translator
 
 CSV = str(sample_openface_csv())
 FPS = 30.0

@@ -11,7 +11,7 @@ import socket
 import aiohttp
 
 from facesynth.app.graph import GRAPHS_DIR
-from services.control.drivers.virtual import wire
+from facesynth.services.control.drivers.virtual import wire
 
 
 def _free_port() -> int:

@@ -28,7 +28,7 @@ import pytest
 
 from facesynth.app.data import sample_video
 from facesynth.runtime.calibration import load_calibration
-from services.control.drivers.record import read_record
+from facesynth.services.control.drivers.record import read_record
 
 VIDEO = str(sample_video())
 FPS = 23.976

@@ -23,8 +23,8 @@ from test_chain_processes import FPS, expected_commands, wait_for_frames
 from facesynth.app.data import sample_openface_csv
 from facesynth.runtime import codec, keys
 from facesynth.runtime.bus.zenoh_bus import ZenohBus, ZenohOptions
-from schemas.messages import ServiceStats, ServoCommands
-from services.control.drivers.record import read_record
+from facesynth.schemas.messages import ServiceStats, ServoCommands
+from facesynth.services.control.drivers.record import read_record
 
 CSV = str(sample_openface_csv())
 FRAMES = 100

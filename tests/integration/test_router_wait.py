@@ -9,7 +9,7 @@ from pathlib import Path
 from facesynth_processes import Processes, free_port, run_facesynth
 
 from facesynth.app.data import sample_openface_csv
-from services.control.drivers.record import read_record
+from facesynth.services.control.drivers.record import read_record
 
 
 def test_a_service_started_before_its_router_waits_says_so_once_then_works(

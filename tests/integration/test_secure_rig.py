@@ -22,8 +22,8 @@ import zenoh
 from facesynth.app.certs import CertRequest, make_certs
 from facesynth.app.data import sample_openface_csv
 from facesynth.runtime import codec, keys
-from schemas.messages import ServoCommands
-from services.control.drivers.record import read_record
+from facesynth.schemas.messages import ServoCommands
+from facesynth.services.control.drivers.record import read_record
 
 NEUTRAL = 1500.0
 

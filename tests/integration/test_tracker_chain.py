@@ -13,8 +13,8 @@ from typing import Any
 from facesynth.app.data import sample_video
 from facesynth.runtime import codec, keys
 from facesynth.runtime.bus.zenoh_bus import ZenohBus, ZenohOptions
-from schemas.messages import Points
-from services.control.drivers.record import read_record
+from facesynth.schemas.messages import Points
+from facesynth.services.control.drivers.record import read_record
 
 VIDEO = str(sample_video())
 FRAMES = 48

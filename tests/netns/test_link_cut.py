@@ -22,7 +22,7 @@ from conftest import NsSpawner
 from netns_hosts import BOARD_IP, TRACKER_IP, Hosts
 
 from facesynth.runtime.profiles import load_profile
-from services.control.drivers.record import RecordLine, read_record
+from facesynth.services.control.drivers.record import RecordLine, read_record
 
 DEPLOY = Path(__file__).resolve().parents[2] / "deploy"
 ROUTER = f"tcp/{TRACKER_IP}:7447"

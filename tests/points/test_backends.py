@@ -1,4 +1,4 @@
-"""services.points.backends: OpenFace CSV and track-file replays, one Points per Frame."""
+"""facesynth.services.points.backends: OpenFace CSV and track-file replays, one Points per Frame."""
 
 from __future__ import annotations
 
@@ -12,11 +12,11 @@ import numpy as np
 import pytest
 
 from facesynth.runtime import codec
-from schemas.messages import Frame, Points
-from services.points.backends import BackendError
-from services.points.backends.openface import OpenFaceConfig, OpenFaceReplay
-from services.points.backends.track import TrackFileConfig, TrackReplay
-from services.points.openface_csv import OpenFaceError, load_openface_csv
+from facesynth.schemas.messages import Frame, Points
+from facesynth.services.points.backends import BackendError
+from facesynth.services.points.backends.openface import OpenFaceConfig, OpenFaceReplay
+from facesynth.services.points.backends.track import TrackFileConfig, TrackReplay
+from facesynth.services.points.openface_csv import OpenFaceError, load_openface_csv
 
 
 def _real_csv() -> Path:

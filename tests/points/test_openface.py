@@ -1,4 +1,4 @@
-"""services.points.openface_csv: the real OpenFace 2 CSV, and malformed variants of it."""
+"""facesynth.services.points.openface_csv: the real OpenFace 2 CSV, and malformed variants of it."""
 
 from __future__ import annotations
 
@@ -10,7 +10,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from services.points.openface_csv import OpenFaceError, load_openface_csv, parse_openface_csv
+from facesynth.services.points.openface_csv import (
+    OpenFaceError,
+    load_openface_csv,
+    parse_openface_csv,
+)
 
 
 def _real_text() -> str:

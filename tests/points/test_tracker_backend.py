@@ -10,9 +10,9 @@ import pytest
 from facesynth.app.data import sample_video
 from facesynth.runtime import codec
 from facesynth.runtime.frames import encode_frame
-from schemas.messages import Frame
-from services.points.backends import BackendError
-from services.points.backends.tracker import TrackerBackend, TrackerConfig
+from facesynth.schemas.messages import Frame
+from facesynth.services.points.backends import BackendError
+from facesynth.services.points.backends.tracker import TrackerBackend, TrackerConfig
 
 SHAPES = {
     "full": {"ibug68": (68, 2), "mesh478": (478, 3), "iris10": (10, 2)},

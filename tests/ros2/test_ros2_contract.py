@@ -33,7 +33,7 @@ from test_driver_contract import (  # noqa: F401 - the suite's tests and fixture
     test_what_is_sent_is_what_comes_out,
 )
 
-from services.control.drivers.base import ServoDriver
+from facesynth.services.control.drivers.base import ServoDriver
 
 TOPIC = "/contract/joint_commands"
 

@@ -26,7 +26,7 @@ from ros2_peers import Received, read_received, subscriber
 from facesynth.runtime import keys
 from facesynth.runtime.bus.zenoh_bus import ZenohBus, ZenohOptions
 from facesynth.runtime.profiles import PACKAGE_DIR, Profile, parse_profile
-from services.control.drivers.record import RecordLine, read_record
+from facesynth.services.control.drivers.record import RecordLine, read_record
 
 FRAMES = 150
 TOPICS = {

@@ -19,7 +19,7 @@ import pytest
 from facesynth_processes import Processes
 from ros2_peers import STAMP_MARK, camera
 
-from services.control.drivers.record import read_record
+from facesynth.services.control.drivers.record import read_record
 
 FRAMES = 90
 

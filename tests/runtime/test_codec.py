@@ -10,7 +10,7 @@ import pytest
 
 from facesynth.runtime import codec
 from facesynth.runtime.codec import MessageError
-from schemas.messages import (
+from facesynth.schemas.messages import (
     Features,
     Frame,
     Points,

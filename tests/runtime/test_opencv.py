@@ -9,8 +9,8 @@ import pytest
 
 from facesynth.runtime.frames import FrameError, encode_frame
 from facesynth.runtime.opencv import import_cv2
-from services.sensor.sources import SourceError
-from services.sensor.sources.video import VideoConfig, VideoSource
+from facesynth.services.sensor.sources import SourceError
+from facesynth.services.sensor.sources.video import VideoConfig, VideoSource
 
 MISSING = r"^OpenCV is not installed: install facesynth\[tracker\] on hosts that handle images$"
 

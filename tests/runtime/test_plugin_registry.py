@@ -155,9 +155,9 @@ def test_missing_file(registry: Registry[Widget], tmp_path: Path) -> None:
 
 
 def test_discovery_imports_every_module_of_the_package() -> None:
-    from services.control.drivers.registry import DRIVERS
-    from services.points.backends.registry import BACKENDS
-    from services.sensor.sources.registry import SOURCES
+    from facesynth.services.control.drivers.registry import DRIVERS
+    from facesynth.services.points.backends.registry import BACKENDS
+    from facesynth.services.sensor.sources.registry import SOURCES
 
     assert "record" in DRIVERS.names()
     assert {"tracker", "openface", "track"} <= set(BACKENDS.names())

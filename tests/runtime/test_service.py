@@ -11,9 +11,9 @@ import pytest
 from facesynth.runtime import codec, keys
 from facesynth.runtime.bus.memory import MemoryNetwork
 from facesynth.runtime.service import ServiceContext, run_service, serve_transform
-from schemas.messages import Features, Points
-from services.features.core import FeatureProcessor
-from services.features.service import serve_features
+from facesynth.schemas.messages import Features, Points
+from facesynth.services.features.core import FeatureProcessor
+from facesynth.services.features.service import serve_features
 
 RIG = "unit"
 

@@ -24,13 +24,13 @@ from facesynth.runtime.capture_age import DEFAULT_MAX_AGE_S
 from facesynth.runtime.profiles import Profile, ServoSpec
 from facesynth.runtime.service import ServiceContext
 from facesynth.runtime.testing import StageRun
-from schemas.messages import Features, Frame, Points
-from services.features.core import FeatureProcessor
-from services.features.service import serve_features
-from services.points.backends.openface import OpenFaceConfig, OpenFaceReplay
-from services.points.service import serve_points
-from services.translator.core import Translator
-from services.translator.service import serve_translator
+from facesynth.schemas.messages import Features, Frame, Points
+from facesynth.services.features.core import FeatureProcessor
+from facesynth.services.features.service import serve_features
+from facesynth.services.points.backends.openface import OpenFaceConfig, OpenFaceReplay
+from facesynth.services.points.service import serve_points
+from facesynth.services.translator.core import Translator
+from facesynth.services.translator.service import serve_translator
 
 MS = 1_000_000
 HOST = socket.gethostname()

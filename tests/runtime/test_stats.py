@@ -12,7 +12,7 @@ import pytest
 
 from facesynth.runtime import codec, stats
 from facesynth.runtime.stats import RATE_WINDOW_NS, StageStats
-from schemas.messages import ServiceStats
+from facesynth.schemas.messages import ServiceStats
 
 MS = 1_000_000
 S = 1_000_000_000

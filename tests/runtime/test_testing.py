@@ -12,13 +12,13 @@ from facesynth.runtime.clock import FAKE_EPOCH_NS, FakeClock, IdleTimeout
 from facesynth.runtime.profiles import load_profile
 from facesynth.runtime.service import ServiceContext
 from facesynth.runtime.testing import StageRun
-from schemas.messages import Features, Frame, Points, ServoCommands
-from services.features.core import FeatureProcessor
-from services.features.service import serve_features
-from services.points.backends.openface import OpenFaceConfig, OpenFaceReplay
-from services.points.service import serve_points
-from services.translator.core import Translator
-from services.translator.service import serve_translator
+from facesynth.schemas.messages import Features, Frame, Points, ServoCommands
+from facesynth.services.features.core import FeatureProcessor
+from facesynth.services.features.service import serve_features
+from facesynth.services.points.backends.openface import OpenFaceConfig, OpenFaceReplay
+from facesynth.services.points.service import serve_points
+from facesynth.services.translator.core import Translator
+from facesynth.services.translator.service import serve_translator
 
 MS = 1_000_000
 

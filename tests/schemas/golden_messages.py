@@ -19,7 +19,7 @@ from typing import Any
 
 import msgspec
 
-from schemas.messages import (
+from facesynth.schemas.messages import (
     BabbleSample,
     Features,
     Frame,

@@ -14,7 +14,7 @@ from golden_messages import FOLDER, GOLDEN, expected, golden_problems
 
 from facesynth.runtime import codec
 from facesynth.runtime.frames import decode_frame
-from schemas.messages import ALL_MESSAGES, TAG_FIELD, Frame, Points, ServoCommands
+from facesynth.schemas.messages import ALL_MESSAGES, TAG_FIELD, Frame, Points, ServoCommands
 
 
 def _payload(name: str) -> bytes:

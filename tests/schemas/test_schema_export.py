@@ -5,8 +5,8 @@ from __future__ import annotations
 import msgspec
 import pytest
 
-from schemas import export
-from schemas.messages import ALL_MESSAGES, TAG_FIELD
+from facesynth.schemas import export
+from facesynth.schemas.messages import ALL_MESSAGES, TAG_FIELD
 
 #: Tags are part of the wire format: changing one breaks every deployed service.
 STABLE_TAGS = {
@@ -21,7 +21,7 @@ STABLE_TAGS = {
 
 def test_checked_in_schema_is_current() -> None:
     assert export.SCHEMA_PATH.read_text() == export.render_schema(), (
-        "schemas/facesynth.schema.json is stale: run python -m schemas.export"
+        "schemas/facesynth.schema.json is stale: run python -m facesynth.schemas.export"
     )
 
 

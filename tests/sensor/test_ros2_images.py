@@ -1,4 +1,4 @@
-"""services.sensor.sources.ros2_images: ROS 2 image fields as frames, without rclpy.
+"""facesynth.services.sensor.sources.ros2_images: ROS 2 image fields as frames, without rclpy.
 
 JPEG CompressedImage is passed through byte for byte; Image in bgr8, rgb8 and mono8 becomes
 the same BGR pixels, row padding (``step``) cut off; any other encoding or compressed format is
@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 from facesynth.runtime.opencv import import_cv2
-from services.sensor.sources.base import JpegImage, SourceError
-from services.sensor.sources.ros2_images import (
+from facesynth.services.sensor.sources.base import JpegImage, SourceError
+from facesynth.services.sensor.sources.ros2_images import (
     BadImage,
     UnsupportedImage,
     compressed_image,

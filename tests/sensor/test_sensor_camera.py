@@ -13,8 +13,8 @@ import pytest
 from facesynth.app.simhead import SimHead, load_head
 from facesynth.app.simhead.maestro import Maestro
 from facesynth.app.simhead.server import SimHeadServer
-from services.sensor.sources.base import SourceError, pixels
-from services.sensor.sources.camera import CameraConfig, CameraSource, camera_target
+from facesynth.services.sensor.sources.base import SourceError, pixels
+from facesynth.services.sensor.sources.camera import CameraConfig, CameraSource, camera_target
 
 
 @pytest.mark.parametrize(

@@ -1,10 +1,10 @@
-"""services.sensor.core: real-time pacing on the media clock, and --fast flow control."""
+"""facesynth.services.sensor.core: real-time pacing on the media clock, and --fast flow control."""
 
 from __future__ import annotations
 
 import pytest
 
-from services.sensor.core import FlowWindow, Pacer, SlowestCredit
+from facesynth.services.sensor.core import FlowWindow, Pacer, SlowestCredit
 
 MS = 1_000_000
 

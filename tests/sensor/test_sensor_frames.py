@@ -13,11 +13,11 @@ import pytest
 
 from facesynth.runtime import codec
 from facesynth.runtime.frames import FrameError, decode_frame, encode_frame
-from schemas.messages import Frame
-from services.sensor.sources import SourceError
-from services.sensor.sources.folder import FolderConfig, FolderSource
-from services.sensor.sources.ticks import TicksConfig, TickSource
-from services.sensor.sources.video import VideoConfig, VideoSource
+from facesynth.schemas.messages import Frame
+from facesynth.services.sensor.sources import SourceError
+from facesynth.services.sensor.sources.folder import FolderConfig, FolderSource
+from facesynth.services.sensor.sources.ticks import TicksConfig, TickSource
+from facesynth.services.sensor.sources.video import VideoConfig, VideoSource
 
 VIDEO = Path(str(resources.files("facesynth.app.data") / "WolfgangLanger_Pexels.mp4"))
 

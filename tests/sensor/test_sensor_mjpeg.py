@@ -20,11 +20,11 @@ from facesynth.app.simhead.server import SimHeadServer
 from facesynth.runtime.frames import decode_frame
 from facesynth.runtime.opencv import import_cv2
 from facesynth.runtime.testing import StageRun
-from services.points.backends.tracker import TrackerBackend, TrackerConfig
-from services.sensor.service import SensorOptions, SensorService
-from services.sensor.sources import FrameSource, JpegImage, SourceError, SourceInfo
-from services.sensor.sources.base import Image, pixels
-from services.sensor.sources.camera import (
+from facesynth.services.points.backends.tracker import TrackerBackend, TrackerConfig
+from facesynth.services.sensor.service import SensorOptions, SensorService
+from facesynth.services.sensor.sources import FrameSource, JpegImage, SourceError, SourceInfo
+from facesynth.services.sensor.sources.base import Image, pixels
+from facesynth.services.sensor.sources.camera import (
     MJPG_FOURCC,
     CameraConfig,
     CameraSource,
@@ -247,7 +247,7 @@ async def test_an_answer_that_is_not_mjpeg_goes_to_ffmpeg() -> None:
 
 
 async def test_a_silent_server_times_out(monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr("services.sensor.sources.camera.STREAM_TIMEOUT_MS", 500)
+    monkeypatch.setattr("facesynth.services.sensor.sources.camera.STREAM_TIMEOUT_MS", 500)
     async with serving(streaming([])) as url:
         with pytest.raises(SourceError, match="stopped delivering frames \\(timed out\\)"):
             await asyncio.to_thread(read, url, 1)

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import pytest
 
-from services.sensor.sources.multipart import MultipartError, MultipartParser, boundary_of
+from facesynth.services.sensor.sources.multipart import MultipartError, MultipartParser, boundary_of
 
 BODIES = [b"\xff\xd8first\xff\xd9", b"", b"\xff\xd8--frame inside\r\n\xff\xd9"]
 

@@ -13,10 +13,10 @@ import pytest
 from facesynth.runtime import keys
 from facesynth.runtime.clock import FAKE_EPOCH_NS
 from facesynth.runtime.testing import StageRun
-from schemas.messages import ServoCommands
-from services.sensor.service import SensorOptions, SensorService
-from services.sensor.sources import FrameSource, SourceInfo
-from services.sensor.sources.ticks import TicksConfig, TickSource
+from facesynth.schemas.messages import ServoCommands
+from facesynth.services.sensor.service import SensorOptions, SensorService
+from facesynth.services.sensor.sources import FrameSource, SourceInfo
+from facesynth.services.sensor.sources.ticks import TicksConfig, TickSource
 
 MS = 1_000_000
 

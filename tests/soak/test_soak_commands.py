@@ -8,7 +8,7 @@ import msgspec
 import pytest
 
 from facesynth.runtime.profiles import load_profile
-from services.control.drivers.record import RecordLine, SessionInfo, SessionMarker
+from facesynth.services.control.drivers.record import RecordLine, SessionInfo, SessionMarker
 from tools.soak.commands import executed, gaps, motion, stale
 from tools.soak.schedule import Fault
 

@@ -7,7 +7,7 @@ from pathlib import Path
 
 from motion_check import MotionReport
 
-from services.control.drivers.record import RecordLine
+from facesynth.services.control.drivers.record import RecordLine
 from tools.soak.commands import gaps, stale
 from tools.soak.report import SECTIONS, Exit, SoakResult, as_json, summary, write
 from tools.soak.rss import Incarnation, Sample, process_figures

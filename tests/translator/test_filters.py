@@ -1,4 +1,4 @@
-"""services.translator.filters: the One Euro filter and the speed/acceleration limiter."""
+"""facesynth.services.translator.filters: the One Euro filter and the speed/acceleration limiter."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ from fractions import Fraction
 import numpy as np
 import pytest
 
-from services.translator.filters import (
+from facesynth.services.translator.filters import (
     OneEuroFilter,
     RateLimiter,
     braking_speed,

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from facesynth.runtime.profiles.learned import Retarget
-from services.translator.retarget import MovementWeights, Retargeter, region, showable
+from facesynth.services.translator.retarget import MovementWeights, Retargeter, region, showable
 
 S = 1_000_000_000  # ns a second
 

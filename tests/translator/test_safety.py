@@ -1,4 +1,4 @@
-"""services.translator.safety: travel fractions and exclusive (antagonist) rules."""
+"""facesynth.services.translator.safety: travel fractions and exclusive (antagonist) rules."""
 
 from __future__ import annotations
 
@@ -7,9 +7,9 @@ from typing import Any
 import pytest
 
 from facesynth.runtime.profiles import ExclusiveRule, Profile, Safety, ServoSpec
-from schemas.messages import Features
-from services.translator.core import Translator
-from services.translator.safety import apply_exclusive, at_travel, travel
+from facesynth.schemas.messages import Features
+from facesynth.services.translator.core import Translator
+from facesynth.services.translator.safety import apply_exclusive, at_travel, travel
 
 
 def _spec(name: str = "s", **kw: Any) -> ServoSpec:

@@ -1,4 +1,4 @@
-"""Planning through the self-model (services.translator.self_model): the forward model's
+"""Planning through the self-model (facesynth.services.translator.self_model): the forward model's
 Jacobian, reachable targets reached, unreachable ones brought to the nearest reachable face,
 the prior, the servos' range; and T using it from a learned profile."""
 
@@ -12,8 +12,8 @@ from facesynth.app.learn.fit import FitOptions, fit_model
 from facesynth.runtime.profiles import Learned, Profile, load_profile
 from facesynth.runtime.profiles.learned import PolyRidge, Report, pack, unpack
 from facesynth.runtime.profiles.learned_predict import predictor
-from services.translator.learned import LearnedTargets
-from services.translator.self_model import SelfModelPlanner
+from facesynth.services.translator.learned import LearnedTargets
+from facesynth.services.translator.self_model import SelfModelPlanner
 
 INPUTS = ["brow_raise_inner_right", "jaw_open", "lip_corner_pull_left"]
 

@@ -12,10 +12,10 @@ import pytest
 from facesynth.runtime import codec
 from facesynth.runtime.calibration import Calibration
 from facesynth.runtime.profiles import Profile, ServoSpec, load_profile
-from schemas.messages import Features, Points, PointSet, ServoCommands
-from services.features.core import FeatureProcessor, normalise, nose_distances
-from services.points.openface_csv import load_openface_csv
-from services.translator.core import TranslationError, Translator, interpolate
+from facesynth.schemas.messages import Features, Points, PointSet, ServoCommands
+from facesynth.services.features.core import FeatureProcessor, normalise, nose_distances
+from facesynth.services.points.openface_csv import load_openface_csv
+from facesynth.services.translator.core import TranslationError, Translator, interpolate
 
 
 def _spec(**kw: Any) -> ServoSpec:

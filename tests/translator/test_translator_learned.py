@@ -21,8 +21,8 @@ from facesynth.runtime.profiles import (
     parse_learned_profile,
 )
 from facesynth.runtime.profiles.learned import PolyRidge, Report, pack
-from schemas.messages import Features
-from services.translator.core import TranslationError, Translator
+from facesynth.schemas.messages import Features
+from facesynth.services.translator.core import TranslationError, Translator
 
 INPUTS = ["brow_raise_inner_right", "jaw_open", "lip_corner_pull_right"]
 ZERO = np.zeros(68)
@@ -216,7 +216,7 @@ def test_resume_starts_learned_servos_where_they_are() -> None:
 
 @pytest.mark.parametrize("name", ["paper16", "head16_bs"])
 def test_time_translator_runs_written_and_learned_profiles(name: str) -> None:
-    from services.translator.timing import time_translator
+    from facesynth.services.translator.timing import time_translator
 
     assert 0 < time_translator(load_profile(name), frames=30, runs=1) < 50
     assert 0 < time_translator(learned_profile(), frames=30, runs=1) < 50

@@ -9,7 +9,7 @@ import pytest
 from translator_fixtures import DT, TOL, feature_servo, features_at, positions_of, profile_of
 
 from facesynth.runtime.profiles import Smoothing
-from services.translator.core import Translator
+from facesynth.services.translator.core import Translator
 
 
 def test_face_loss_ramps_linearly_to_neutral() -> None:

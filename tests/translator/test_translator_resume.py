@@ -10,9 +10,9 @@ import pytest
 from translator_fixtures import DT, feature_servo, features_at, profile_of
 
 from facesynth.runtime.testing import StageRun
-from schemas.messages import ServoCommands
-from services.translator.core import Translator
-from services.translator.service import serve_translator
+from facesynth.schemas.messages import ServoCommands
+from facesynth.services.translator.core import Translator
+from facesynth.services.translator.service import serve_translator
 
 LIMITED = profile_of(
     feature_servo("jaw", 0, max_speed=3000.0),
@@ -137,7 +137,7 @@ async def test_reports_for_another_profile_or_undecodable_are_ignored() -> None:
 
 
 def test_resuming_translator_resumes_once_then_only_after_the_controller_moved_on_its_own() -> None:
-    from services.translator.resume import ResumingTranslator
+    from facesynth.services.translator.resume import ResumingTranslator
 
     core = ResumingTranslator(Translator(LIMITED), sender="t/1", host="h")
     first = core.translate(features_at(0, OPEN), now_ns=5)

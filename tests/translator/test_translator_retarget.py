@@ -11,9 +11,9 @@ import pytest
 
 from facesynth.runtime.profiles import Learned, Profile, load_profile
 from facesynth.runtime.profiles.learned import PolyRidge, Report, Retarget, pack
-from schemas.messages import Features
-from services.translator.core import Translator
-from services.translator.self_model import SelfModelPlanner
+from facesynth.schemas.messages import Features
+from facesynth.services.translator.core import Translator
+from facesynth.services.translator.self_model import SelfModelPlanner
 
 #: jaw and brow the robot moved while babbling; the blink it did not (its commands explained
 #: none of it: a head without lids reads a little through the skin).

@@ -8,8 +8,8 @@ from translator_fixtures import features_at
 from facesynth.runtime.clock import FakeClock
 from facesynth.runtime.profiles import load_profile
 from facesynth.runtime.testing import StageRun
-from services.translator.core import Translator
-from services.translator.service import serve_translator
+from facesynth.services.translator.core import Translator
+from facesynth.services.translator.service import serve_translator
 
 
 async def test_commands_go_to_the_robots_own_key() -> None:

@@ -8,7 +8,7 @@ import pytest
 from translator_fixtures import DT, features_at
 
 from facesynth.runtime.profiles import load_profile
-from services.translator.core import Translator
+from facesynth.services.translator.core import Translator
 
 
 @pytest.mark.parametrize(

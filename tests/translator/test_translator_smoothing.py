@@ -7,7 +7,7 @@ import pytest
 from translator_fixtures import feature_servo, features_at, jaw_deltas, positions_of, profile_of
 
 from facesynth.runtime.profiles import Smoothing, SmoothingOverride
-from services.translator.core import Translator
+from facesynth.services.translator.core import Translator
 
 SMOOTH = Smoothing(min_cutoff=0.5, beta=1.0, d_cutoff=1.0)
 

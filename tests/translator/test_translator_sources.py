@@ -14,7 +14,7 @@ from translator_fixtures import (
 )
 
 from facesynth.runtime.profiles import ServoSpec
-from services.translator.core import Translator, deadband, mirror_named, scaled_position
+from facesynth.services.translator.core import Translator, deadband, mirror_named, scaled_position
 
 # --- mapping pieces -------------------------------------------------------------------------------
 

@@ -8,8 +8,8 @@ from translator_fixtures import feature_servo, features_at, jaw_deltas, points_s
 
 from facesynth.runtime.calibration import Calibration
 from facesynth.runtime.profiles import load_profile
-from schemas.messages import Features
-from services.translator.core import TranslationError, Translator
+from facesynth.schemas.messages import Features
+from facesynth.services.translator.core import TranslationError, Translator
 
 
 def _random_session(seed: int) -> list[Features]:

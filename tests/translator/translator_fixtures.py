@@ -7,8 +7,8 @@ from typing import Any
 import numpy as np
 
 from facesynth.runtime.profiles import Profile, ServoSpec
-from schemas.messages import Features
-from services.translator.core import Translator
+from facesynth.schemas.messages import Features
+from facesynth.services.translator.core import Translator
 
 FPS = 30.0
 DT = 1.0 / FPS

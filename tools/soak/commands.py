@@ -28,7 +28,7 @@ from pathlib import Path
 from motion_check import MotionReport, check_motion
 
 from facesynth.runtime.profiles import Profile
-from services.control.drivers.record import RecordLine
+from facesynth.services.control.drivers.record import RecordLine
 from tools.soak.schedule import Fault
 
 #: How many stale commands a report lists (all are counted).

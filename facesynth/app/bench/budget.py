@@ -5,7 +5,7 @@ The budget (issue 19): sensor ≤ 1.5 ms of CPU per frame; points ≤ its model 
 features ≤ 0.5; translator ≤ 0.3; control ≤ 0.3; router ≤ 0.5; the five-process chain ≤ 10 ms;
 F + T + C in one board process ≤ 1 ms. The model calls are measured in the benchmark's own
 process, after the runs, on the same video: the CPU time of the tracker's raw inference calls
-(:meth:`Model.run <services.points.tracker.runtimes.base.Model.run>`: detector, landmarks,
+(:meth:`Model.run <facesynth.services.points.tracker.runtimes.base.Model.run>`: detector, landmarks,
 blendshapes), per frame.
 """
 
@@ -32,7 +32,7 @@ BOARD_BUDGET_MS = 1.0
 
 def _models_of(tracker: Any) -> Iterator[Any]:
     """Every loaded model a tracker calls (its detector's, its landmarker's parts')."""
-    from services.points.tracker.runtimes.base import Model
+    from facesynth.services.points.tracker.runtimes.base import Model
 
     seen: set[int] = set()
     todo = [tracker]
@@ -63,8 +63,8 @@ def _timed(run: Callable[[], Any], spent: list[float]) -> Callable[[], Any]:
 def model_calls_ms(model: str, threads: int, video: Path, frames: int = 150) -> float:
     """CPU ms per frame of the tracker's raw model calls over the video's first ``frames``
     frames (decoded beforehand, so decoding is not counted)."""
-    from services.points.backends.tracker import TrackerBackend, TrackerConfig
-    from services.points.tracker.offline import iter_video_frames
+    from facesynth.services.points.backends.tracker import TrackerBackend, TrackerConfig
+    from facesynth.services.points.tracker.offline import iter_video_frames
 
     # The points service's own tracker, set up as it sets it up.
     tracker = TrackerBackend(TrackerConfig(model=model, threads=threads)).tracker

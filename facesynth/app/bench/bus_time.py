@@ -20,9 +20,9 @@ from dataclasses import dataclass
 from typing import Any
 
 from facesynth.runtime.profiles import Profile
-from services.control.drivers.bus_servo.budget import read_chunk, wire_s
-from services.control.drivers.bus_servo.bus import ServoBus
-from services.control.drivers.bus_servo.native import Model
+from facesynth.services.control.drivers.bus_servo.budget import read_chunk, wire_s
+from facesynth.services.control.drivers.bus_servo.bus import ServoBus
+from facesynth.services.control.drivers.bus_servo.native import Model
 
 READ_BUDGET_S = 0.002
 FRAME_MS = 1000 / 30
@@ -111,8 +111,8 @@ def bus_frames(profile: Profile) -> list[BusFrame]:
     except ImportError:
         sdk = None
     if sdk is not None:
-        from services.control.drivers.dynamixel.bus import DynamixelBus
-        from services.control.drivers.dynamixel.models import BY_NAME
+        from facesynth.services.control.drivers.dynamixel.bus import DynamixelBus
+        from facesynth.services.control.drivers.dynamixel.models import BY_NAME
 
         for how, model, baud, size in (
             ("2.0 XL430, Sync Read", BY_NAME["xl430-w250"], 1000000, 21),
@@ -126,8 +126,8 @@ def bus_frames(profile: Profile) -> list[BusFrame]:
     except ImportError:
         scs = None
     if scs is not None:
-        from services.control.drivers.feetech.bus import FeetechBus
-        from services.control.drivers.feetech.models import BY_NAME as FEETECH
+        from facesynth.services.control.drivers.feetech.bus import FeetechBus
+        from facesynth.services.control.drivers.feetech.models import BY_NAME as FEETECH
 
         for how, model in (
             ("STS3215, Sync Read", FEETECH["sts3215"]),

@@ -237,7 +237,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
         return _bench_fanout(args)
     from facesynth.app.bench.tracker import bench_tracker, format_bench
     from facesynth.app.data import sample_video
-    from services.points.tracker.landmarkers import model_names
+    from facesynth.services.points.tracker.landmarkers import model_names
 
     backends = tuple(b for b in args.backends.split(",") if b)
     models = tuple(m for m in (args.models or "fast,full").split(",") if m)
@@ -281,7 +281,7 @@ def _bench_chain(args: argparse.Namespace) -> int:
     from facesynth.app.bench.chain import LAYOUTS, SCHEDULES, bench_chain, variants
     from facesynth.app.bench.chain_report import format_chain_bench
     from facesynth.app.data import sample_video
-    from services.points.tracker.landmarkers import model_names
+    from facesynth.services.points.tracker.landmarkers import model_names
 
     if args.runs < 1:
         raise OptionError("--runs must be at least 1")
@@ -320,7 +320,7 @@ def _bench_fanout(args: argparse.Namespace) -> int:
     from facesynth.app.bench.chain import REALTIME_PRIORITY, SCHEDULES
     from facesynth.app.bench.fanout import bench_fanout, check_layout
     from facesynth.app.bench.fanout_report import format_fanout
-    from services.points.tracker.landmarkers import model_names
+    from facesynth.services.points.tracker.landmarkers import model_names
 
     try:
         counts = [int(n) for n in args.robots.split(",") if n.strip()]
@@ -380,7 +380,7 @@ def _bench_fidelity(args: argparse.Namespace) -> int:
     from facesynth.app.bench.fidelity import PROFILES, bench_fidelity, format_fidelity
     from facesynth.app.data import sample_video
     from facesynth.runtime.profiles import resolve_profile
-    from services.points.tracker.landmarkers import model_names
+    from facesynth.services.points.tracker.landmarkers import model_names
 
     models = tuple(m for m in (args.models or "fast,full").split(",") if m)
     unknown = [m for m in models if m not in model_names()]

@@ -34,9 +34,9 @@ from typing import Any
 
 from facesynth.app.wiring import OptionError
 from facesynth.runtime.profiles import Profile
-from services.control.core import CommandInfo
-from services.control.drivers.base import ServoDriver
-from services.control.drivers.bus_servo.budget import wire_s
+from facesynth.services.control.core import CommandInfo
+from facesynth.services.control.drivers.base import ServoDriver
+from facesynth.services.control.drivers.bus_servo.budget import wire_s
 
 #: Where the emulators live in a source checkout (the parent of ``fake_devices``).
 FAKE_DEVICES = Path(__file__).resolve().parents[3] / "tests" / "control"
@@ -204,11 +204,11 @@ def _device(
 ) -> Iterator[tuple[ServoDriver, Callable[[], Counts] | None, list[float]]]:
     """The driver for ``case`` on its emulator; a byte counter (serial devices) and the
     emulator's own CPU seconds measured in this process (the PCA9685 model)."""
-    from services.control.drivers.registry import DRIVERS
+    from facesynth.services.control.drivers.registry import DRIVERS
 
     spent = [0.0]
     if case.kind == "pca9685":
-        from services.control.drivers.pca9685 import PCA9685Config, PCA9685Driver
+        from facesynth.services.control.drivers.pca9685 import PCA9685Config, PCA9685Driver
 
         sys.path.insert(0, str(parent))
         from fake_devices.pca9685 import FakeI2CAdapter, FakePCA9685

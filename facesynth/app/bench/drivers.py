@@ -14,10 +14,10 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from facesynth.runtime.profiles import Profile, load_profile
-from services.control.drivers.arduino import protocol as arduino
-from services.control.drivers.arduino.driver import pose_frame
-from services.control.drivers.maestro import protocol as maestro
-from services.control.drivers.ssc32 import protocol as ssc32
+from facesynth.services.control.drivers.arduino import protocol as arduino
+from facesynth.services.control.drivers.arduino.driver import pose_frame
+from facesynth.services.control.drivers.maestro import protocol as maestro
+from facesynth.services.control.drivers.ssc32 import protocol as ssc32
 
 BITS_PER_BYTE = 10
 

@@ -23,9 +23,9 @@ from typing import Any
 import numpy as np
 
 from facesynth.runtime.profiles import load_profile
-from services.control.core import CommandInfo
-from services.control.drivers.base import ServoDriver
-from services.control.drivers.record import RecordConfig, RecordDriver
+from facesynth.services.control.core import CommandInfo
+from facesynth.services.control.drivers.base import ServoDriver
+from facesynth.services.control.drivers.record import RecordConfig, RecordDriver
 
 #: The pages: a script run with ``python -c``, given the URL, readers and stalled pages.
 PAGES = """
@@ -84,7 +84,7 @@ async def _pages(url: str, readers: int, stalled: int) -> asyncio.subprocess.Pro
 
 
 async def _run_case(case: Case, seconds: float, rate: float, folder: str) -> dict[str, Any]:
-    from services.control.drivers.virtual import VirtualConfig, VirtualDriver
+    from facesynth.services.control.drivers.virtual import VirtualConfig, VirtualDriver
 
     profile = load_profile("virtual")
     driver: ServoDriver

@@ -28,11 +28,11 @@ import numpy as np
 
 from facesynth.runtime.frames import encode_frame
 from facesynth.runtime.profiles import Profile, ServoSpec, load_profile
-from schemas.messages import Points
-from services.features.core import FeatureProcessor
-from services.points.backends.tracker import TrackerBackend, TrackerConfig
-from services.points.tracker.offline import iter_video_frames
-from services.translator.core import Translator
+from facesynth.schemas.messages import Points
+from facesynth.services.features.core import FeatureProcessor
+from facesynth.services.points.backends.tracker import TrackerBackend, TrackerConfig
+from facesynth.services.points.tracker.offline import iter_video_frames
+from facesynth.services.translator.core import Translator
 
 from .synthetic_faces import BASE_FRAME, Face, base_face, expressions, render
 

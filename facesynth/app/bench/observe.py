@@ -23,7 +23,7 @@ import numpy as np
 from facesynth.app.bench.processes import TICKS
 from facesynth.runtime import codec, keys
 from facesynth.runtime.bus.base import Bus, Sample, Subscription, SubscriptionClosed
-from schemas.messages import Features, Points, ServiceStats, ServoCommands
+from facesynth.schemas.messages import Features, Points, ServiceStats, ServoCommands
 
 #: The keys whose arrival times split the chain into hops, in chain order.
 HOP_STAGES: tuple[keys.Stage, ...] = ("points", "features", "servo_commands", "servo_state")

@@ -29,7 +29,14 @@ from facesynth.app.recording.layout import Layout
 from facesynth.app.recording.writer import SessionWriter
 from facesynth.runtime import codec
 from facesynth.runtime.feature_names import NAMES
-from schemas.messages import Features, Frame, Points, PointSet, ServiceStats, ServoCommands
+from facesynth.schemas.messages import (
+    Features,
+    Frame,
+    Points,
+    PointSet,
+    ServiceStats,
+    ServoCommands,
+)
 
 T0 = 1_700_000_000_000_000_000
 SERVICES = ("sensor", "points", "features", "translator", "control")

@@ -29,8 +29,8 @@ from facesynth.runtime import keys
 from facesynth.runtime.bus.zenoh_bus import ZenohBus, ZenohOptions
 from facesynth.runtime.gc_watch import parse_summary
 from facesynth.runtime.stats import memory_mb
-from schemas.messages import ServiceStats
-from services.control.drivers.record import RecordLine, read_record
+from facesynth.schemas.messages import ServiceStats
+from facesynth.services.control.drivers.record import RecordLine, read_record
 
 #: The benchmark's own process in the CPU window (left out of the rig's figures).
 OBSERVER = "(observer)"

@@ -29,13 +29,13 @@ import numpy as np
 from facesynth.runtime.calibration import Calibration
 from facesynth.runtime.frames import encode_frame
 from facesynth.runtime.profiles import Profile, load_profile
-from schemas.messages import Features, Points
-from services.control.core import Arrival, ControlCore, Move
-from services.features.core import FeatureProcessor
-from services.points.backends.base import PointsBackend
-from services.points.backends.tracker import TrackerBackend, TrackerConfig
-from services.sensor.sources.video import VideoConfig, VideoSource
-from services.translator.core import Translator
+from facesynth.schemas.messages import Features, Points
+from facesynth.services.control.core import Arrival, ControlCore, Move
+from facesynth.services.features.core import FeatureProcessor
+from facesynth.services.points.backends.base import PointsBackend
+from facesynth.services.points.backends.tracker import TrackerBackend, TrackerConfig
+from facesynth.services.sensor.sources.video import VideoConfig, VideoSource
+from facesynth.services.translator.core import Translator
 
 from .robot_compare import (
     FeatureRow,

@@ -88,7 +88,7 @@ def bench_robot_command(args: argparse.Namespace) -> int:
 
 def driver_config(name: str, port: str | None) -> msgspec.Struct:
     """``--driver NAME [--port PORT]`` as a checked driver config."""
-    from services.control.drivers.registry import DRIVERS
+    from facesynth.services.control.drivers.registry import DRIVERS
 
     data = {"driver": name} if port is None else {"driver": name, "port": port}
     return DRIVERS.parse(data, "--driver")
@@ -96,7 +96,7 @@ def driver_config(name: str, port: str | None) -> msgspec.Struct:
 
 def camera_config(value: str) -> msgspec.Struct:
     """``--camera VALUE`` as a checked config of the camera source (its ``--camera`` field)."""
-    from services.sensor.sources.registry import SOURCES
+    from facesynth.services.sensor.sources.registry import SOURCES
 
     plugin = SOURCES.get("camera")
     for field in plugin.fields():
@@ -113,8 +113,8 @@ def _live(
 ) -> RobotBench:
     """Every profile on the head behind ``--driver``, watched through ``--camera``."""
     from facesynth.app.data import sample_video
-    from services.control.drivers.registry import DRIVERS
-    from services.sensor.sources.registry import SOURCES
+    from facesynth.services.control.drivers.registry import DRIVERS
+    from facesynth.services.sensor.sources.registry import SOURCES
 
     from .robot_live import CameraFeed, live_profile
 

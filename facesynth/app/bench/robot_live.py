@@ -7,7 +7,7 @@ camera source (``--camera``: a device index, a ``/dev/video*`` path or a stream 
 it. The performer's features are the cached ones (tracked in process from the video); they
 are played at the video's rate on the monotonic clock:
 
-* C (:class:`services.control.core.ControlCore`, real time) starts the head at neutral and
+* C (:class:`facesynth.services.control.core.ControlCore`, real time) starts the head at neutral and
   makes its own catch-up steps between commands, as the control service does, each sent
   through the driver;
 * the head is held at neutral for :data:`.robot.SETTLE_S`, then F learns the robot's neutral
@@ -34,13 +34,13 @@ import numpy as np
 
 from facesynth.runtime.frames import encode_frame
 from facesynth.runtime.profiles import Profile
-from schemas.messages import Features
-from services.control.core import MAX_STEP_S, Arrival, ControlCore, Move
-from services.control.drivers.base import ServoDriver
-from services.features.core import FeatureProcessor
-from services.points.backends.base import PointsBackend
-from services.sensor.sources.base import FrameSource, SourceError, pixels
-from services.translator.core import Translator
+from facesynth.schemas.messages import Features
+from facesynth.services.control.core import MAX_STEP_S, Arrival, ControlCore, Move
+from facesynth.services.control.drivers.base import ServoDriver
+from facesynth.services.features.core import FeatureProcessor
+from facesynth.services.points.backends.base import PointsBackend
+from facesynth.services.sensor.sources.base import FrameSource, SourceError, pixels
+from facesynth.services.translator.core import Translator
 
 from .robot import (
     NEUTRAL_S,

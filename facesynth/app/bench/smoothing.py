@@ -38,8 +38,8 @@ import numpy as np
 from facesynth.runtime.feature_names import BY_NAME
 from facesynth.runtime.landmarks import N_IBUG
 from facesynth.runtime.profiles import Profile, ServoSpec, Smoothing, describe_source, load_profile
-from schemas.messages import Features
-from services.translator.core import Translator
+from facesynth.schemas.messages import Features
+from facesynth.services.translator.core import Translator
 
 #: Tracker noise on a still face, measured on the bundled video (see the module docstring).
 DEFAULT_SIGMA_IOD = 0.0034  # right brow group mean distance to the nose tip, IOD units
@@ -59,7 +59,7 @@ def _robust_sigma(values: np.ndarray) -> float:
 
 def measure_noise(track: str | Path) -> dict[str, float]:
     """Tracker noise from a ``facesynth track`` JSON-lines file (see the module docstring)."""
-    from services.features.core import normalise, nose_distances
+    from facesynth.services.features.core import normalise, nose_distances
 
     brow, gaze = [], []
     for line in Path(track).read_text(encoding="utf-8").splitlines():

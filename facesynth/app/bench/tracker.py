@@ -25,9 +25,9 @@ import cv2
 import numpy as np
 
 from facesynth.runtime.stats import memory_mb
-from services.points.tracker.model_input import frame_to_rgba
-from services.points.tracker.offline import iter_video_frames
-from services.points.tracker.tracker import FaceTracker
+from facesynth.services.points.tracker.model_input import frame_to_rgba
+from facesynth.services.points.tracker.offline import iter_video_frames
+from facesynth.services.points.tracker.tracker import FaceTracker
 
 __all__ = [
     "GOALS",

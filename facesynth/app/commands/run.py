@@ -29,7 +29,7 @@ from facesynth.app.wiring import OptionError
 from facesynth.runtime import keys
 from facesynth.runtime.outputs import check_output
 from facesynth.runtime.service import run_async
-from services.control.drivers.record import RecordConfig, earlier_sessions, record_summary
+from facesynth.services.control.drivers.record import RecordConfig, earlier_sessions, record_summary
 
 log = logging.getLogger("facesynth")
 

@@ -22,7 +22,7 @@ from facesynth.app.stage_args import add_stage_arguments, apply_arguments
 from facesynth.app.tuning import tune_process
 from facesynth.app.wiring import OptionError, build_node, replay_frames_of
 from facesynth.runtime.service import default_instance, run_async
-from services.control.drivers.registry import DRIVERS
+from facesynth.services.control.drivers.registry import DRIVERS
 
 log = logging.getLogger("facesynth")
 

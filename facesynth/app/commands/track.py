@@ -9,15 +9,15 @@ import logging
 from facesynth.app.command_registry import Command
 from facesynth.app.common_arguments import model_arguments
 from facesynth.runtime.outputs import check_output
-from services.points.tracker.runtimes import backend_choices
+from facesynth.services.points.tracker.runtimes import backend_choices
 
 log = logging.getLogger("facesynth")
 
 
 def cmd_track(args: argparse.Namespace) -> int:
     """``facesynth track VIDEO --out FILE``."""
-    from services.points.tracker.landmarkers import model_config
-    from services.points.tracker.offline import track_video
+    from facesynth.services.points.tracker.landmarkers import model_config
+    from facesynth.services.points.tracker.offline import track_video
 
     check_output(args.out, "track file")
     options = {"blendshapes": args.blendshapes} if args.model == "full" else {}

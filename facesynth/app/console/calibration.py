@@ -24,7 +24,12 @@ from facesynth.app.nodes import PointsNode, SensorNode
 from facesynth.app.stage_args import apply_arguments
 from facesynth.runtime.calibration import save_calibration
 from facesynth.runtime.keys import check_name
-from services.features.calibrate import PROMPTS, CalibrationRecorder, CalibrationStepError, step_at
+from facesynth.services.features.calibrate import (
+    PROMPTS,
+    CalibrationRecorder,
+    CalibrationStepError,
+    step_at,
+)
 
 #: Frames sent to the page per second at most (the tracker sees every frame).
 PAGE_FPS = 15.0
@@ -53,8 +58,8 @@ class CalibrationRun:
         step, its prompt, the seconds left in it)."""
         from facesynth.app.wiring import build_backend, build_source
         from facesynth.runtime.frames import encode_frame
-        from services.features.expressions import raw_features
-        from services.sensor.sources.base import pixels
+        from facesynth.services.features.expressions import raw_features
+        from facesynth.services.sensor.sources.base import pixels
 
         _, backend_config = apply_arguments("points", PointsNode(), self.args)
         _, source_config = apply_arguments("sensor", SensorNode(), self.args)

@@ -37,8 +37,8 @@ from facesynth.runtime.keys import check_name
 from facesynth.runtime.outputs import check_output
 from facesynth.runtime.profiles import load_profile, resolve_profile
 from facesynth.runtime.service import run_async, until_signalled
-from services.control.drivers.registry import DRIVERS
-from services.features.calibrate import parse_schedule
+from facesynth.services.control.drivers.registry import DRIVERS
+from facesynth.services.features.calibrate import parse_schedule
 
 log = logging.getLogger("facesynth.console")
 
@@ -84,7 +84,7 @@ def rig_lock(rig: str) -> Iterator[None]:
 def check_source(config: msgspec.Struct) -> None:
     """A camera or video that cannot be what it says is refused at start (``SourceError``),
     not when the page asks for a calibration; nothing is opened."""
-    from services.sensor.sources.camera import CameraConfig, camera_target
+    from facesynth.services.sensor.sources.camera import CameraConfig, camera_target
 
     if isinstance(config, CameraConfig):
         camera_target(config.index)

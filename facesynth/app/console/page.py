@@ -9,7 +9,7 @@ and never holds it up.
 
 from __future__ import annotations
 
-from services.control.drivers.virtual.fanout import Mailbox
+from facesynth.services.control.drivers.virtual.fanout import Mailbox
 
 
 class Page:

@@ -1,6 +1,6 @@
 """The console's web server: the page, one WebSocket per page, and two HTTP actions.
 
-Same conventions as the live face page (:mod:`services.control.drivers.virtual.server`):
+Same conventions as the live face page (:mod:`facesynth.services.control.drivers.virtual.server`):
 aiohttp, static files with ``no-store``, a WebSocket that the page reconnects by itself, the
 stage table from every service's stats, the performer's frames and landmarks. On top:
 
@@ -34,7 +34,7 @@ from facesynth.app.console.page import Page
 from facesynth.app.console.rig import ConsoleError
 from facesynth.app.console.session import ConsoleSession
 from facesynth.runtime.web_app import add_page_files, close_sockets, serve_app, static_files
-from services.control.drivers.virtual import wire
+from facesynth.services.control.drivers.virtual import wire
 
 log = logging.getLogger("facesynth.console")
 
@@ -85,7 +85,7 @@ class ConsoleServer:
         self._runner: web.AppRunner | None = None
         self._tasks: list[asyncio.Task[Any]] = []
         self._files = static_files("facesynth.app.console", STATIC) | static_files(
-            "services.control.drivers.virtual", FACE_PAGE_STATIC
+            "facesynth.services.control.drivers.virtual", FACE_PAGE_STATIC
         )
 
     @property

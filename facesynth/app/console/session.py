@@ -33,7 +33,7 @@ from facesynth.runtime.bus.base import Bus
 from facesynth.runtime.profiles import load_profile
 from facesynth.runtime.rig_view import RigView
 from facesynth.runtime.service import ServiceContext, run_service
-from schemas.messages import Frame, Points, ServiceStats, ServoCommands
+from facesynth.schemas.messages import Frame, Points, ServiceStats, ServoCommands
 
 log = logging.getLogger("facesynth.console")
 

@@ -19,9 +19,9 @@ import re
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from services.control.drivers.arduino import protocol as fw
-from services.control.drivers.maestro import protocol as mp
-from services.control.drivers.ssc32 import protocol as sp
+from facesynth.services.control.drivers.arduino import protocol as fw
+from facesynth.services.control.drivers.maestro import protocol as mp
+from facesynth.services.control.drivers.ssc32 import protocol as sp
 
 #: The sequence number of doctor's PING (a reply must echo it).
 PING_SEQ = 0xD0C7

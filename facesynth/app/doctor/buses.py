@@ -21,8 +21,8 @@ import msgspec
 from facesynth.app.doctor.report import Finding
 from facesynth.runtime.plugins import PluginError
 from facesynth.runtime.profiles import ProfileError, load_profile
-from services.control.drivers.base import DriverError, FoundDevice, ServoDriver
-from services.control.drivers.registry import DRIVERS
+from facesynth.services.control.drivers.base import DriverError, FoundDevice, ServoDriver
+from facesynth.services.control.drivers.registry import DRIVERS
 
 FAMILY = "bus"
 FIX = (

@@ -41,8 +41,8 @@ def video_devices(dev: Path = Path("/dev")) -> list[tuple[int, Path]]:
 
 def open_camera(target: int | str) -> CameraResult:
     """Open ``target`` as the sensor would and read one frame."""
-    from services.sensor.sources.base import SourceError, pixels
-    from services.sensor.sources.camera import CameraConfig, CameraSource
+    from facesynth.services.sensor.sources.base import SourceError, pixels
+    from facesynth.services.sensor.sources.camera import CameraConfig, CameraSource
 
     try:
         source = CameraSource(CameraConfig(index=target))

@@ -13,7 +13,7 @@ from collections.abc import Sequence
 from facesynth.app.doctor.needs import SerialNeed
 from facesynth.app.doctor.report import Finding
 from facesynth.app.doctor.serial_ports import PortResult
-from services.control.drivers.arduino.protocol import PROTOCOL_VERSION
+from facesynth.services.control.drivers.arduino.protocol import PROTOCOL_VERSION
 
 FAMILY = "firmware"
 

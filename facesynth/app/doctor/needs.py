@@ -16,7 +16,7 @@ import msgspec
 from facesynth.app.graph import PLUGIN_TABLES, Graph
 from facesynth.app.nodes import ControlNode, FeaturesNode, TranslatorNode, stage_of
 from facesynth.runtime.bus.zenoh_bus import ZenohOptions
-from services.features.state import default_state_dir
+from facesynth.services.features.state import default_state_dir
 
 #: The board drivers that talk over a serial port, and the board each expects to answer.
 SERIAL_DRIVERS = {"arduino": "firmware", "maestro": "maestro", "ssc32": "ssc32"}

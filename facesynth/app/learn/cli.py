@@ -52,7 +52,7 @@ from facesynth.runtime.bus.zenoh_bus import endpoints
 from facesynth.runtime.outputs import check_output
 from facesynth.runtime.profiles import Profile, load_profile, save_learned_profile
 from facesynth.runtime.service import run_async
-from services.control.drivers.registry import DRIVERS
+from facesynth.services.control.drivers.registry import DRIVERS
 
 log = logging.getLogger("facesynth.learn")
 

@@ -418,7 +418,7 @@ def main(argv: list[str] | None = None) -> int:
     import argparse
 
     from facesynth.runtime.profiles import load_profile
-    from services.translator.timing import time_translator
+    from facesynth.services.translator.timing import time_translator
 
     parser = argparse.ArgumentParser(prog="python -m facesynth.app.learn.fit")
     parser.add_argument("profile", help="a learned profile (NAME or PATH.learned)")

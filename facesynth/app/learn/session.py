@@ -26,7 +26,7 @@ from facesynth.app.recording.reader import Recording, RecordingError
 from facesynth.app.recording.writer import SessionWriter
 from facesynth.runtime import keys
 from facesynth.runtime.profiles import Profile
-from schemas.messages import BabbleSample
+from facesynth.schemas.messages import BabbleSample
 
 log = logging.getLogger("facesynth.learn")
 

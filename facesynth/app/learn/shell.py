@@ -39,7 +39,7 @@ from facesynth.app.wiring import StageParts
 from facesynth.runtime import codec, keys
 from facesynth.runtime.bus.base import Bus, Subscription
 from facesynth.runtime.service import ServiceContext, run_service
-from schemas.messages import BabbleSample, Features, ServoCommands
+from facesynth.schemas.messages import BabbleSample, Features, ServoCommands
 
 log = logging.getLogger("facesynth.learn")
 

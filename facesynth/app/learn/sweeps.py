@@ -15,8 +15,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from facesynth.runtime.profiles import Profile
-from schemas.messages import BabbleSample
-from services.features.expressions import HEAD
+from facesynth.schemas.messages import BabbleSample
+from facesynth.services.features.expressions import HEAD
 
 #: A feature moved when it changed by more than this many noise levels …
 NOISE_K = 4.0

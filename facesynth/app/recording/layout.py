@@ -31,8 +31,15 @@ import msgspec
 
 from facesynth.app.recording.views import SchemaSpec, annotations_view, image_view
 from facesynth.runtime import codec, keys
-from schemas.export import message_schema
-from schemas.messages import BabbleSample, Features, Frame, Points, ServiceStats, ServoCommands
+from facesynth.schemas.export import message_schema
+from facesynth.schemas.messages import (
+    BabbleSample,
+    Features,
+    Frame,
+    Points,
+    ServiceStats,
+    ServoCommands,
+)
 
 #: The MCAP profile in the header of every facesynth recording.
 PROFILE: Final = "facesynth"

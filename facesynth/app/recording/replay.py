@@ -36,10 +36,10 @@ from facesynth.app.recording.reader import Recording
 from facesynth.runtime import codec, keys
 from facesynth.runtime.bus.link import LinkFigures
 from facesynth.runtime.service import ServiceContext
-from schemas.messages import ServoCommands
-from services.sensor.core import Pacer
-from services.sensor.credit import CreditGate, ack_stage
-from services.sensor.service import wait_for_services
+from facesynth.schemas.messages import ServoCommands
+from facesynth.services.sensor.core import Pacer
+from facesynth.services.sensor.credit import CreditGate, ack_stage
+from facesynth.services.sensor.service import wait_for_services
 
 
 class ReplayOptionError(ValueError):

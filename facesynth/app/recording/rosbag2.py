@@ -35,7 +35,7 @@ import numpy as np
 from facesynth.app.recording.reader import Recording
 from facesynth.runtime.feature_names import NAMES
 from facesynth.runtime.profiles import Profile, ProfileError, load_profile
-from schemas.messages import Features, Frame, ServoCommands
+from facesynth.schemas.messages import Features, Frame, ServoCommands
 
 JOINTS: Final = "/facesynth/joint_commands"
 IMAGES: Final = "/facesynth/camera/image_raw/compressed"

@@ -16,7 +16,7 @@ from typing import Any
 from foxglove import messages as fg
 
 from facesynth.runtime.landmarks import IBUG68, IRIS10, MESH468, MESH478
-from schemas.messages import Frame, Points
+from facesynth.schemas.messages import Frame, Points
 
 
 @dataclass(frozen=True)

@@ -38,8 +38,8 @@ from facesynth.app.wiring import (
     build_profile,
     build_source,
 )
-from services.sensor.sources.video import VideoConfig
-from services.translator.core import Translator
+from facesynth.services.sensor.sources.video import VideoConfig
+from facesynth.services.translator.core import Translator
 
 __all__ = ["RenderError", "render_graph", "render_run", "video_input"]
 

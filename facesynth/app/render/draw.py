@@ -13,7 +13,7 @@ import cv2
 import numpy as np
 
 from facesynth.runtime.profiles import Profile
-from services.control.drivers.virtual.geometry import FACE_HEIGHT, FACE_WIDTH, Shape
+from facesynth.services.control.drivers.virtual.geometry import FACE_HEIGHT, FACE_WIDTH, Shape
 
 BACKGROUND = (40, 34, 30)  # BGR
 TEXT = (225, 225, 225)

@@ -20,8 +20,8 @@ from facesynth.app.bench.robot import Head, RobotLoop
 from facesynth.app.render.draw import draw_landmarks, draw_title, panel
 from facesynth.runtime.calibration import Calibration
 from facesynth.runtime.profiles import Profile
-from schemas.messages import Features, Points
-from services.features.core import FeatureError, ibug_points
+from facesynth.schemas.messages import Features, Points
+from facesynth.services.features.core import FeatureError, ibug_points
 
 __all__ = ["RobotPanel", "open_simulated_head", "robot_image"]
 

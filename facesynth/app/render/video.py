@@ -39,13 +39,17 @@ from facesynth.app.render.robot import RobotPanel
 from facesynth.runtime.frames import encode_frame
 from facesynth.runtime.outputs import OutputError, check_output
 from facesynth.runtime.profiles import Profile
-from schemas.messages import Points
-from services.control.core import Arrival, ControlCore
-from services.control.drivers.virtual.geometry import FACE_HEIGHT, FACE_WIDTH, face_geometry
-from services.features.core import FeatureError, FeatureProcessor, ibug_points
-from services.points.backends.base import PointsBackend
-from services.sensor.sources.base import FrameSource, pixels
-from services.translator.core import Translator
+from facesynth.schemas.messages import Points
+from facesynth.services.control.core import Arrival, ControlCore
+from facesynth.services.control.drivers.virtual.geometry import (
+    FACE_HEIGHT,
+    FACE_WIDTH,
+    face_geometry,
+)
+from facesynth.services.features.core import FeatureError, FeatureProcessor, ibug_points
+from facesynth.services.points.backends.base import PointsBackend
+from facesynth.services.sensor.sources.base import FrameSource, pixels
+from facesynth.services.translator.core import Translator
 
 #: Containers the renderer writes, with their codec.
 CODECS = {".mp4": "mp4v", ".mov": "mp4v", ".mkv": "mp4v", ".avi": "MJPG"}

@@ -18,7 +18,7 @@ own babbling (``facesynth learn``):
 * ``noise``: what the commands leave unexplained of each input (a self-model's held-out residual
   spread, :mod:`facesynth.app.learn.unexplained`; optional, from file version 2), and
   ``retarget``: how T retargets the performer's face into the robot's reach (optional; a file
-  without it retargets as version 1 files did; :mod:`services.translator.retarget`);
+  without it retargets as version 1 files did; :mod:`facesynth.services.translator.retarget`);
 * ``report``: how the fit went (held-out command error per servo, as a fraction of its range).
 
 Arrays travel as :class:`ArrayData` (little-endian float32/float64 bytes with a shape), never
@@ -147,7 +147,7 @@ class Learned(msgspec.Struct, forbid_unknown_fields=True, kw_only=True):
     forward: Model | None = None
     #: Gauss-Newton steps through the forward model after the inverse model's guess (0: the
     #: inverse model alone; needs a ``poly_ridge`` forward model), and how strongly the plan
-    #: stays near that guess (``services.translator.self_model``).
+    #: stays near that guess (``facesynth.services.translator.self_model``).
     plan_steps: int = 0
     plan_prior: float = 0.02
     #: Each output's responsive range in normalized commands (``outputs``' order; None: the

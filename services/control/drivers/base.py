@@ -9,7 +9,7 @@ from types import TracebackType
 from typing import Any, ClassVar, Self
 
 from facesynth.runtime.rig_view import RigView
-from services.control.core import CommandInfo
+from facesynth.services.control.core import CommandInfo
 
 
 class DriverError(RuntimeError):

@@ -24,10 +24,10 @@ import msgspec
 
 from facesynth.runtime.outputs import OutputError, check_output
 from facesynth.runtime.profiles import Profile
-from services.control.core import CommandInfo
-from services.control.drivers.base import DriverConfigError, DriverError, ServoDriver
-from services.control.drivers.registry import DRIVERS
-from services.control.drivers.servo_map import ProfileLimits
+from facesynth.services.control.core import CommandInfo
+from facesynth.services.control.drivers.base import DriverConfigError, DriverError, ServoDriver
+from facesynth.services.control.drivers.registry import DRIVERS
+from facesynth.services.control.drivers.servo_map import ProfileLimits
 
 log = logging.getLogger("facesynth.control")
 _MARKER = re.compile(rb'^\{\s*"session"\s*:')  # a session marker line, not decoded

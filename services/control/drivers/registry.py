@@ -9,11 +9,11 @@ distributions register through the ``facesynth.drivers`` entry point group.
 from __future__ import annotations
 
 from facesynth.runtime.plugins import Registry
-from services.control.drivers.base import ServoDriver
+from facesynth.services.control.drivers.base import ServoDriver
 
 DRIVERS: Registry[ServoDriver] = Registry(
     "driver",
     tag_field="driver",
-    package="services.control.drivers",
+    package="facesynth.services.control.drivers",
     entry_points="facesynth.drivers",
 )

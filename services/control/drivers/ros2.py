@@ -37,11 +37,11 @@ import msgspec
 
 from facesynth.runtime.profiles import Profile
 from facesynth.runtime.ros2 import Reliability, Ros2Node, import_ros2, qos_profile, set_stamp
-from services.control.core import CommandInfo
-from services.control.drivers._extras import MissingExtra
-from services.control.drivers.base import DriverConfigError, DriverError, ServoDriver
-from services.control.drivers.registry import DRIVERS
-from services.control.drivers.servo_map import ProfileLimits
+from facesynth.services.control.core import CommandInfo
+from facesynth.services.control.drivers._extras import MissingExtra
+from facesynth.services.control.drivers.base import DriverConfigError, DriverError, ServoDriver
+from facesynth.services.control.drivers.registry import DRIVERS
+from facesynth.services.control.drivers.servo_map import ProfileLimits
 
 Output = Literal["joint_state", "trajectory", "array"]
 #: Each output's topic unless ``--ros2-topic`` names another.

@@ -1,7 +1,7 @@
 """What every servo board driver on a serial link shares: the pose it holds, re-sent on reconnect.
 
 A board driver keeps the pose the face should have (in board units, already clamped by its
-:class:`~services.control.drivers.servo_map.ServoMap`). :meth:`send` updates that pose and
+:class:`~facesynth.services.control.drivers.servo_map.ServoMap`). :meth:`send` updates that pose and
 writes it if the board is connected; while the board is away the pose still follows the
 commands (including the control service's return to neutral), and the reconnect handshake
 ends by writing it, so the face resumes where it should be.
@@ -15,10 +15,10 @@ import time
 from collections.abc import Mapping
 from typing import Any
 
-from services.control.core import CommandInfo
-from services.control.drivers.base import DeviceUnavailable, ServoDriver
-from services.control.drivers.serial_link import SerialLink
-from services.control.drivers.servo_map import ServoMap
+from facesynth.services.control.core import CommandInfo
+from facesynth.services.control.drivers.base import DeviceUnavailable, ServoDriver
+from facesynth.services.control.drivers.serial_link import SerialLink
+from facesynth.services.control.drivers.servo_map import ServoMap
 
 
 class SerialServoDriver(ServoDriver):

@@ -28,8 +28,12 @@ from typing import Any
 
 import serial
 
-from services.control.drivers.base import DeviceUnavailable, DriverConfigError, DriverError
-from services.control.drivers.serial_transport import PolledTransport, Transport
+from facesynth.services.control.drivers.base import (
+    DeviceUnavailable,
+    DriverConfigError,
+    DriverError,
+)
+from facesynth.services.control.drivers.serial_transport import PolledTransport, Transport
 
 #: Help of every board driver's ``port`` field.
 PORT_HELP = "serial port: a device path, socket://HOST:PORT or rfc2217://HOST:PORT"

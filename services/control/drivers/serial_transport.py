@@ -1,4 +1,4 @@
-"""pyserial-asyncio transports for the serial link (services.control.drivers.serial_link).
+"""pyserial-asyncio transports for the serial link (facesynth.services.control.drivers.serial_link).
 
 :class:`Transport` is pyserial-asyncio's own, quiet about a port that vanishes (the link logs
 that); :class:`PolledTransport` serves ports without a file descriptor (``rfc2217://``) by

@@ -13,7 +13,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 
 from facesynth.runtime.profiles import Profile
-from services.control.drivers.base import DriverConfigError, DriverError
+from facesynth.services.control.drivers.base import DriverConfigError, DriverError
 
 
 @dataclass(frozen=True)

@@ -43,11 +43,11 @@ import msgspec
 
 from facesynth.runtime.feature_names import BY_NAME
 from facesynth.runtime.profiles import Profile, ServoSpec
-from services.control.core import CommandInfo
-from services.control.drivers._extras import require
-from services.control.drivers.base import DriverError, ServoDriver
-from services.control.drivers.registry import DRIVERS
-from services.control.drivers.servo_map import ProfileLimits
+from facesynth.services.control.core import CommandInfo
+from facesynth.services.control.drivers._extras import require
+from facesynth.services.control.drivers.base import DriverError, ServoDriver
+from facesynth.services.control.drivers.registry import DRIVERS
+from facesynth.services.control.drivers.servo_map import ProfileLimits
 
 log = logging.getLogger("facesynth.control")
 

@@ -1,7 +1,7 @@
 """Points backends, one module each, registered in :data:`~.registry.BACKENDS`: the face
 tracker (default), and replays of OpenFace CSV and facesynth track files."""
 
-from services.points.backends.base import (
+from facesynth.services.points.backends.base import (
     BackendError,
     PointsBackend,
     face_points,

@@ -13,7 +13,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from schemas.messages import Frame, Points, PointSet
+from facesynth.schemas.messages import Frame, Points, PointSet
 
 
 class BackendError(ValueError):

@@ -7,10 +7,10 @@ from typing import Annotated
 import msgspec
 
 from facesynth.runtime.landmarks import IBUG68
-from schemas.messages import Frame, Points
-from services.points.backends.base import Replay, face_points, no_face, point_set
-from services.points.backends.registry import BACKENDS
-from services.points.openface_csv import OpenFaceRow, load_openface_csv
+from facesynth.schemas.messages import Frame, Points
+from facesynth.services.points.backends.base import Replay, face_points, no_face, point_set
+from facesynth.services.points.backends.registry import BACKENDS
+from facesynth.services.points.openface_csv import OpenFaceRow, load_openface_csv
 
 
 class OpenFaceConfig(

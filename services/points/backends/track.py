@@ -13,16 +13,16 @@ import numpy as np
 from facesynth.runtime import blendshapes
 from facesynth.runtime.codec import MAX_COORD
 from facesynth.runtime.landmarks import IBUG68, IRIS10, MESH468, N_IBUG
-from schemas.messages import Frame, Points, PointSet, ScoreSet
-from services.points.backends.base import (
+from facesynth.schemas.messages import Frame, Points, PointSet, ScoreSet
+from facesynth.services.points.backends.base import (
     BackendError,
     Replay,
     face_points,
     no_face,
     point_set,
 )
-from services.points.backends.registry import BACKENDS
-from services.points.track_file import TrackLine
+from facesynth.services.points.backends.registry import BACKENDS
+from facesynth.services.points.track_file import TrackLine
 
 
 class TrackFileConfig(

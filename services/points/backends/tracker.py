@@ -1,7 +1,7 @@
 """The face tracker as a point streamer backend (P's default).
 
 Decodes each frame, runs :class:`services.points.tracker.FaceTracker` with the chosen tracker
-model (``services.points.tracker.landmarkers``) and publishes:
+model (``facesynth.services.points.tracker.landmarkers``) and publishes:
 
 * ``fast`` model: ``ibug68`` (the paper's 68 points, derived from the mesh), ``mesh468``
   (x, y, z) and ``iris10``;
@@ -21,17 +21,17 @@ import msgspec
 from facesynth.runtime.blendshapes import BLENDSHAPES52
 from facesynth.runtime.frames import decode_frame
 from facesynth.runtime.landmarks import IBUG68, IRIS10, MESH468, MESH478
-from schemas.messages import Frame, Points, ScoreSet
-from services.points.backends.base import (
+from facesynth.schemas.messages import Frame, Points, ScoreSet
+from facesynth.services.points.backends.base import (
     BackendError,
     PointsBackend,
     face_points,
     no_face,
     point_set,
 )
-from services.points.backends.registry import BACKENDS
-from services.points.tracker.landmarkers import TRACKER_MODELS, model_config
-from services.points.tracker.runtimes import backend_choices, check_backend_name
+from facesynth.services.points.backends.registry import BACKENDS
+from facesynth.services.points.tracker.landmarkers import TRACKER_MODELS, model_config
+from facesynth.services.points.tracker.runtimes import backend_choices, check_backend_name
 
 
 def _model_help() -> str:
@@ -104,7 +104,9 @@ class TrackerBackend(PointsBackend):
 
     def __init__(self, config: TrackerConfig | None = None) -> None:
         from facesynth.runtime.opencv import import_cv2
-        from services.points.tracker import FaceTracker  # OpenCV and the models: tracker hosts
+        from facesynth.services.points.tracker import (
+            FaceTracker,  # OpenCV and the models: tracker hosts
+        )
 
         config = config or TrackerConfig()
         # OpenCV's own thread pool (crops, colour conversion) gets the tracker's thread count:

@@ -6,7 +6,7 @@ of the mesh, and offline video tracking.
 
 Typical use::
 
-    from services.points.tracker import FaceTracker
+    from facesynth.services.points.tracker import FaceTracker
 
     tracker = FaceTracker()
     result = tracker.process(frame_bgr)

@@ -51,7 +51,7 @@ class Blendshapes:
 
     def __init__(self, model: Model) -> None:
         """Args:
-        model: :data:`~services.points.tracker.model_files.BLENDSHAPES`, batch 1.
+        model: :data:`~facesynth.services.points.tracker.model_files.BLENDSHAPES`, batch 1.
         """
         if model.spec.item_shape != (len(LANDMARK_SUBSET), 2) or model.batch != 1:
             raise ValueError("the blendshape model takes one 146x2 point set")

@@ -2,7 +2,7 @@
 
 Every model file is read once and its SHA-256 checked against the bundled value before a
 runtime is built from it, so a missing, unreadable, truncated or otherwise corrupt file raises
-:class:`~services.points.tracker.errors.ModelError` instead of crashing later.
+:class:`~facesynth.services.points.tracker.errors.ModelError` instead of crashing later.
 """
 
 from __future__ import annotations

@@ -11,7 +11,7 @@ import cv2
 import numpy as np
 
 from facesynth.runtime.atomic import open_atomic
-from services.points.track_file import TrackLine, encode_line
+from facesynth.services.points.track_file import TrackLine, encode_line
 
 from .errors import VideoError
 from .tracker import FaceTracker, TrackResult

@@ -3,6 +3,6 @@
 Every source yields ``(image or None, t_media_ns)``; ``None`` images are ticks (no pixels).
 """
 
-from services.sensor.sources.base import FrameSource, JpegImage, SourceError, SourceInfo
+from facesynth.services.sensor.sources.base import FrameSource, JpegImage, SourceError, SourceInfo
 
 __all__ = ["FrameSource", "JpegImage", "SourceError", "SourceInfo"]

@@ -29,15 +29,15 @@ import msgspec
 import numpy as np
 
 from facesynth.runtime.jpeg import JpegHeaderError
-from services.sensor.sources.base import (
+from facesynth.services.sensor.sources.base import (
     FrameSource,
     Image,
     SourceError,
     SourceInfo,
     opencv,
 )
-from services.sensor.sources.mjpeg import MjpegStream, NotMjpeg, part_image
-from services.sensor.sources.registry import SOURCES
+from facesynth.services.sensor.sources.mjpeg import MjpegStream, NotMjpeg, part_image
+from facesynth.services.sensor.sources.registry import SOURCES
 
 log = logging.getLogger(__name__)
 

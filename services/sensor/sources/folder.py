@@ -9,8 +9,8 @@ from typing import Annotated
 import msgspec
 import numpy as np
 
-from services.sensor.sources.base import FrameSource, SourceError, SourceInfo, opencv
-from services.sensor.sources.registry import SOURCES
+from facesynth.services.sensor.sources.base import FrameSource, SourceError, SourceInfo, opencv
+from facesynth.services.sensor.sources.registry import SOURCES
 
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".webp")
 

@@ -22,8 +22,8 @@ from collections.abc import Iterator
 from typing import Final
 
 from facesynth.runtime.jpeg import JpegHeaderError, jpeg_size
-from services.sensor.sources.base import JpegImage, SourceError
-from services.sensor.sources.multipart import MultipartError, MultipartParser, boundary_of
+from facesynth.services.sensor.sources.base import JpegImage, SourceError
+from facesynth.services.sensor.sources.multipart import MultipartError, MultipartParser, boundary_of
 
 log = logging.getLogger(__name__)
 

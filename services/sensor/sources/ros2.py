@@ -27,9 +27,9 @@ from typing import Annotated, Any, Final, Literal
 import msgspec
 
 from facesynth.runtime.ros2 import Ros2Node, import_ros2, qos_profile, stamp_ns
-from services.sensor.sources.base import FrameSource, Image, SourceError, SourceInfo
-from services.sensor.sources.registry import SOURCES
-from services.sensor.sources.ros2_images import (
+from facesynth.services.sensor.sources.base import FrameSource, Image, SourceError, SourceInfo
+from facesynth.services.sensor.sources.registry import SOURCES
+from facesynth.services.sensor.sources.ros2_images import (
     BadImage,
     compressed_image,
     raw_image,

@@ -1,7 +1,7 @@
 """ROS 2 image messages as frames (pure: fields in, pixels or a JPEG out; no rclpy here).
 
 * ``sensor_msgs/msg/CompressedImage`` holding a JPEG is passed through as it is, as the MJPEG
-  camera's parts are (:class:`~services.sensor.sources.base.JpegImage`); another format is
+  camera's parts are (:class:`~facesynth.services.sensor.sources.base.JpegImage`); another format is
   refused (:class:`UnsupportedImage`).
 * ``sensor_msgs/msg/Image`` in ``rgb8``, ``bgr8`` or ``mono8`` becomes BGR pixels (rows cut
   to ``width`` when ``step`` pads them); another encoding is refused in one line naming those.
@@ -17,8 +17,8 @@ from typing import Final
 import numpy as np
 
 from facesynth.runtime.jpeg import JpegHeaderError
-from services.sensor.sources.base import JpegImage, SourceError
-from services.sensor.sources.mjpeg import part_image
+from facesynth.services.sensor.sources.base import JpegImage, SourceError
+from facesynth.services.sensor.sources.mjpeg import part_image
 
 #: ``sensor_msgs/Image`` encodings taken, and their bytes per pixel.
 ENCODINGS: Final[dict[str, int]] = {"rgb8": 3, "bgr8": 3, "mono8": 1}

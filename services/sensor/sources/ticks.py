@@ -8,8 +8,8 @@ from typing import Annotated
 import msgspec
 import numpy as np
 
-from services.sensor.sources.base import FrameSource, SourceError, SourceInfo
-from services.sensor.sources.registry import SOURCES
+from facesynth.services.sensor.sources.base import FrameSource, SourceError, SourceInfo
+from facesynth.services.sensor.sources.registry import SOURCES
 
 
 class TicksConfig(

@@ -18,7 +18,7 @@ from facesynth.app.nodes import ControlNode
 from facesynth.app.wiring import StageParts, build_node
 from facesynth.runtime.bus.memory import MemoryNetwork
 from facesynth.runtime.profiles import PACKAGE_DIR, load_profile
-from services.control.drivers.record import RecordConfig
+from facesynth.services.control.drivers.record import RecordConfig
 
 
 @pytest.fixture

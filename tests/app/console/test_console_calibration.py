@@ -15,7 +15,7 @@ from facesynth.app.console.calibration import CalibrationRun
 from facesynth.app.console.server import ConsoleServer
 from facesynth.app.data import sample_video
 from facesynth.runtime.calibration import load_calibration
-from services.control.drivers.virtual import wire
+from facesynth.services.control.drivers.virtual import wire
 
 
 async def test_a_calibration_from_a_video_is_shown_and_saved(

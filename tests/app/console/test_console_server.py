@@ -20,7 +20,7 @@ from facesynth.app.console.protocol import MAX_MESSAGE
 from facesynth.app.console.server import TOKEN_HEADER, ConsoleServer
 from facesynth.runtime import codec
 from facesynth.runtime.profiles import load_profile
-from schemas.messages import ServoCommands
+from facesynth.schemas.messages import ServoCommands
 
 FIRST = load_profile("head16_hardware").servos[0]
 

@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 
 from facesynth.app.doctor import boards
 from facesynth.app.simhead.maestro import Maestro
-from services.control.drivers.arduino import protocol as fw
+from facesynth.services.control.drivers.arduino import protocol as fw
 
 
 def version_frame(seq: int = boards.PING_SEQ, protocol: int = 1) -> bytes:

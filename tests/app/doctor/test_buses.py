@@ -15,10 +15,10 @@ from pca9685_model_driver import ModelConfig, model_driver
 from facesynth.app.cli import main
 from facesynth.app.doctor.buses import bus_findings, lists_devices
 from facesynth.app.doctor.report import Finding, Status
-from services.control.drivers.base import FoundDevice
-from services.control.drivers.pca9685 import PCA9685Config, PCA9685Driver
-from services.control.drivers.record import RecordConfig
-from services.control.drivers.registry import DRIVERS
+from facesynth.services.control.drivers.base import FoundDevice
+from facesynth.services.control.drivers.pca9685 import PCA9685Config, PCA9685Driver
+from facesynth.services.control.drivers.record import RecordConfig
+from facesynth.services.control.drivers.registry import DRIVERS
 
 QUIET = ["--listen", "tcp/127.0.0.1:0", "--log-level", "WARNING"]
 

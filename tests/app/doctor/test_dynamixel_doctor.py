@@ -12,7 +12,7 @@ from fake_devices.dynamixel import FakeDynamixelBus
 
 from facesynth.app.cli import main
 from facesynth.app.doctor.buses import bus_findings, lists_devices
-from services.control.drivers.dynamixel import DynamixelConfig
+from facesynth.services.control.drivers.dynamixel import DynamixelConfig
 
 QUIET = ["--listen", "tcp/127.0.0.1:0", "--log-level", "WARNING"]
 PROFILE = """name = "bus3"

@@ -24,7 +24,7 @@ from facesynth.app.doctor.serial_ports import (
     serial_findings,
 )
 from facesynth.app.firmware import bundled_version
-from services.control.drivers.arduino import protocol as proto
+from facesynth.services.control.drivers.arduino import protocol as proto
 
 #: Doctor's own options that keep it to the part under test: its router on a port nobody
 #: uses, and the record file in the test's folder.

@@ -19,7 +19,7 @@ from facesynth.app.recording.layout import Layout
 from facesynth.app.recording.writer import SessionWriter
 from facesynth.runtime import codec
 from facesynth.runtime.profiles import load_profile
-from schemas.messages import BabbleSample
+from facesynth.schemas.messages import BabbleSample
 
 POSES = 240
 

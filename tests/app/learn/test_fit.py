@@ -22,8 +22,8 @@ from facesynth.app.learn.fit import (
 from facesynth.runtime.profiles import load_profile, save_learned_profile
 from facesynth.runtime.profiles.learned import Retarget, shown_inputs, unpack
 from facesynth.runtime.profiles.learned_predict import predictor
-from services.translator.core import Translator
-from services.translator.timing import time_translator
+from facesynth.services.translator.core import Translator
+from facesynth.services.translator.timing import time_translator
 
 
 @pytest.fixture(scope="module")

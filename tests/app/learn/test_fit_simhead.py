@@ -13,9 +13,9 @@ from facesynth.app.simhead import SimHead, load_head
 from facesynth.runtime.feature_names import NAMES
 from facesynth.runtime.frames import encode_frame
 from facesynth.runtime.profiles import Profile, load_profile
-from schemas.messages import Points
-from services.features.core import FeatureProcessor
-from services.points.backends.tracker import TrackerBackend, TrackerConfig
+from facesynth.schemas.messages import Points
+from facesynth.services.features.core import FeatureProcessor
+from facesynth.services.points.backends.tracker import TrackerBackend, TrackerConfig
 
 SETTLE_NS = 1_500_000_000  # the head's slew and lag are over well within this
 FRAME_NS = 33_333_333

@@ -12,7 +12,7 @@ from facesynth.app.learn.fit import FitOptions, fit_learned_profile, format_repo
 from facesynth.app.learn.responsive import clip_commands, responsive_range
 from facesynth.runtime.profiles import describe_learned
 from facesynth.runtime.profiles.learned import command_range
-from services.translator.learned import LearnedTargets
+from facesynth.services.translator.learned import LearnedTargets
 
 #: Servos of the synthetic head that move the face one way only (servo → the side that moves),
 #: and one that stops changing it (both ways) beyond |u| = 0.5. (Sweep rows 25 and 50, servos

@@ -21,9 +21,9 @@ from facesynth.app.wiring import StageParts
 from facesynth.runtime.bus.memory import MemoryNetwork
 from facesynth.runtime.profiles import Profile, load_profile
 from facesynth.runtime.service import ServiceContext
-from schemas.messages import Features, ServoCommands
-from services.control.drivers.record import RecordConfig, RecordDriver
-from services.control.service import ControlService
+from facesynth.schemas.messages import Features, ServoCommands
+from facesynth.services.control.drivers.record import RecordConfig, RecordDriver
+from facesynth.services.control.service import ControlService
 
 RIG = "self"
 

@@ -20,10 +20,10 @@ from facesynth.app.learn.shell import RECORD_KEYS, babble
 from facesynth.app.wiring import StageParts
 from facesynth.runtime.bus.memory import MemoryNetwork
 from facesynth.runtime.profiles import Profile, load_profile
-from services.control.core import CommandInfo
-from services.control.drivers.base import ServoReading
-from services.control.drivers.record import RecordConfig, RecordDriver
-from services.control.service import ControlService
+from facesynth.services.control.core import CommandInfo
+from facesynth.services.control.drivers.base import ServoReading
+from facesynth.services.control.drivers.record import RecordConfig, RecordDriver
+from facesynth.services.control.service import ControlService
 
 SPEED_US_S = 3000.0
 

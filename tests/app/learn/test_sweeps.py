@@ -7,7 +7,7 @@ import numpy as np
 from facesynth.app.learn.plan import Plan, PlanOptions, to_pulses
 from facesynth.app.learn.sweeps import sweep_report
 from facesynth.runtime.profiles import Profile, load_profile
-from schemas.messages import BabbleSample
+from facesynth.schemas.messages import BabbleSample
 
 
 def _face(profile: Profile, u: tuple[float, ...], rng: np.random.Generator) -> dict[str, float]:

@@ -6,7 +6,7 @@ import cv2
 import numpy as np
 
 from facesynth.runtime import codec
-from schemas.messages import (
+from facesynth.schemas.messages import (
     Features,
     Frame,
     Points,

@@ -20,16 +20,16 @@ from facesynth.app.wiring import StageParts
 from facesynth.runtime.bus.zenoh_bus import ZenohBus, ZenohOptions
 from facesynth.runtime.profiles import load_profile
 from facesynth.runtime.service import ServiceContext, run_service
-from services.control.drivers.record import RecordConfig, RecordDriver, read_record
-from services.control.service import ControlService
-from services.features.core import FeatureProcessor
-from services.features.service import serve_features
-from services.points.backends import PointsBackend
-from services.points.service import serve_points
-from services.sensor.service import SensorOptions, SensorService
-from services.sensor.sources import FrameSource
-from services.translator.core import Translator
-from services.translator.service import serve_translator
+from facesynth.services.control.drivers.record import RecordConfig, RecordDriver, read_record
+from facesynth.services.control.service import ControlService
+from facesynth.services.features.core import FeatureProcessor
+from facesynth.services.features.service import serve_features
+from facesynth.services.points.backends import PointsBackend
+from facesynth.services.points.service import serve_points
+from facesynth.services.sensor.service import SensorOptions, SensorService
+from facesynth.services.sensor.sources import FrameSource
+from facesynth.services.translator.core import Translator
+from facesynth.services.translator.service import serve_translator
 
 Body = Callable[[ServiceContext], Awaitable[Any]]
 

@@ -24,7 +24,7 @@ from facesynth.app.recording.layout import (
 )
 from facesynth.app.recording.views import IBUG68_OUTLINES
 from facesynth.runtime import codec
-from schemas.messages import Frame, Points, PointSet
+from facesynth.schemas.messages import Frame, Points, PointSet
 
 
 def decode_view(entry: Entry) -> Any:

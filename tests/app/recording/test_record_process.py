@@ -16,8 +16,8 @@ from facesynth_processes import Processes, free_port, run_facesynth
 from facesynth.app.recording.reader import Recording
 from facesynth.runtime import codec, keys
 from facesynth.runtime.bus.zenoh_bus import ZenohBus, ZenohOptions
-from schemas.messages import ServoCommands
-from services.control.drivers.record import read_record
+from facesynth.schemas.messages import ServoCommands
+from facesynth.services.control.drivers.record import read_record
 
 
 def _command(seq: int) -> bytes:

@@ -17,7 +17,7 @@ from facesynth.app.recording.writer import SessionWriter
 from facesynth.runtime import codec, keys
 from facesynth.runtime.bus.memory import MemoryNetwork
 from facesynth.runtime.service import ServiceContext
-from schemas.messages import Frame
+from facesynth.schemas.messages import Frame
 
 RIG = "default"
 KEY = keys.stage_key(RIG, "input")

@@ -28,7 +28,7 @@ from facesynth.app.recording.writer import SessionWriter
 from facesynth.runtime import codec
 from facesynth.runtime.feature_names import NAMES
 from facesynth.runtime.profiles import load_profile
-from schemas.messages import Features, Frame, ServoCommands
+from facesynth.schemas.messages import Features, Frame, ServoCommands
 
 T0 = 1_790_000_000_000_000_000
 PROFILE = load_profile("paper16")

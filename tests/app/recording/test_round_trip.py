@@ -11,11 +11,11 @@ from facesynth.app.data import sample_video
 from facesynth.app.recording.convert import export_jsonl, landmarks_to_mcap
 from facesynth.app.recording.reader import Recording
 from facesynth.runtime import codec, keys
-from schemas.messages import Frame
-from services.control.drivers.record import read_record
-from services.points.backends.openface import OpenFaceConfig, OpenFaceReplay
-from services.sensor.sources.ticks import TicksConfig, TickSource
-from services.sensor.sources.video import VideoConfig, VideoSource
+from facesynth.schemas.messages import Frame
+from facesynth.services.control.drivers.record import read_record
+from facesynth.services.points.backends.openface import OpenFaceConfig, OpenFaceReplay
+from facesynth.services.sensor.sources.ticks import TicksConfig, TickSource
+from facesynth.services.sensor.sources.video import VideoConfig, VideoSource
 
 OPENFACE = Path(__file__).parents[3] / "facesynth" / "app" / "data" / "OpenFace_Test.csv"
 
@@ -62,7 +62,7 @@ async def test_the_recorded_state_exports_as_the_drivers_lines(tmp_path: Path, r
 
 
 async def test_replaying_tracked_frames_gives_the_live_commands(tmp_path: Path, rig: str) -> None:
-    from services.points.backends.tracker import TrackerBackend
+    from facesynth.services.points.backends.tracker import TrackerBackend
 
     session = tmp_path / "video.mcap"
     live = await live_run(

@@ -7,7 +7,7 @@ import random
 import pytest
 
 from facesynth.app.simhead.maestro import PROTOCOL_ERROR, Maestro, MaestroError
-from services.control.drivers.maestro import protocol
+from facesynth.services.control.drivers.maestro import protocol
 
 MS = 1_000_000
 

@@ -15,9 +15,9 @@ from facesynth.app.simhead import EFFECTS, SimHead, head_names, load_head
 from facesynth.app.simhead.renderer import default_renderer
 from facesynth.runtime.feature_names import BY_NAME
 from facesynth.runtime.frames import encode_frame
-from schemas.messages import Points
-from services.features.core import FeatureProcessor
-from services.points.backends.tracker import TrackerBackend, TrackerConfig
+from facesynth.schemas.messages import Points
+from facesynth.services.features.core import FeatureProcessor
+from facesynth.services.points.backends.tracker import TrackerBackend, TrackerConfig
 
 MIN_SHARE = 0.1
 FRAME_NS = 33_333_333

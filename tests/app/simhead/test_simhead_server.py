@@ -23,8 +23,8 @@ from facesynth.app.simhead.command import parse_address
 from facesynth.app.simhead.maestro import Maestro
 from facesynth.app.simhead.server import SimHeadServer, SimHeadServerError
 from facesynth.runtime.profiles import load_profile
-from services.control.core import CommandInfo
-from services.control.drivers.maestro import MaestroConfig, MaestroDriver
+from facesynth.services.control.core import CommandInfo
+from facesynth.services.control.drivers.maestro import MaestroConfig, MaestroDriver
 
 ROOT = Path(__file__).resolve().parents[3]
 INFO = CommandInfo(frame=1, t_capture_ns=None, face=True)

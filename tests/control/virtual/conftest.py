@@ -13,7 +13,7 @@ import pytest
 from facesynth.runtime.bus.memory import MemoryBus
 from facesynth.runtime.profiles import load_profile
 from facesynth.runtime.rig_view import RigView
-from services.control.drivers.virtual import VirtualConfig, VirtualDriver
+from facesynth.services.control.drivers.virtual import VirtualConfig, VirtualDriver
 
 
 async def start_driver(

@@ -1,11 +1,11 @@
-"""services.control.drivers.virtual.fanout: latest-only mailboxes, one per page (with the
+"""facesynth.services.control.drivers.virtual.fanout: latest-only mailboxes, one per page (with the
 console's replies in order)."""
 
 from __future__ import annotations
 
 import asyncio
 
-from services.control.drivers.virtual.fanout import MAX_REPLIES, Fanout, Mailbox
+from facesynth.services.control.drivers.virtual.fanout import MAX_REPLIES, Fanout, Mailbox
 
 
 async def test_a_mailbox_keeps_the_newest_message_of_each_channel() -> None:

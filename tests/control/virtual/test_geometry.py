@@ -9,7 +9,7 @@ import msgspec
 import pytest
 
 from facesynth.runtime.profiles import load_profile
-from services.control.drivers.virtual.geometry import (
+from facesynth.services.control.drivers.virtual.geometry import (
     FACE_CONTROLS,
     FACE_HEIGHT,
     FACE_WIDTH,

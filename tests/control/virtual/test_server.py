@@ -16,17 +16,17 @@ from facesynth.runtime.bus.memory import MemoryBus
 from facesynth.runtime.frames import encode_frame
 from facesynth.runtime.plugins import PluginError
 from facesynth.runtime.profiles import load_profile
-from schemas.messages import Points, PointSet, ServiceStats
-from services.control.core import CommandInfo
-from services.control.drivers.base import DriverError
-from services.control.drivers.virtual import (
+from facesynth.schemas.messages import Points, PointSet, ServiceStats
+from facesynth.services.control.core import CommandInfo
+from facesynth.services.control.drivers.base import DriverError
+from facesynth.services.control.drivers.virtual import (
     AddressError,
     VirtualConfig,
     VirtualDriver,
     parse_address,
     wire,
 )
-from services.control.drivers.virtual.geometry import face_geometry
+from facesynth.services.control.drivers.virtual.geometry import face_geometry
 from tests.control.virtual.conftest import open_page, start_driver
 
 JAW_OPEN = {"jaw": 1000.0, "lower_lip": 600.0}

@@ -1,4 +1,4 @@
-"""services.control.drivers.virtual.wire: the page's messages, both ways."""
+"""facesynth.services.control.drivers.virtual.wire: the page's messages, both ways."""
 
 from __future__ import annotations
 
@@ -6,9 +6,9 @@ import json
 
 import pytest
 
-from schemas.messages import Frame, Points, PointSet, ServiceStats
-from services.control.drivers.virtual import wire
-from services.control.drivers.virtual.geometry import face_geometry
+from facesynth.schemas.messages import Frame, Points, PointSet, ServiceStats
+from facesynth.services.control.drivers.virtual import wire
+from facesynth.services.control.drivers.virtual.geometry import face_geometry
 
 
 def test_the_page_may_say_hello_and_ping() -> None:

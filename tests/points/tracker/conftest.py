@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 from tracker_fixtures import SAMPLE_EVERY, VIDEO, TrackedByModel, TrackedVideo
 
-from services.points.tracker import FaceTracker, TrackResult
-from services.points.tracker.offline import iter_video_frames
+from facesynth.services.points.tracker import FaceTracker, TrackResult
+from facesynth.services.points.tracker.offline import iter_video_frames
 
 
 @pytest.fixture(scope="session")

@@ -8,7 +8,7 @@ import cv2
 import numpy as np
 import pytest
 
-from services.points.tracker.crops import (
+from facesynth.services.points.tracker.crops import (
     CropRect,
     compose_affine,
     crop_affine,

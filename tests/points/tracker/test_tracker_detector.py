@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 from tracker_fixtures import TrackedVideo
 
-from services.points.tracker import FaceTracker
-from services.points.tracker.detector import (
+from facesynth.services.points.tracker import FaceTracker
+from facesynth.services.points.tracker.detector import (
     NUM_ANCHORS,
     box_iou,
     decode_detections,

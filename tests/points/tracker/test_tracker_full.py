@@ -11,12 +11,12 @@ from tracker_fixtures import VIDEO, TrackedByModel
 
 from facesynth.runtime import blendshapes as names
 from facesynth.runtime.frames import encode_frame
-from services.points.backends.track import TrackFileConfig, TrackReplay
-from services.points.tracker import FaceTracker
-from services.points.tracker.blendshapes import LANDMARK_SUBSET, Blendshapes
-from services.points.tracker.model_files import BLENDSHAPES
-from services.points.tracker.offline import iter_video_frames, track_video
-from services.points.tracker.runtimes import load_model
+from facesynth.services.points.backends.track import TrackFileConfig, TrackReplay
+from facesynth.services.points.tracker import FaceTracker
+from facesynth.services.points.tracker.blendshapes import LANDMARK_SUBSET, Blendshapes
+from facesynth.services.points.tracker.model_files import BLENDSHAPES
+from facesynth.services.points.tracker.offline import iter_video_frames, track_video
+from facesynth.services.points.tracker.runtimes import load_model
 
 FPS = 23.976
 #: The sample video's face sections (seconds), as in tests/integration/test_face_sections.py.
@@ -65,7 +65,7 @@ def test_blendshapes_can_be_switched_off(tracked_by_model: TrackedByModel) -> No
     tracker = FaceTracker(backend="litert", model="full", iris=False)  # iris: fast only
     r = tracker.process(tracked_by_model["full"].samples[0])
     assert r.face and r.iris is not None and r.blendshapes is not None
-    from services.points.tracker.landmarkers import model_config
+    from facesynth.services.points.tracker.landmarkers import model_config
 
     tracker = FaceTracker(backend="litert", model=model_config("full", blendshapes=False))
     r = tracker.process(tracked_by_model["full"].samples[0])

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from tracker_fixtures import OPENFACE_CSV, TrackedVideo
 
-from services.points.tracker.ibug68 import (
+from facesynth.services.points.tracker.ibug68 import (
     MAPPING_FILE,
     load_mapping,
     mapping_matrix,

@@ -20,13 +20,13 @@ from tracker_fixtures import VIDEO, VIDEO_FRAMES, TrackedByModel
 from facesynth.runtime import codec
 from facesynth.runtime.frames import encode_frame
 from facesynth.runtime.plugins import PluginError
-from schemas.messages import Points
-from services.points.backends.tracker import TrackerBackend, TrackerConfig
-from services.points.tracker import FaceTracker, ModelError, mesh_to_ibug68
-from services.points.tracker.landmarkers import TRACKER_MODELS, model_config, model_names
-from services.points.tracker.model_files import DETECTOR, MODELS_DIR, ModelSpec
-from services.points.tracker.offline import iter_video_frames
-from services.points.tracker.runtimes import load_model
+from facesynth.schemas.messages import Points
+from facesynth.services.points.backends.tracker import TrackerBackend, TrackerConfig
+from facesynth.services.points.tracker import FaceTracker, ModelError, mesh_to_ibug68
+from facesynth.services.points.tracker.landmarkers import TRACKER_MODELS, model_config, model_names
+from facesynth.services.points.tracker.model_files import DETECTOR, MODELS_DIR, ModelSpec
+from facesynth.services.points.tracker.offline import iter_video_frames
+from facesynth.services.points.tracker.runtimes import load_model
 
 MODELS = model_names()
 

@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 from tracker_fixtures import VIDEO, TrackedVideo
 
-from services.points.tracker import FaceTracker, ModelError
-from services.points.tracker.mesh import rect_from_mesh
-from services.points.tracker.model_files import (
+from facesynth.services.points.tracker import FaceTracker, ModelError
+from facesynth.services.points.tracker.mesh import rect_from_mesh
+from facesynth.services.points.tracker.model_files import (
     DETECTOR,
     IRIS,
     MESH,
@@ -21,9 +21,13 @@ from services.points.tracker.model_files import (
     ModelSpec,
     read_model_bytes,
 )
-from services.points.tracker.model_input import frame_to_rgba
-from services.points.tracker.offline import iter_video_frames
-from services.points.tracker.runtimes import available_backends, load_model, resolve_backend
+from facesynth.services.points.tracker.model_input import frame_to_rgba
+from facesynth.services.points.tracker.offline import iter_video_frames
+from facesynth.services.points.tracker.runtimes import (
+    available_backends,
+    load_model,
+    resolve_backend,
+)
 
 SPECS = [DETECTOR, MESH, IRIS]
 

@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 from tracker_fixtures import VIDEO, VIDEO_FRAMES, TrackedVideo
 
-from schemas.messages import Frame
-from services.points.backends.track import TrackFileConfig, TrackReplay
-from services.points.track_file import TrackLine, encode_line
-from services.points.tracker import FaceTracker, VideoError, track_video
-from services.points.tracker.offline import iter_video_frames, result_to_line
+from facesynth.schemas.messages import Frame
+from facesynth.services.points.backends.track import TrackFileConfig, TrackReplay
+from facesynth.services.points.track_file import TrackLine, encode_line
+from facesynth.services.points.tracker import FaceTracker, VideoError, track_video
+from facesynth.services.points.tracker.offline import iter_video_frames, result_to_line
 
 
 def test_track_video_writes_one_line_per_frame(

@@ -13,17 +13,17 @@ from tracker_fixtures import REPO, VIDEO
 
 from facesynth.app.cli import build_parser, main
 from facesynth.runtime.plugins import PluginError
-from services.points.backends.tracker import TrackerConfig
-from services.points.tracker.model_files import MESH
-from services.points.tracker.runtimes import (
+from facesynth.services.points.backends.tracker import TrackerConfig
+from facesynth.services.points.tracker.model_files import MESH
+from facesynth.services.points.tracker.runtimes import (
     RUNTIMES,
     backend_choices,
     load_model,
     resolve_backend,
     runtime_class,
 )
-from services.points.tracker.runtimes.litert import LiteRTModel
-from services.points.tracker.runtimes.opencv import OpenCVModel
+from facesynth.services.points.tracker.runtimes.litert import LiteRTModel
+from facesynth.services.points.tracker.runtimes.opencv import OpenCVModel
 
 
 def test_the_runtimes_are_found_in_their_package() -> None:
@@ -92,7 +92,7 @@ def test_runtimes_are_listed_on_hosts_without_opencv_or_litert() -> None:
         sys.modules["cv2"] = None  # "not installed": importing them raises ImportError
         sys.modules["ai_edge_litert"] = None
         from facesynth.app.cli import build_parser
-        from services.points.tracker.runtimes import backend_choices, resolve_backend
+        from facesynth.services.points.tracker.runtimes import backend_choices, resolve_backend
         build_parser()
         print(backend_choices())
         for name in ("auto", "litert"):
@@ -117,8 +117,8 @@ def test_a_runtime_from_another_distribution_is_usable_from_the_cli(tmp_path: Pa
             """
             import msgspec
 
-            from services.points.tracker.runtimes.base import RUNTIMES
-            from services.points.tracker.runtimes.opencv import OpenCVModel
+            from facesynth.services.points.tracker.runtimes.base import RUNTIMES
+            from facesynth.services.points.tracker.runtimes.opencv import OpenCVModel
 
 
             class CopyRuntime(msgspec.Struct, tag="opencv-copy", tag_field="runtime"):
@@ -140,8 +140,8 @@ def test_a_runtime_from_another_distribution_is_usable_from_the_cli(tmp_path: Pa
     out = _run(
         f"""
         from facesynth.app.cli import build_parser
-        from services.points.tracker import FaceTracker
-        from services.points.tracker.offline import iter_video_frames
+        from facesynth.services.points.tracker import FaceTracker
+        from facesynth.services.points.tracker.offline import iter_video_frames
 
         args = build_parser().parse_args(["track", "v.mp4", "--out", "o", "--inference",
                                           "opencv-copy"])

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from tracker_fixtures import VIDEO_FRAMES, TrackedVideo
 
-from services.points.tracker import FaceTracker, TrackResult
+from facesynth.services.points.tracker import FaceTracker, TrackResult
 
 TIMING_KEYS = {"detect", "mesh", "iris", "blendshapes", "total"}
 
@@ -244,8 +244,8 @@ def test_eye_crops_are_oriented_as_the_iris_model_expects(
 ) -> None:
     """The iris model's own 16-point eye contour matches the mesh's eye vertices point by
     point (~0.02-0.03 inter-ocular); with the wrong eye mirrored it is off by ~0.16."""
-    from services.points.tracker.iris import EYE_CONTOUR_VERTICES
-    from services.points.tracker.model_input import frame_to_rgba
+    from facesynth.services.points.tracker.iris import EYE_CONTOUR_VERTICES
+    from facesynth.services.points.tracker.model_input import frame_to_rgba
 
     iris = getattr(litert_tracker.model, "iris", None)
     assert iris is not None

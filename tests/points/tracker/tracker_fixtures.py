@@ -7,8 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
-from services.points.tracker import FaceTracker, TrackResult
-from services.points.tracker.offline import iter_video_frames
+from facesynth.services.points.tracker import FaceTracker, TrackResult
+from facesynth.services.points.tracker.offline import iter_video_frames
 
 REPO = Path(__file__).resolve().parents[3]
 VIDEO = REPO / "facesynth" / "app" / "data" / "WolfgangLanger_Pexels.mp4"

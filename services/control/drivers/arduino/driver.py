@@ -22,12 +22,12 @@ from typing import Annotated, Any
 import msgspec
 
 from facesynth.runtime.profiles import Profile
-from services.control.drivers.arduino import protocol as proto
-from services.control.drivers.base import DriverConfigError, DriverError
-from services.control.drivers.registry import DRIVERS
-from services.control.drivers.serial_driver import AnswerClock, SerialServoDriver
-from services.control.drivers.serial_link import PORT_HELP
-from services.control.drivers.servo_map import ServoMap
+from facesynth.services.control.drivers.arduino import protocol as proto
+from facesynth.services.control.drivers.base import DriverConfigError, DriverError
+from facesynth.services.control.drivers.registry import DRIVERS
+from facesynth.services.control.drivers.serial_driver import AnswerClock, SerialServoDriver
+from facesynth.services.control.drivers.serial_link import PORT_HELP
+from facesynth.services.control.drivers.servo_map import ServoMap
 
 log = logging.getLogger("facesynth.control.arduino")
 

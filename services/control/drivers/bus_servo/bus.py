@@ -16,9 +16,9 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from services.control.drivers.bus_servo.native import Model, NativeServo
-from services.control.drivers.bus_servo.sdk_port import port_class
-from services.control.drivers.bus_servo.wire import Status as WireStatus
+from facesynth.services.control.drivers.bus_servo.native import Model, NativeServo
+from facesynth.services.control.drivers.bus_servo.sdk_port import port_class
+from facesynth.services.control.drivers.bus_servo.wire import Status as WireStatus
 
 #: Default read-back rates (C's CPU per frame within the Maestro's, ``bench drivers --emulated``).
 SYNC_READ_HZ, READ_EACH_HZ = 15.0, 5.0

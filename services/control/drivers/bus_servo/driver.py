@@ -1,7 +1,7 @@
 """The async side of a smart servo bus driver: the pose it holds, handed to the bus thread.
 
 :meth:`send` checks and clamps the positions (µs by name) and hands the pose to the
-:class:`~services.control.drivers.bus_servo.worker.BusWorker`, which writes it as one Sync
+:class:`~facesynth.services.control.drivers.bus_servo.worker.BusWorker`, which writes it as one Sync
 Write; nothing here waits on the bus. :meth:`readings` returns the latest read-back.
 At :meth:`close` the pending pose (the control service's neutral) is written first, then the
 torque stays on (``at_exit = "hold"``, the default: the face keeps its neutral) or is turned
@@ -18,17 +18,17 @@ from collections.abc import Mapping
 from typing import Any, Literal
 
 from facesynth.runtime.profiles import Profile
-from services.control.core import CommandInfo
-from services.control.drivers.base import (
+from facesynth.services.control.core import CommandInfo
+from facesynth.services.control.drivers.base import (
     DeviceUnavailable,
     FoundDevice,
     ServoDriver,
     ServoReading,
 )
-from services.control.drivers.bus_servo.budget import read_chunk, wire_s
-from services.control.drivers.bus_servo.bus import ServoBus
-from services.control.drivers.bus_servo.native import NativePose
-from services.control.drivers.bus_servo.worker import BusWorker
+from facesynth.services.control.drivers.bus_servo.budget import read_chunk, wire_s
+from facesynth.services.control.drivers.bus_servo.bus import ServoBus
+from facesynth.services.control.drivers.bus_servo.native import NativePose
+from facesynth.services.control.drivers.bus_servo.worker import BusWorker
 
 AtExit = Literal["hold", "relax"]
 AT_EXIT_HELP = (

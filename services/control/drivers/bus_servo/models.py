@@ -6,9 +6,9 @@ from __future__ import annotations
 from collections.abc import Mapping
 
 from facesynth.runtime.profiles import Profile
-from services.control.drivers.base import DriverConfigError
-from services.control.drivers.bus_servo.bus import Ping, ServoBus
-from services.control.drivers.bus_servo.native import Model, NativePose
+from facesynth.services.control.drivers.base import DriverConfigError
+from facesynth.services.control.drivers.bus_servo.bus import Ping, ServoBus
+from facesynth.services.control.drivers.bus_servo.native import Model, NativePose
 
 
 def check_profile_models(

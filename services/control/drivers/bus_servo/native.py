@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 from facesynth.runtime.profiles import Profile
 from facesynth.runtime.profiles.model import ServoSpec
-from services.control.drivers.base import DriverConfigError, DriverError
+from facesynth.services.control.drivers.base import DriverConfigError, DriverError
 
 
 @dataclass(frozen=True)

@@ -6,7 +6,7 @@ from typing import Annotated
 
 import msgspec
 
-from services.control.drivers.bus_servo.driver import (
+from facesynth.services.control.drivers.bus_servo.driver import (
     AT_EXIT_HELP,
     LATENCY_HELP,
     READ_BUDGET_HELP,

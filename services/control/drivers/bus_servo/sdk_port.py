@@ -25,7 +25,7 @@ from typing import Any
 import serial
 import serial.serialposix
 
-from services.control.drivers.base import DriverConfigError
+from facesynth.services.control.drivers.base import DriverConfigError
 
 
 def port_class(base: type[Any]) -> type[Any]:

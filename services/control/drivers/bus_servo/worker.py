@@ -28,12 +28,16 @@ from typing import Any
 
 import serial
 
-from services.control.drivers.base import DeviceUnavailable, DriverConfigError, DriverError
-from services.control.drivers.bus_servo.budget import read_chunk
-from services.control.drivers.bus_servo.bus import Ping, ServoBus, Status
-from services.control.drivers.bus_servo.models import check_answers
-from services.control.drivers.bus_servo.native import Model, NativePose
-from services.control.drivers.serial_link import Backoff, LinkState, _reason
+from facesynth.services.control.drivers.base import (
+    DeviceUnavailable,
+    DriverConfigError,
+    DriverError,
+)
+from facesynth.services.control.drivers.bus_servo.budget import read_chunk
+from facesynth.services.control.drivers.bus_servo.bus import Ping, ServoBus, Status
+from facesynth.services.control.drivers.bus_servo.models import check_answers
+from facesynth.services.control.drivers.bus_servo.native import Model, NativePose
+from facesynth.services.control.drivers.serial_link import Backoff, LinkState, _reason
 
 #: Errors after which the thread reopens the port (termios: a pty or adapter gone mid-call).
 TRANSIENT = (OSError, serial.SerialException, TimeoutError, DriverError, termios.error)

@@ -2,6 +2,6 @@
 and control tables (:mod:`.models`), the ``dynamixel`` driver (:mod:`.driver`, registered on
 import)."""
 
-from services.control.drivers.dynamixel.driver import DynamixelConfig, DynamixelDriver
+from facesynth.services.control.drivers.dynamixel.driver import DynamixelConfig, DynamixelDriver
 
 __all__ = ["DynamixelConfig", "DynamixelDriver"]

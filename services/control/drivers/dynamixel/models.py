@@ -17,8 +17,8 @@ from __future__ import annotations
 
 import struct
 
-from services.control.drivers.bus_servo.bus import Status
-from services.control.drivers.bus_servo.native import Model
+from facesynth.services.control.drivers.bus_servo.bus import Status
+from facesynth.services.control.drivers.bus_servo.native import Model
 
 
 def _x(name: str, number: int) -> Model:

@@ -2,6 +2,6 @@
 (:mod:`.bus`), the models and memory tables (:mod:`.models`), the ``feetech`` driver
 (:mod:`.driver`, registered on import)."""
 
-from services.control.drivers.feetech.driver import FeetechConfig, FeetechDriver
+from facesynth.services.control.drivers.feetech.driver import FeetechConfig, FeetechDriver
 
 __all__ = ["FeetechConfig", "FeetechDriver"]

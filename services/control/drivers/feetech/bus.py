@@ -15,16 +15,16 @@ import math
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from services.control.drivers.bus_servo import wire
-from services.control.drivers.bus_servo.bus import (
+from facesynth.services.control.drivers.bus_servo import wire
+from facesynth.services.control.drivers.bus_servo.bus import (
     READ_EACH_HZ,
     SYNC_READ_HZ,
     Ping,
     ServoBus,
     Status,
 )
-from services.control.drivers.bus_servo.native import Model, NativeServo
-from services.control.drivers.feetech import models as m
+from facesynth.services.control.drivers.bus_servo.native import Model, NativeServo
+from facesynth.services.control.drivers.feetech import models as m
 
 
 class FeetechBus(ServoBus):

@@ -17,15 +17,20 @@ from typing import Annotated
 import msgspec
 
 from facesynth.runtime.profiles import Profile
-from services.control.drivers._extras import require
-from services.control.drivers.bus_servo.bus import ServoBus
-from services.control.drivers.bus_servo.driver import BusServoDriver
-from services.control.drivers.bus_servo.models import check_profile_models
-from services.control.drivers.bus_servo.options import AtExitField, Latency, ReadBudget, ReadRate
-from services.control.drivers.feetech.bus import FeetechBus
-from services.control.drivers.feetech.models import BY_NAME
-from services.control.drivers.registry import DRIVERS
-from services.control.drivers.serial_link import PORT_HELP, check_port
+from facesynth.services.control.drivers._extras import require
+from facesynth.services.control.drivers.bus_servo.bus import ServoBus
+from facesynth.services.control.drivers.bus_servo.driver import BusServoDriver
+from facesynth.services.control.drivers.bus_servo.models import check_profile_models
+from facesynth.services.control.drivers.bus_servo.options import (
+    AtExitField,
+    Latency,
+    ReadBudget,
+    ReadRate,
+)
+from facesynth.services.control.drivers.feetech.bus import FeetechBus
+from facesynth.services.control.drivers.feetech.models import BY_NAME
+from facesynth.services.control.drivers.registry import DRIVERS
+from facesynth.services.control.drivers.serial_link import PORT_HELP, check_port
 
 log = logging.getLogger("facesynth.control.feetech")
 

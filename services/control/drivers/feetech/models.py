@@ -13,8 +13,8 @@ from __future__ import annotations
 
 import struct
 
-from services.control.drivers.bus_servo.bus import Status
-from services.control.drivers.bus_servo.native import Model
+from facesynth.services.control.drivers.bus_servo.bus import Status
+from facesynth.services.control.drivers.bus_servo.native import Model
 
 STS, SCS = 0, 1  # the SDK's protocol_end: byte order of the series
 

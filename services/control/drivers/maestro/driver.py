@@ -24,12 +24,12 @@ from typing import Annotated, Any, Literal
 import msgspec
 
 from facesynth.runtime.profiles import Profile
-from services.control.drivers.maestro import protocol as mp
-from services.control.drivers.registry import DRIVERS
-from services.control.drivers.replies import ReplyQueue
-from services.control.drivers.serial_driver import AnswerClock, SerialServoDriver
-from services.control.drivers.serial_link import PORT_HELP
-from services.control.drivers.servo_map import ServoMap
+from facesynth.services.control.drivers.maestro import protocol as mp
+from facesynth.services.control.drivers.registry import DRIVERS
+from facesynth.services.control.drivers.replies import ReplyQueue
+from facesynth.services.control.drivers.serial_driver import AnswerClock, SerialServoDriver
+from facesynth.services.control.drivers.serial_link import PORT_HELP
+from facesynth.services.control.drivers.servo_map import ServoMap
 
 log = logging.getLogger("facesynth.control.maestro")
 

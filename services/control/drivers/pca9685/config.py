@@ -7,7 +7,7 @@ from typing import Annotated, Any, Protocol
 
 import msgspec
 
-from services.control.drivers.base import DriverConfigError
+from facesynth.services.control.drivers.base import DriverConfigError
 
 
 class I2CBus(Protocol):

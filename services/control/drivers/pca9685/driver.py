@@ -34,19 +34,24 @@ from concurrent.futures import Future, ThreadPoolExecutor
 from typing import Any
 
 from facesynth.runtime.profiles import Profile
-from services.control.core import CommandInfo
-from services.control.drivers._extras import require
-from services.control.drivers.base import (
+from facesynth.services.control.core import CommandInfo
+from facesynth.services.control.drivers._extras import require
+from facesynth.services.control.drivers.base import (
     DeviceUnavailable,
     DriverError,
     FoundDevice,
     ServoDriver,
 )
-from services.control.drivers.pca9685 import registers as reg
-from services.control.drivers.pca9685.config import BusOpener, I2CBus, PCA9685Config, bus_path
-from services.control.drivers.registry import DRIVERS
-from services.control.drivers.serial_link import Backoff, LinkState
-from services.control.drivers.servo_map import ServoMap
+from facesynth.services.control.drivers.pca9685 import registers as reg
+from facesynth.services.control.drivers.pca9685.config import (
+    BusOpener,
+    I2CBus,
+    PCA9685Config,
+    bus_path,
+)
+from facesynth.services.control.drivers.registry import DRIVERS
+from facesynth.services.control.drivers.serial_link import Backoff, LinkState
+from facesynth.services.control.drivers.servo_map import ServoMap
 
 log = logging.getLogger("facesynth.control.pca9685")
 

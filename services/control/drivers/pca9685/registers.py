@@ -12,7 +12,7 @@ from __future__ import annotations
 import struct
 from collections.abc import Mapping
 
-from services.control.drivers.base import DriverConfigError
+from facesynth.services.control.drivers.base import DriverConfigError
 
 MODE1 = 0x00
 MODE2 = 0x01

@@ -17,12 +17,12 @@ from typing import Annotated, Any
 import msgspec
 
 from facesynth.runtime.profiles import Profile
-from services.control.drivers.registry import DRIVERS
-from services.control.drivers.replies import ReplyQueue
-from services.control.drivers.serial_driver import AnswerClock, SerialServoDriver
-from services.control.drivers.serial_link import PORT_HELP
-from services.control.drivers.servo_map import ServoMap
-from services.control.drivers.ssc32 import protocol as sp
+from facesynth.services.control.drivers.registry import DRIVERS
+from facesynth.services.control.drivers.replies import ReplyQueue
+from facesynth.services.control.drivers.serial_driver import AnswerClock, SerialServoDriver
+from facesynth.services.control.drivers.serial_link import PORT_HELP
+from facesynth.services.control.drivers.servo_map import ServoMap
+from facesynth.services.control.drivers.ssc32 import protocol as sp
 
 log = logging.getLogger("facesynth.control.ssc32")
 

@@ -20,16 +20,16 @@ import msgspec
 
 from facesynth.runtime.profiles import Profile, load_profile
 from facesynth.runtime.rig_view import RigView
-from services.control.core import CommandInfo
-from services.control.drivers._extras import require
-from services.control.drivers.base import DriverConfigError, DriverError, ServoDriver
-from services.control.drivers.registry import DRIVERS
-from services.control.drivers.servo_map import ProfileLimits
-from services.control.drivers.virtual import wire
-from services.control.drivers.virtual.geometry import draws_face, face_geometry
+from facesynth.services.control.core import CommandInfo
+from facesynth.services.control.drivers._extras import require
+from facesynth.services.control.drivers.base import DriverConfigError, DriverError, ServoDriver
+from facesynth.services.control.drivers.registry import DRIVERS
+from facesynth.services.control.drivers.servo_map import ProfileLimits
+from facesynth.services.control.drivers.virtual import wire
+from facesynth.services.control.drivers.virtual.geometry import draws_face, face_geometry
 
 if TYPE_CHECKING:
-    from services.control.drivers.virtual.server import PageServer
+    from facesynth.services.control.drivers.virtual.server import PageServer
 
 DEFAULT_HTTP = "127.0.0.1:8080"
 
@@ -111,7 +111,7 @@ class VirtualDriver(ServoDriver):
         self._rig = rig
 
     async def connect(self) -> None:
-        from services.control.drivers.virtual.server import PageServer
+        from facesynth.services.control.drivers.virtual.server import PageServer
 
         server = PageServer(
             self.host,

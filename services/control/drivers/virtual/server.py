@@ -22,9 +22,9 @@ from facesynth.runtime import codec, keys
 from facesynth.runtime.bus.base import Subscription
 from facesynth.runtime.rig_view import RigView
 from facesynth.runtime.web_app import add_page_files, close_sockets, serve_app, static_files
-from schemas.messages import Frame, Points, ServiceStats
-from services.control.drivers.virtual import wire
-from services.control.drivers.virtual.fanout import Fanout, Mailbox
+from facesynth.schemas.messages import Frame, Points, ServiceStats
+from facesynth.services.control.drivers.virtual import wire
+from facesynth.services.control.drivers.virtual.fanout import Fanout, Mailbox
 
 log = logging.getLogger("facesynth.control.virtual")
 
@@ -72,7 +72,7 @@ class PageServer:
         self._tasks: list[asyncio.Task[None]] = []
         self._following: dict[str, Subscription] = {}
         self._runner: web.AppRunner | None = None
-        self._files = static_files("services.control.drivers.virtual", STATIC)
+        self._files = static_files("facesynth.services.control.drivers.virtual", STATIC)
 
     @property
     def url(self) -> str:

@@ -28,8 +28,8 @@ from typing import Literal
 import msgspec
 
 from facesynth.runtime.landmarks import IBUG68, N_IBUG
-from schemas.messages import Frame, Points, ServiceStats
-from services.control.drivers.virtual.geometry import Shape
+from facesynth.schemas.messages import Frame, Points, ServiceStats
+from facesynth.services.control.drivers.virtual.geometry import Shape
 
 #: The largest message a page may send (bytes); larger ones close the connection (1009).
 MAX_CLIENT_MESSAGE = 1024
