@@ -117,6 +117,7 @@ lint: $(BIN)/.installed
 	$(BIN)/mypy
 	$(BIN)/lint-imports --no-cache
 	$(BIN)/python -m facesynth.schemas.export --check
+	$(BIN)/python -m facesynth.app.graph_schema --check
 
 ## The servo firmware: host unit tests, Uno build with size report, simavr harness, tests/firmware.
 firmware-test: $(BIN)/.installed

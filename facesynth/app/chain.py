@@ -20,7 +20,9 @@ from typing import Any
 import msgspec
 
 from facesynth.app.graph import Graph
-from facesynth.app.nodes import stage_of
+from facesynth.app.profile_choice import settle
+from facesynth.app.stages.registry import STAGES
+from facesynth.app.stages.setup import Setup
 from facesynth.app.wiring import OptionError, StageParts, build_node, check_blendshapes
 from facesynth.runtime import codec, keys, limits
 from facesynth.runtime.bus.base import Bus
@@ -149,30 +151,50 @@ class ChainResult:
     interrupted: bool
 
 
-def build_chain(graph: Graph, configs: dict[str, msgspec.Struct | None]) -> list[StageParts]:
+def build_chain(
+    graph: Graph, configs: dict[str, msgspec.Struct | None], setup: Setup | None = None
+) -> list[StageParts]:
     """Every node of ``graph``, built, for one process: exactly one sensor, the rest any number.
 
-    ``configs`` holds each node's validated plugin config. A replayed point stream sets the
-    number of frames when the sensor names no video; the tracker needs frames with pixels.
+    ``configs`` holds each node's validated plugin config; ``setup`` the chain's settled setup
+    (:func:`facesynth.app.profile_choice.settle`; else settled here without filling in
+    profiles), shared by every node, so each profile file is read once. A replayed point
+    stream sets the number of frames when the sensor names no video; the tracker needs frames
+    with pixels.
     """
-    sensors = graph.of_stage("sensor")
+    sensors = graph.sources()
     if len(sensors) != 1:
         raise OptionError(
             f"a graph run in one process needs one sensor node (found {len(sensors) or 'none'})"
         )
+    setup = setup or _unsettled(graph, configs)
     parts = [
-        build_node(name, node, graph, configs.get(name))
+        build_node(name, node, graph, configs.get(name), setup=setup)
         for name, node in graph.nodes.items()
-        if stage_of(node) != "sensor"
+        if name not in sensors
     ]
     backends = [p.service for p in parts if isinstance(p.service, PointsBackend)]
     replay_frames = next((b.frame_count() for b in backends if b.frame_count() is not None), None)
     name, node = next(iter(sensors.items()))
-    sensor = build_node(name, node, graph, configs.get(name), replay_frames=replay_frames)
+    sensor = build_node(
+        name, node, graph, configs.get(name), replay_frames=replay_frames, setup=setup
+    )
     if any(b.needs_pixels() for b in backends) and sensor.service.source.info.name == "ticks":
         raise OptionError("the tracker needs images: give --video, --camera or --images")
     check_blendshapes(parts)
     return [sensor, *parts]
+
+
+def _appliers() -> tuple[str, ...]:
+    """The stages whose nodes apply commands (they write ``…/servo_state``): a chain has
+    drained when they report its last frame, and what they publish are its commands."""
+    return STAGES.producing("servo_state")
+
+
+def _unsettled(graph: Graph, configs: dict[str, msgspec.Struct | None]) -> Setup:
+    """The setup of a graph whose caller settled none: its profiles as its nodes name them."""
+    given = {name: config for name, config in configs.items() if config is not None}
+    return settle(graph, given, check=False, fill=False, plugins=False)
 
 
 async def run_chain(
@@ -216,7 +238,7 @@ async def run_chain(
         result = await until_signalled(sensor_task)
         if result is None:
             interrupted = True
-        elif any(part.stage == "control" for part in others):
+        elif any(part.stage in _appliers() for part in others):
             await progress.wait_for(sensor.last_seq, drain_timeout)
     except asyncio.CancelledError:
         interrupted = True
@@ -228,7 +250,7 @@ async def run_chain(
     for outcome in outcomes:
         if isinstance(outcome, BaseException) and not isinstance(outcome, asyncio.CancelledError):
             raise outcome
-    controls = [contexts[p.name] for p in others if p.stage == "control"]
+    controls = [contexts[p.name] for p in others if p.stage in _appliers()]
     return ChainResult(
         frames=sensor.last_seq + 1,
         commands=sum(ctx.stats.published for ctx in controls),
@@ -251,12 +273,18 @@ def node_context(bus: Bus, rig: str, part: StageParts, stats_interval: float) ->
     )
 
 
-def build_nodes(graph: Graph, configs: dict[str, msgspec.Struct | None]) -> list[StageParts]:
+def build_nodes(
+    graph: Graph, configs: dict[str, msgspec.Struct | None], setup: Setup | None = None
+) -> list[StageParts]:
     """Every node of a graph without a sensor, built, for one process (for instance a robot
     host's translators and control interfaces, fed by a performer's chain elsewhere)."""
-    if graph.of_stage("sensor"):
+    if graph.sources():
         raise OptionError("build_nodes is for graphs without a sensor (see build_chain)")
-    parts = [build_node(name, node, graph, configs.get(name)) for name, node in graph.nodes.items()]
+    setup = setup or _unsettled(graph, configs)
+    parts = [
+        build_node(name, node, graph, configs.get(name), setup=setup)
+        for name, node in graph.nodes.items()
+    ]
     check_blendshapes(parts)
     return parts
 
@@ -282,7 +310,7 @@ async def serve_nodes(
     for result in results:
         if isinstance(result, BaseException) and not isinstance(result, asyncio.CancelledError):
             raise result
-    controls = [contexts[p.name] for p in parts if p.stage == "control"]
+    controls = [contexts[p.name] for p in parts if p.stage in _appliers()]
     return ChainResult(
         frames=0,
         commands=sum(ctx.stats.published for ctx in controls),
@@ -301,15 +329,18 @@ class AppliedFrameWatch:
     def __init__(self, bus: Bus, key: str) -> None:
         self.last_seq = -1
         self._subscription = bus.subscribe_latest(key)
+        # Checked on arrival; a controller of this process hands its reports over undecoded.
+        self._subscription.guard(
+            limits.stage_limit("servo_state"),
+            lambda payload: codec.decode(payload, ServoCommands),
+            take=lambda message: codec.check(message, ServoCommands),
+        )
         self._task = asyncio.create_task(self._follow(), name="servo-state-watch")
         self._progress = asyncio.Event()
 
     async def _follow(self) -> None:
         async for sample in self._subscription:
-            try:
-                state = codec.decode(sample.payload, ServoCommands)
-            except ValueError:
-                continue
+            state: ServoCommands = sample.message
             if state.move != "command":  # the controller's own move: no frame applied
                 continue
             seq = state.seq

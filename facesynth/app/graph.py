@@ -30,24 +30,22 @@ from typing import Any
 
 import msgspec
 
-from facesynth.app.nodes import NODE_TYPES, PLUGIN_FIELDS, Node, stage_of
+from facesynth.app.nodes import PLUGIN_FIELDS, Node, stage_of
+from facesynth.app.stages.registry import STAGES
 from facesynth.app.toml_text import toml_value
 from facesynth.runtime import keys
 from facesynth.runtime.oneline import one_line
 from facesynth.runtime.plugins import PluginError, Registry
-from facesynth.services.control.drivers.registry import DRIVERS
-from facesynth.services.points.backends.registry import BACKENDS
-from facesynth.services.sensor.sources.registry import SOURCES
 
 GRAPHS_DIR = Path(__file__).parent / "graphs"
 #: The graph ``facesynth run`` runs without one: the demo.
 DEFAULT_GRAPH = GRAPHS_DIR / "demo.toml"
 
-#: The plugin table of each stage that has one, and its registry.
+#: The plugin table of each stage that has one, and its registry (read from the stages).
 PLUGIN_TABLES: dict[str, tuple[str, Registry[Any]]] = {
-    "sensor": ("source", SOURCES),
-    "points": ("backend", BACKENDS),
-    "control": ("driver", DRIVERS),
+    stage.name: (stage.plugin.field, stage.plugin.registry)
+    for stage in STAGES
+    if stage.plugin is not None
 }
 
 
@@ -70,15 +68,22 @@ class Graph(msgspec.Struct, kw_only=True, forbid_unknown_fields=True):
         """The nodes running ``stage``, by name."""
         return {name: node for name, node in self.nodes.items() if stage_of(node) == stage}
 
+    def of_stages(self, stages: tuple[str, ...]) -> dict[str, Any]:
+        """The nodes running any of ``stages``, by name."""
+        return {name: node for name, node in self.nodes.items() if stage_of(node) in stages}
+
+    def sources(self) -> dict[str, Any]:
+        """The nodes whose stage consumes nothing (the chain's input: its sensors), by name."""
+        return self.of_stages(STAGES.sources())
+
 
 def plugin_config(node: Any, where: str) -> msgspec.Struct | None:
     """A node's plugin config (source, backend or driver) validated by its registry."""
-    table = PLUGIN_TABLES.get(stage_of(node))
+    table = STAGES.of(node).plugin
     if table is None:
         return None
-    field, registry = table
     try:
-        return registry.parse(getattr(node, field), where)
+        return table.registry.parse(getattr(node, table.field), where)
     except PluginError as exc:
         raise GraphError(str(exc)) from None
 
@@ -100,13 +105,12 @@ def check_node(name: str, node: Any, where: str) -> None:
 
 def wait_for_problem(services: Sequence[str]) -> str | None:
     """Why a ``--wait-for`` list names a service that never comes (not a stage), or None."""
+    stages = STAGES.names()
     for service in services:
-        if service not in keys.SERVICES:
-            close = difflib.get_close_matches(service, keys.SERVICES, n=1)
+        if service not in stages:
+            close = difflib.get_close_matches(service, stages, n=1)
             hint = f"did you mean {close[0]}? " if close else ""
-            return (
-                f"--wait-for: no service {service!r} ({hint}services: {', '.join(keys.SERVICES)})"
-            )
+            return f"--wait-for: no service {service!r} ({hint}services: {', '.join(stages)})"
     return None
 
 
@@ -142,14 +146,16 @@ def parse_graph(data: Mapping[str, Any], where: str = "<graph>", *, plugins: boo
     except msgspec.ValidationError as exc:
         raise GraphError(f"{where}: {_located(str(exc))}") from None
     nodes = {}
+    node_types = STAGES.node_union()
     for name, table in raw.nodes.items():
         stage = table.get("stage")
-        if isinstance(stage, str) and stage not in NODE_TYPES:
+        if isinstance(stage, str) and stage not in STAGES:
             raise GraphError(
-                f"{where}: node {name}: unknown stage {stage!r} (stages: {', '.join(NODE_TYPES)})"
+                f"{where}: node {name}: unknown stage {stage!r} "
+                f"(stages: {', '.join(STAGES.names())})"
             )
         try:
-            nodes[name] = msgspec.convert(table, Node)
+            nodes[name] = msgspec.convert(table, node_types)
         except msgspec.ValidationError as exc:
             raise GraphError(f"{where}: node {name}: {_located(str(exc))}") from None
     graph = Graph(rig=raw.rig, description=raw.description, nodes=nodes)
@@ -243,7 +249,7 @@ def graph_to_toml(graph: Graph) -> str:
     for name, node in graph.nodes.items():
         lines.extend(("", f"[nodes.{name}]"))
         data = msgspec.to_builtins(node)
-        default = msgspec.to_builtins(NODE_TYPES[stage_of(node)]())
+        default = msgspec.to_builtins(STAGES.of(node).node())
         for key, value in data.items():
             if value is not None and (
                 key in ("stage", *PLUGIN_FIELDS) or value != default.get(key)

@@ -5,6 +5,10 @@ A control node without ``profile`` takes the profile its driver expects
 ``virtual`` → ``virtual``), said in one log line, else :data:`DEFAULT_PROFILE`. A translator
 without one follows the control node of its robot (the same ``robot``), else the default too.
 A profile with controls its driver cannot show is refused with the profiles it can show.
+
+:func:`settle` is where a chain's setup is settled, once, before any node is built: the
+profiles (each file read once), F's neutral window and the drivers, handed to every node in a
+:class:`~facesynth.app.stages.setup.Setup`.
 """
 
 from __future__ import annotations
@@ -13,41 +17,67 @@ import logging
 from collections.abc import Mapping
 from typing import Any
 
-import msgspec
-
-from facesynth.app.graph import Graph
+from facesynth.app.graph import Graph, plugin_config
 from facesynth.app.nodes import DEFAULT_PROFILE, ControlNode, TranslatorNode
-from facesynth.runtime.profiles import Profile, ProfileError, available_profiles, load_profile
-from facesynth.services.control.drivers.base import ServoDriver
-from facesynth.services.control.drivers.registry import DRIVERS
+from facesynth.app.stages.driver_fit import (
+    ProfileFitError,
+    check_fit,
+    driver_class,
+    driver_name,
+    fitting_profiles,
+)
+from facesynth.app.stages.setup import Setup
+from facesynth.runtime.profiles import ProfileError
 
-__all__ = ["DEFAULT_PROFILE", "ProfileFitError", "check_fit", "settle_profiles"]
+__all__ = [
+    "DEFAULT_PROFILE",
+    "ProfileFitError",
+    "check_fit",
+    "driver_class",
+    "driver_name",
+    "fitting_profiles",
+    "settle",
+    "settle_profiles",
+]
 
 log = logging.getLogger("facesynth")
 
-Driver = Mapping[str, Any] | msgspec.Struct
 
-
-class ProfileFitError(ValueError):
-    """A profile whose controls the chosen driver cannot show; one line."""
-
-
-def driver_name(driver: Driver) -> str | None:
-    """The name of the driver of a config or of a graph's driver table."""
-    if isinstance(driver, msgspec.Struct):
-        name = driver.__struct_config__.tag
-    else:
-        name = driver.get(DRIVERS.tag_field)
-    return name if isinstance(name, str) else None
-
-
-def driver_class(driver: Driver) -> type[ServoDriver] | None:
-    """The registered class of a driver config or table, or None (unknown, or not a class)."""
-    name = driver_name(driver)
-    if name is None or name not in DRIVERS:
-        return None
-    factory = DRIVERS.get(name).factory
-    return factory if isinstance(factory, type) and issubclass(factory, ServoDriver) else None
+def settle(
+    graph: Graph,
+    configs: Mapping[str, Any] | None = None,
+    *,
+    check: bool = True,
+    fill: bool = True,
+    plugins: bool = True,
+) -> Setup:
+    """The setup of ``graph``'s nodes, settled once, in one place: each robot's profile (see
+    :func:`settle_profiles`; unless ``fill`` is false, a node naming none keeps the default),
+    each profile file read once and shared by the nodes that use it, F's neutral window (the
+    first translator's profile's), each node's plugin config (``configs``, else its own table
+    validated, unless ``plugins`` is false) and whether the chain's input is ``--fast``.
+    """
+    configs = dict(configs or {})
+    if fill:
+        settle_profiles(graph, configs, check=False)
+    setup = Setup(fast=any(getattr(node, "fast", False) for node in graph.sources().values()))
+    for name, node in graph.nodes.items():
+        config = configs.get(name)
+        if config is None and plugins:
+            config = plugin_config(node, f"node {name}")
+        if config is not None:
+            setup.configs[name] = config
+        if isinstance(node, TranslatorNode) and setup.neutral_profile is None:
+            setup.neutral_profile = node.profile or DEFAULT_PROFILE
+    if check:
+        for name, node in graph.nodes.items():  # refused before anything starts
+            if isinstance(node, ControlNode) and node.profile is not None:
+                try:
+                    profile = setup.loaded(node.profile)
+                except ProfileError:
+                    continue  # said by the builder, with every problem
+                check_fit(configs.get(name) or node.driver, profile)
+    return setup
 
 
 def settle_profiles(
@@ -82,42 +112,6 @@ def settle_profiles(
     for node in graph.nodes.values():
         if isinstance(node, TranslatorNode) and node.profile is None:
             node.profile = chosen.get(node.robot, DEFAULT_PROFILE)
-    for name, node in graph.nodes.items():  # refused before anything starts
-        if check and isinstance(node, ControlNode) and node.profile is not None:
-            try:
-                profile = load_profile(node.profile)
-            except ProfileError:
-                continue  # said by the builder, with every problem
-            check_fit(configs.get(name) or node.driver, profile)
+    if check:
+        settle(graph, configs, fill=False, plugins=False)
     return graph
-
-
-def check_fit(driver: Driver, profile: Profile) -> None:
-    """Refuse ``profile`` when ``driver`` (a config or a graph's driver table) cannot show some
-    of its controls, naming the profiles it can show (:class:`ProfileFitError`)."""
-    cls = driver_class(driver)
-    if cls is None:
-        return
-    unshown = cls.unshown_controls(spec.name for spec in profile.servos)
-    if not unshown:
-        return
-    listed = ", ".join(unshown[:4]) + (", …" if len(unshown) > 4 else "")
-    fitting = " or ".join(fitting_profiles(cls)) or "a profile of those controls"
-    raise ProfileFitError(
-        f"the {driver_name(driver)} driver cannot show {len(unshown)} of the "
-        f"{len(profile.servos)} controls of profile {profile.name} ({listed}); it shows "
-        f"{cls.shown_controls_described}: choose --profile {fitting}"
-    )
-
-
-def fitting_profiles(cls: type[ServoDriver]) -> list[str]:
-    """The profiles found (shipped and the user's) whose every control ``cls`` can show."""
-    names = []
-    for name in available_profiles():
-        try:
-            profile = load_profile(name)
-        except ProfileError:  # a broken user profile is no candidate
-            continue
-        if not cls.unshown_controls(spec.name for spec in profile.servos):
-            names.append(name)
-    return names

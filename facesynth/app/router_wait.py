@@ -19,6 +19,8 @@ from __future__ import annotations
 import enum
 from typing import Final
 
+from facesynth.app.stages.registry import STAGES
+
 
 class RouterWait(enum.Enum):
     """How a kind of command waits for its router at start."""
@@ -34,12 +36,9 @@ class RouterWait(enum.Enum):
 #: How long a one-shot tool waits for its router when not told (seconds).
 ONE_SHOT_WAIT_S: Final = 2.0
 
-#: Every command that opens a Zenoh session, by kind.
+#: Every command that opens a Zenoh session, by kind (a stage's command is a service).
 KINDS: Final = {
-    **dict.fromkeys(
-        ("sensor", "points", "features", "translator", "control", "record", "inspect"),
-        RouterWait.WAITS,
-    ),
+    **dict.fromkeys((*STAGES.names(), "record", "inspect"), RouterWait.WAITS),
     **dict.fromkeys(("status", "health", "replay"), RouterWait.ONE_SHOT),
     **dict.fromkeys(("run", "router", "console", "learn", "doctor"), RouterWait.OWN_ROUTER),
 }

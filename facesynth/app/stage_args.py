@@ -15,27 +15,31 @@ from typing import Any
 import msgspec
 
 from facesynth.app.arguments import PluginFlags, add_flags, given, merge_struct, struct_flags
-from facesynth.app.graph import PLUGIN_TABLES
-from facesynth.app.nodes import NODE_TYPES, PLUGIN_FIELDS, stage_of
+from facesynth.app.nodes import PLUGIN_FIELDS, stage_of
+from facesynth.app.stages.registry import STAGES
 
-#: How each plugin is chosen on the command line, and the plugin a bare stage uses.
+#: How each plugin is chosen on the command line, and the plugin a bare stage uses (read from
+#: each stage's plugin table).
 PLUGIN_FLAGS: dict[str, tuple[PluginFlags, str]] = {
-    "sensor": (PluginFlags(PLUGIN_TABLES["sensor"][1], "--source"), "video"),
-    "points": (PluginFlags(PLUGIN_TABLES["points"][1], "--backend"), "tracker"),
-    "control": (PluginFlags(PLUGIN_TABLES["control"][1], "--driver", "--driver-config"), "record"),
+    stage.name: (
+        PluginFlags(stage.plugin.registry, stage.plugin.flag, stage.plugin.config_flag),
+        stage.plugin.default,
+    )
+    for stage in STAGES
+    if stage.plugin is not None
 }
 
 
 def node_flags(stage: str) -> list[Any]:
     """The flags of a stage's own options (its plugin's come from the registry)."""
-    return struct_flags(NODE_TYPES[stage], skip=PLUGIN_FIELDS)
+    return struct_flags(STAGES.get(stage).node, skip=PLUGIN_FIELDS)
 
 
 def add_stage_arguments(parser: argparse.ArgumentParser, stages: Iterable[str]) -> None:
     """Declare the options of ``stages`` (a flag shared by several is declared once)."""
     seen: set[str] = set()
     for stage in stages:
-        doc = (NODE_TYPES[stage].__doc__ or stage).strip().splitlines()[0].replace("``", "")
+        doc = (STAGES.get(stage).node.__doc__ or stage).strip().splitlines()[0].replace("``", "")
         group = parser.add_argument_group(f"{stage} node: {doc}")
         add_flags(group, node_flags(stage), seen)
         if stage in PLUGIN_FLAGS:
@@ -55,7 +59,9 @@ def apply_arguments(name: str, node: Any, args: argparse.Namespace) -> tuple[Any
     config = None
     if stage in PLUGIN_FLAGS:
         flags, _ = PLUGIN_FLAGS[stage]
-        field = PLUGIN_TABLES[stage][0]
+        table = STAGES.get(stage).plugin
+        assert table is not None
+        field = table.field
         config = flags.config(args, data.get(field))
         overrides[field] = flags.registry.to_builtins(config)
     return merge_struct(type(node), data, overrides, f"{stage} node {name}"), config

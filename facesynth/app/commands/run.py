@@ -21,12 +21,13 @@ from facesynth.app.common_arguments import zenoh_arguments
 from facesynth.app.engine.chain_run import run_embedded_chain
 from facesynth.app.engine.router import RUN_LISTEN, joined_bus
 from facesynth.app.graph import Graph, check_node, graph_help, load_graph
-from facesynth.app.profile_choice import settle_profiles
+from facesynth.app.profile_choice import settle
 from facesynth.app.recording.attach import add_attach_arguments
 from facesynth.app.stage_args import add_stage_arguments, apply_arguments
+from facesynth.app.stages.registry import STAGES
+from facesynth.app.stages.setup import Setup
 from facesynth.app.tuning import tune_process
 from facesynth.app.wiring import OptionError
-from facesynth.runtime import keys
 from facesynth.runtime.outputs import check_output
 from facesynth.runtime.service import run_async
 from facesynth.services.control.drivers.record import RecordConfig, earlier_sessions, record_summary
@@ -41,20 +42,20 @@ def cmd_run(args: argparse.Namespace) -> int:
     for name, node in list(graph.nodes.items()):
         graph.nodes[name], configs[name] = apply_arguments(name, node, args)
         check_node(name, graph.nodes[name], args.graph or "command line")
-    settle_profiles(graph, configs)
+    setup = settle(graph, configs)
     rig = args.rig or graph.rig
     check_run_outputs(args, graph, configs)
     tune_process(graph.nodes.values())
-    if not graph.of_stage("sensor"):
-        return _serve_graph(args, graph, configs, rig)
+    if not graph.sources():
+        return _serve_graph(args, graph, configs, rig, setup)
     records = {
         c.out: earlier_sessions(c.out) for c in configs.values() if isinstance(c, RecordConfig)
     }
-    parts = build_chain(graph, configs)
+    parts = build_chain(graph, configs, setup)
     result = run_embedded_chain(args, rig, parts)
     outs = [
         getattr(configs[name], "out", configs[name].__struct_config__.tag)
-        for name in graph.of_stage("control")
+        for name in graph.of_stages(STAGES.producing("servo_state"))
     ]
     summary: dict[str, Any] = {
         "frames": result.frames,
@@ -93,14 +94,16 @@ def check_run_outputs(args: argparse.Namespace, graph: Graph, configs: dict[str,
         check_output(record, "session file")
 
 
-def _serve_graph(args: argparse.Namespace, graph: Graph, configs: dict[str, Any], rig: str) -> int:
+def _serve_graph(
+    args: argparse.Namespace, graph: Graph, configs: dict[str, Any], rig: str, setup: Setup
+) -> int:
     """``facesynth run`` of a graph without a sensor: its nodes (say, a robot host's translators
     and control interfaces) in one process, fed from the bus, until a signal arrives.
 
     As a router by default (listening where ``run`` does); ``--mode client|peer`` joins the
     router or peers given by ``--connect`` instead, like a stage command; exits 0 when
     signalled, as a stage command does."""
-    parts = build_nodes(graph, configs)
+    parts = build_nodes(graph, configs, setup)
     options = wiring.zenoh_options(args, default_mode="router")
     if options.mode == "router" and not options.listen and options.config_file_path() is None:
         options.listen = [RUN_LISTEN]
@@ -134,7 +137,7 @@ HELP = (
 
 def _arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("graph", nargs="?", metavar="GRAPH", help=graph_help())
-    add_stage_arguments(p, keys.SERVICES)
+    add_stage_arguments(p, STAGES.names())
     add_attach_arguments(p)
     zenoh_arguments(p)
     p.add_argument(

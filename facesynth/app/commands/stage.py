@@ -15,10 +15,11 @@ from facesynth.app.command_registry import Command
 from facesynth.app.common_arguments import graph_arguments, zenoh_arguments
 from facesynth.app.control_tools import TEST_OPTIONS, add_tool_arguments, cmd_control_tool
 from facesynth.app.graph import Graph, check_node, load_graph, select_node
-from facesynth.app.nodes import NODE_TYPES, SensorNode, stage_of
+from facesynth.app.nodes import SensorNode, stage_of
 from facesynth.app.plugin_help import describe_plugins
-from facesynth.app.profile_choice import settle_profiles
+from facesynth.app.profile_choice import settle
 from facesynth.app.stage_args import add_stage_arguments, apply_arguments
+from facesynth.app.stages.registry import STAGES
 from facesynth.app.tuning import tune_process
 from facesynth.app.wiring import OptionError, build_node, replay_frames_of
 from facesynth.runtime.service import default_instance, run_async
@@ -26,15 +27,8 @@ from facesynth.services.control.drivers.registry import DRIVERS
 
 log = logging.getLogger("facesynth")
 
-#: The five stages' sub-commands and their help.
-STAGE_HELP = {
-    "sensor": "S: publish frames from a video, camera or image folder on …/input",
-    "points": "P: publish face landmarks on …/points (tracker, or a replayed recording)",
-    "features": "F: publish pose-free features on …/features",
-    "translator": "T: publish servo positions on …/servo_commands through a profile",
-    "control": "C: drive servos (or record) from …/servo_commands; `control test` and "
-    "`control status` are bring-up tools for a servo board",
-}
+#: Each stage's sub-command and its help (from the stage's descriptor).
+STAGE_HELP = {stage.name: stage.help for stage in STAGES}
 
 
 def cmd_stage(args: argparse.Namespace) -> int:
@@ -55,20 +49,22 @@ def cmd_stage(args: argparse.Namespace) -> int:
     else:
         if args.node:
             raise OptionError("--node needs --graph")
-        name, node = stage, NODE_TYPES[stage]()
-        graph = Graph(nodes={name: node})
+        name, node = stage, STAGES.get(stage).node()
+        graph = Graph(nodes={name: node})  # type: ignore[dict-item]  # any registered stage
     node, config = apply_arguments(name, node, args)
     check_node(name, node, args.graph or "command line")
     graph.nodes[name] = node
-    settle_profiles(graph, {name: config})
+    setup = settle(graph, {name: config} if config is not None else None, plugins=False)
     tune_process([node])
     replay_frames = None
     if isinstance(node, SensorNode) and args.graph:
         if not node.wait_for:  # started from a graph: wait for the graph's other stages
-            others = {stage_of(n) for n in graph.nodes.values() if stage_of(n) != "sensor"}
+            others = {stage_of(n) for n in graph.nodes.values() if STAGES.of(n).consumes}
             node.wait_for = sorted(others)
         replay_frames = replay_frames_of(graph)
-    parts = build_node(name, node, graph, config, replay_frames=replay_frames, standalone=True)
+    parts = build_node(
+        name, node, graph, config, replay_frames=replay_frames, standalone=True, setup=setup
+    )
     options = wiring.zenoh_options(args, wait_for_router=True)
     rig = args.rig or graph.rig
     instance = None if name == stage else f"{default_instance()}-{name}"

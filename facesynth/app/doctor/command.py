@@ -35,7 +35,7 @@ from facesynth.app.graph import Graph, check_node, graph_file, graph_help, load_
 from facesynth.app.profile_choice import settle_profiles
 from facesynth.app.recording.attach import add_attach_arguments
 from facesynth.app.stage_args import add_stage_arguments, apply_arguments
-from facesynth.runtime import keys
+from facesynth.app.stages.registry import STAGES
 from facesynth.runtime.bus.zenoh_bus import endpoints
 
 
@@ -46,7 +46,7 @@ class DoctorError(ValueError):
 def _arguments(p: argparse.ArgumentParser) -> None:
     """``facesynth doctor``'s arguments."""
     p.add_argument("graph", nargs="?", metavar="GRAPH", help=graph_help())
-    add_stage_arguments(p, keys.SERVICES)
+    add_stage_arguments(p, STAGES.names())
     add_attach_arguments(p)
     zenoh_arguments(p)
     p.add_argument("--render", metavar="OUT.mp4", help="as run's: check that it can be written")
@@ -80,7 +80,7 @@ def router_need(args: argparse.Namespace, graph: Graph | None = None) -> RouterN
     embedded = options.effective_mode() == "router"
     if embedded and not options.listen and options.config_file_path() is None:
         options.listen = endpoints(args.listen) or [RUN_LISTEN]
-    chain = graph is None or bool(graph.of_stage("sensor"))
+    chain = graph is None or bool(graph.sources())
     return RouterNeed(options, embedded, free_port=embedded and chain and not args.listen)
 
 

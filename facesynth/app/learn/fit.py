@@ -41,8 +41,9 @@ hardware profile it was babbled with and returns that profile with its
    feature moved by nothing the robot commands), from which T tells the features the robot
    can show; and T's retargeting options (``retarget``; :mod:`services.translator.retarget`).
 
-scikit-learn is imported here only (the ``learn`` extra); the board side runs the result in
-numpy (:func:`facesynth.runtime.profiles.learned_predict.predictor`, which gives what these
+scikit-learn is imported by the model families only (:mod:`facesynth.app.learn.models`, the
+``learn`` extra); the board side runs the result in numpy
+(:func:`facesynth.runtime.profiles.learned_predict.predictor`, which gives what these
 scikit-learn models' ``predict`` give).
 """
 
@@ -50,156 +51,44 @@ from __future__ import annotations
 
 import time
 import warnings
-from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from datetime import UTC, datetime
-from typing import Any
 
 import msgspec
 import numpy as np
 
 from facesynth.app.learn.coverage import UnsweptError, coverage
 from facesynth.app.learn.dataset import BabbleSet
+from facesynth.app.learn.models import (
+    CANDIDATES,
+    FITTERS,
+    FitError,
+    FitOptions,
+    candidate_variants,
+    fit_model,
+    poly_ridge,
+    require_sklearn,
+    sklearn_predict,
+)
 from facesynth.app.learn.report import format_report
 from facesynth.app.learn.responsive import clip_commands, responsive_range
 from facesynth.app.learn.unexplained import unexplained
 from facesynth.runtime.feature_names import BY_NAME
 from facesynth.runtime.profiles import Learned, Profile
-from facesynth.runtime.profiles.learned import (
-    KNN,
-    MLP,
-    Layer,
-    Model,
-    PolyRidge,
-    Report,
-    Retarget,
-    pack,
-)
+from facesynth.runtime.profiles.learned import Report, Retarget, pack
 
-#: The inverse models compared, by name.
-CANDIDATES = ("poly_ridge", "knn", "mlp")
-
-
-class FitError(ValueError):
-    """Babbling data from which no profile can be fitted."""
-
-
-@dataclass(frozen=True)
-class FitOptions:
-    """How to fit (the defaults suit a few hundred to a few thousand poses)."""
-
-    seed: int = 0
-    held_out: float = 0.2
-    min_present: float = 0.9
-    min_std: float = 0.03
-    dead_effect: float = 0.3
-    candidates: tuple[str, ...] = CANDIDATES
-    knn_k: int = 5
-    mlp_layers: tuple[int, ...] = (64, 64)
-    #: The MLP's L2 penalty (``fit_model``); the fit compares one MLP per ``mlp_alphas``.
-    mlp_alpha: float = 0.1
-    mlp_alphas: tuple[float, ...] = (0.1, 1.0)
-    #: T's planning through the forward model (``Learned.plan_steps``, ``plan_prior``). On
-    #: simhead16 (600 poses babbled in real time; ``facesynth bench robot``), performer → robot
-    #: mean ρ over the moved features: 0.44 with the inverse model alone, 0.49 with a prior of
-    #: 0.02, 0.53-0.54 with priors of 0.5-5 (6 steps; 3 or 12 steps: no better).
-    plan_steps: int = 6
-    plan_prior: float = 1.0
-    #: Fit even when some servos were not moved both ways (they stay at neutral).
-    partial: bool = False
-
-
-def _sklearn() -> Any:
-    try:
-        from sklearn import linear_model, neighbors, neural_network, preprocessing
-    except ImportError:
-        raise FitError("fitting needs scikit-learn: pip install 'facesynth[learn]'") from None
-
-    return linear_model, neighbors, neural_network, preprocessing
-
-
-# --- models, fitted and exported ----------------------------------------------------------------
-
-
-def _poly_ridge(x: np.ndarray, y: np.ndarray, options: FitOptions) -> tuple[Any, PolyRidge]:
-    linear_model, _, _, preprocessing = _sklearn()
-    poly = preprocessing.PolynomialFeatures(degree=2, include_bias=False).fit(x)
-    ridge = linear_model.RidgeCV(alphas=np.logspace(-4, 2, 7), alpha_per_target=True)
-    ridge.fit(poly.transform(x), y)
-    coef = np.atleast_2d(ridge.coef_)
-    model = PolyRidge(
-        degree=2,
-        powers=pack(poly.powers_.astype(np.float64)),
-        coef=pack(coef),
-        intercept=pack(np.atleast_1d(ridge.intercept_)),
-    )
-    return (poly, ridge), model
-
-
-def _knn(x: np.ndarray, y: np.ndarray, options: FitOptions) -> tuple[Any, KNN]:
-    _, neighbors, _, _ = _sklearn()
-    k = min(options.knn_k, len(x))
-    knn = neighbors.KNeighborsRegressor(n_neighbors=k, weights="distance", algorithm="brute")
-    knn.fit(x, y)
-    return knn, KNN(k=k, weights="distance", train_x=pack(x), train_y=pack(y))
-
-
-def _mlp(x: np.ndarray, y: np.ndarray, options: FitOptions) -> tuple[Any, MLP]:
-    _, _, neural_network, _ = _sklearn()
-    mlp = neural_network.MLPRegressor(
-        hidden_layer_sizes=options.mlp_layers,
-        activation="tanh",
-        solver="lbfgs",
-        alpha=options.mlp_alpha,
-        max_iter=1000,
-        random_state=options.seed,
-    )
-    with warnings.catch_warnings():  # an lbfgs MLP stopping at max_iter is still a model
-        warnings.simplefilter("ignore")
-        mlp.fit(x, y)
-    layers = [
-        Layer(weights=pack(w), bias=pack(b))
-        for w, b in zip(mlp.coefs_, mlp.intercepts_, strict=True)
-    ]
-    return mlp, MLP(activation="tanh", layers=layers)
-
-
-FITTERS: dict[str, Callable[[np.ndarray, np.ndarray, FitOptions], tuple[Any, Model]]] = {
-    "poly_ridge": _poly_ridge,
-    "knn": _knn,
-    "mlp": _mlp,
-}
-
-
-def sklearn_predict(fitted: Any, x: np.ndarray) -> np.ndarray:
-    """scikit-learn's own prediction of a fitted candidate, (n, outputs)."""
-    if isinstance(fitted, tuple):
-        poly, ridge = fitted
-        out = ridge.predict(poly.transform(x))
-    else:
-        out = fitted.predict(x)
-    return np.asarray(out, dtype=np.float64).reshape(len(x), -1)
-
-
-def _variants(options: FitOptions) -> dict[str, tuple[str, FitOptions]]:
-    """The candidates compared, by the name the report gives them: an MLP per penalty."""
-    variants = {}
-    for name in options.candidates:
-        if name != "mlp":
-            variants[name] = (name, options)
-            continue
-        for alpha in options.mlp_alphas or (options.mlp_alpha,):
-            variants[f"mlp(alpha={alpha:g})"] = (name, replace(options, mlp_alpha=alpha))
-    return variants
-
-
-def fit_model(name: str, x: np.ndarray, y: np.ndarray, options: FitOptions) -> tuple[Any, Model]:
-    """Fit candidate ``name`` on ``x`` → ``y``: (the scikit-learn model, the exported model)."""
-    if name not in FITTERS:
-        raise FitError(f"unknown model {name!r} (one of {', '.join(FITTERS)})")
-    fitted, model = FITTERS[name](x, y, options)
-    return fitted, model
-
+__all__ = [
+    "CANDIDATES",
+    "FITTERS",
+    "FitError",
+    "FitOptions",
+    "command_error",
+    "fit_learned_profile",
+    "fit_model",
+    "format_report",
+    "main",
+    "sklearn_predict",
+]
 
 # --- the data ------------------------------------------------------------------------------------
 
@@ -294,7 +183,7 @@ def command_error(
 
 def _dead(x: np.ndarray, u: np.ndarray, options: FitOptions) -> np.ndarray:
     """Per servo: whether its full travel moves no input by ``dead_effect`` std."""
-    fitted, _ = _poly_ridge(u, x, options)
+    fitted, _ = poly_ridge(u, x, options)
     n = u.shape[1]
     probes = np.vstack([np.zeros(n), np.eye(n), -np.eye(n)])
     predicted = sklearn_predict(fitted, probes)
@@ -315,7 +204,7 @@ def fit_learned_profile(
     ways from neutral (unless ``options.partial``).
     """
     options = options or FitOptions()
-    _sklearn()
+    require_sklearn()
     from threadpoolctl import threadpool_limits  # a dependency of scikit-learn
 
     # One core: multithreaded BLAS on these small matrices only fights over the cores (a
@@ -355,7 +244,7 @@ def _fit(babble: BabbleSet, profile: Profile, options: FitOptions) -> Profile:
     errors: dict[str, np.ndarray] = {}
     raw_errors: dict[str, np.ndarray] = {}
     seconds: dict[str, float] = {}
-    variants = _variants(options)
+    variants = candidate_variants(options)
     for label, (name, variant) in variants.items():
         begun = time.perf_counter()
         fitted, _ = fit_model(name, x[train], y[train], variant)
@@ -366,11 +255,11 @@ def _fit(babble: BabbleSet, profile: Profile, options: FitOptions) -> Profile:
         seconds[label] = time.perf_counter() - begun
     best = min(errors, key=lambda label: float(errors[label].mean()))
     noise = scale * unexplained(
-        x, y, data.groups, lambda a, b, c: sklearn_predict(_poly_ridge(a, b, options)[0], c)
+        x, y, data.groups, lambda a, b, c: sklearn_predict(poly_ridge(a, b, options)[0], c)
     )
     family, variant = variants[best]
     _, inverse = fit_model(family, x, y, variant)
-    _, forward = _poly_ridge(y, x, options)
+    _, forward = poly_ridge(y, x, options)
     low = np.minimum(np.percentile(data.t, 1, axis=0), 0.0)
     high = np.maximum(np.percentile(data.t, 99, axis=0), 0.0)
     notes = data.notes + [f"{name} fitted in {seconds[name]:.1f} s" for name in seconds]

@@ -16,35 +16,39 @@ from typing import Any
 from facesynth.app.engine.chain_run import run_embedded_chain
 from facesynth.app.graph import load_graph
 from facesynth.app.nodes import stage_of
-from facesynth.app.profile_choice import settle_profiles
+from facesynth.app.profile_choice import settle
 from facesynth.app.recording.replay import Replayer
 from facesynth.app.stage_args import apply_arguments
+from facesynth.app.stages.registry import STAGES
 from facesynth.app.wiring import OptionError, StageParts, build_node
 
 log = logging.getLogger("facesynth")
 
-#: The services that run after each replayed stage.
-AFTER: dict[str, tuple[str, ...]] = {
-    "input": ("points", "features", "translator", "control"),
-    "points": ("features", "translator", "control"),
-    "features": ("translator", "control"),
-    "servo_commands": ("control",),
-}
+
+def after(key: str) -> tuple[str, ...]:
+    """The stages that run after the one producing ``key`` (a replayed stage), in chain order."""
+    names = STAGES.names()
+    producer = next(i for i, stage in enumerate(STAGES) if stage.produces == key)
+    return names[producer + 1 :]
 
 
 def graph_parts(replayer: Replayer, args: argparse.Namespace) -> tuple[list[StageParts], str, Any]:
     """The graph's nodes after the replayed stage, built with the command line's flags."""
     graph = load_graph(args.graph or None, plugins=False)
-    wanted = AFTER[replayer.stage]
+    wanted = after(replayer.stage)
     parts = []
     configs = {}
     for name, node in graph.nodes.items():
         if stage_of(node) in wanted:
             graph.nodes[name], configs[name] = apply_arguments(name, node, args)
-    settle_profiles(graph, configs)
+    setup = settle(graph, configs, plugins=False)
     for name, node in graph.nodes.items():
         if stage_of(node) in wanted:
-            parts.append(build_node(name, node, graph, configs[name], fast=replayer.options.fast))
+            parts.append(
+                build_node(
+                    name, node, graph, configs[name], fast=replayer.options.fast, setup=setup
+                )
+            )
     if not parts:
         raise OptionError(
             f"the graph has no {', '.join(wanted)} node to replay {replayer.stage} into"

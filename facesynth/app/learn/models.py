@@ -1,0 +1,139 @@
+"""The inverse and forward model families a learned profile is fitted with (scikit-learn), each
+exported as the numpy model the board runs (:mod:`facesynth.runtime.profiles.learned`), and the
+options of a fit (:class:`FitOptions`). :mod:`facesynth.app.learn.fit` compares them.
+
+scikit-learn is imported here only, when a model is fitted (the ``learn`` extra).
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+
+from facesynth.runtime.profiles.learned import KNN, MLP, Layer, Model, PolyRidge, pack
+
+#: The inverse models compared, by name.
+CANDIDATES = ("poly_ridge", "knn", "mlp")
+
+
+class FitError(ValueError):
+    """Babbling data from which no profile can be fitted."""
+
+
+@dataclass(frozen=True)
+class FitOptions:
+    """How to fit (the defaults suit a few hundred to a few thousand poses)."""
+
+    seed: int = 0
+    held_out: float = 0.2
+    min_present: float = 0.9
+    min_std: float = 0.03
+    dead_effect: float = 0.3
+    candidates: tuple[str, ...] = CANDIDATES
+    knn_k: int = 5
+    mlp_layers: tuple[int, ...] = (64, 64)
+    #: The MLP's L2 penalty (``fit_model``); the fit compares one MLP per ``mlp_alphas``.
+    mlp_alpha: float = 0.1
+    mlp_alphas: tuple[float, ...] = (0.1, 1.0)
+    #: T's planning through the forward model (``Learned.plan_steps``, ``plan_prior``). On
+    #: simhead16 (600 poses babbled in real time; ``facesynth bench robot``), performer → robot
+    #: mean ρ over the moved features: 0.44 with the inverse model alone, 0.49 with a prior of
+    #: 0.02, 0.53-0.54 with priors of 0.5-5 (6 steps; 3 or 12 steps: no better).
+    plan_steps: int = 6
+    plan_prior: float = 1.0
+    #: Fit even when some servos were not moved both ways (they stay at neutral).
+    partial: bool = False
+
+
+def require_sklearn() -> Any:
+    """scikit-learn's modules used here, or a :class:`FitError` naming the extra."""
+    try:
+        from sklearn import linear_model, neighbors, neural_network, preprocessing
+    except ImportError:
+        raise FitError("fitting needs scikit-learn: pip install 'facesynth[learn]'") from None
+
+    return linear_model, neighbors, neural_network, preprocessing
+
+
+def poly_ridge(x: np.ndarray, y: np.ndarray, options: FitOptions) -> tuple[Any, PolyRidge]:
+    linear_model, _, _, preprocessing = require_sklearn()
+    poly = preprocessing.PolynomialFeatures(degree=2, include_bias=False).fit(x)
+    ridge = linear_model.RidgeCV(alphas=np.logspace(-4, 2, 7), alpha_per_target=True)
+    ridge.fit(poly.transform(x), y)
+    coef = np.atleast_2d(ridge.coef_)
+    model = PolyRidge(
+        degree=2,
+        powers=pack(poly.powers_.astype(np.float64)),
+        coef=pack(coef),
+        intercept=pack(np.atleast_1d(ridge.intercept_)),
+    )
+    return (poly, ridge), model
+
+
+def _knn(x: np.ndarray, y: np.ndarray, options: FitOptions) -> tuple[Any, KNN]:
+    _, neighbors, _, _ = require_sklearn()
+    k = min(options.knn_k, len(x))
+    knn = neighbors.KNeighborsRegressor(n_neighbors=k, weights="distance", algorithm="brute")
+    knn.fit(x, y)
+    return knn, KNN(k=k, weights="distance", train_x=pack(x), train_y=pack(y))
+
+
+def _mlp(x: np.ndarray, y: np.ndarray, options: FitOptions) -> tuple[Any, MLP]:
+    _, _, neural_network, _ = require_sklearn()
+    mlp = neural_network.MLPRegressor(
+        hidden_layer_sizes=options.mlp_layers,
+        activation="tanh",
+        solver="lbfgs",
+        alpha=options.mlp_alpha,
+        max_iter=1000,
+        random_state=options.seed,
+    )
+    with warnings.catch_warnings():  # an lbfgs MLP stopping at max_iter is still a model
+        warnings.simplefilter("ignore")
+        mlp.fit(x, y)
+    layers = [
+        Layer(weights=pack(w), bias=pack(b))
+        for w, b in zip(mlp.coefs_, mlp.intercepts_, strict=True)
+    ]
+    return mlp, MLP(activation="tanh", layers=layers)
+
+
+FITTERS: dict[str, Callable[[np.ndarray, np.ndarray, FitOptions], tuple[Any, Model]]] = {
+    "poly_ridge": poly_ridge,
+    "knn": _knn,
+    "mlp": _mlp,
+}
+
+
+def sklearn_predict(fitted: Any, x: np.ndarray) -> np.ndarray:
+    """scikit-learn's own prediction of a fitted candidate, (n, outputs)."""
+    if isinstance(fitted, tuple):
+        poly, ridge = fitted
+        out = ridge.predict(poly.transform(x))
+    else:
+        out = fitted.predict(x)
+    return np.asarray(out, dtype=np.float64).reshape(len(x), -1)
+
+
+def candidate_variants(options: FitOptions) -> dict[str, tuple[str, FitOptions]]:
+    """The candidates compared, by the name the report gives them: an MLP per penalty."""
+    variants = {}
+    for name in options.candidates:
+        if name != "mlp":
+            variants[name] = (name, options)
+            continue
+        for alpha in options.mlp_alphas or (options.mlp_alpha,):
+            variants[f"mlp(alpha={alpha:g})"] = (name, replace(options, mlp_alpha=alpha))
+    return variants
+
+
+def fit_model(name: str, x: np.ndarray, y: np.ndarray, options: FitOptions) -> tuple[Any, Model]:
+    """Fit candidate ``name`` on ``x`` → ``y``: (the scikit-learn model, the exported model)."""
+    if name not in FITTERS:
+        raise FitError(f"unknown model {name!r} (one of {', '.join(FITTERS)})")
+    fitted, model = FITTERS[name](x, y, options)
+    return fitted, model
