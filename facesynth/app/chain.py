@@ -28,6 +28,7 @@ from facesynth.runtime import codec, keys, limits
 from facesynth.runtime.bus.base import Bus
 from facesynth.runtime.bus.zenoh_bus import ZenohBus, ZenohOptions
 from facesynth.runtime.gc_watch import GcWatch
+from facesynth.runtime.heap_trim import HeapTrimmer
 from facesynth.runtime.memory import return_big_allocations
 from facesynth.runtime.service import (
     ServiceContext,
@@ -64,6 +65,8 @@ async def run_single(
     freeze_startup_objects()
     watch = GcWatch()
     watch.start()
+    trimmer = HeapTrimmer()
+    trimmer.start()
     try:
         ctx = ServiceContext(
             bus,
@@ -75,6 +78,7 @@ async def run_single(
         )
         return await until_signalled(run_service(ctx, body))
     finally:
+        trimmer.stop()
         watch.stop()
         log.info("%s after start-up", watch.summary())
         await bus.close()

@@ -73,6 +73,16 @@ def session_limit(consumes: keys.Stage | None) -> int:
     return largest + MESSAGE_SLACK
 
 
+def router_limit() -> int:
+    """The largest Zenoh message a router passes on (bytes): the largest limit of any key.
+
+    Set as a router's ``transport/link/rx/max_message_size``, so the router stops reassembling
+    anything no key accepts (Zenoh's default is 1 GiB); what is under it and over its own key's
+    limit is dropped by the receiving session's :func:`session_limit` and screens.
+    """
+    return max(*STAGE_LIMITS.values(), STATS_LIMIT) + MESSAGE_SLACK
+
+
 def stage_limit(stage: keys.DataKey) -> int:
     """The payload limit of ``stage``'s key, in bytes."""
     return STAGE_LIMITS[stage]

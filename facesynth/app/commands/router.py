@@ -10,7 +10,9 @@ from facesynth.app import wiring
 from facesynth.app.command_registry import Command
 from facesynth.app.common_arguments import zenoh_arguments
 from facesynth.app.tuning import Scheduling, apply_scheduling, keep_buffers
+from facesynth.runtime.bus.router_options import router_options
 from facesynth.runtime.bus.zenoh_bus import open_session, router_locators
+from facesynth.runtime.heap_trim import HeapTrimmer
 from facesynth.runtime.service import run_async, until_signalled
 
 log = logging.getLogger("facesynth")
@@ -22,13 +24,15 @@ def cmd_router(args: argparse.Namespace) -> int:
     request = Scheduling(args.nice, args.realtime, tuple(args.cpus or ()))
     if request.requested:
         apply_scheduling(request)
-    options = wiring.zenoh_options(args, default_mode="router")
+    options = router_options(wiring.zenoh_options(args, default_mode="router"))
     options.mode = "router"
     if not options.listen and options.config_file_path() is None:
         options.listen = ["tcp/0.0.0.0:7447"]
 
     async def main() -> None:
         session = await asyncio.to_thread(open_session, options)
+        trimmer = HeapTrimmer()
+        trimmer.start()
         try:
             print(
                 f"facesynth router {session.info.zid()} listening on "
@@ -37,6 +41,7 @@ def cmd_router(args: argparse.Namespace) -> int:
             )
             await until_signalled(asyncio.Event().wait())
         finally:
+            trimmer.stop()
             await asyncio.to_thread(session.close)
 
     run_async(main())

@@ -15,6 +15,7 @@ from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 from typing import Any
 
+from facesynth.runtime.bus.router_options import router_options
 from facesynth.runtime.bus.zenoh_bus import (
     ZenohBus,
     ZenohConfigError,
@@ -22,6 +23,7 @@ from facesynth.runtime.bus.zenoh_bus import (
     open_session,
     router_locators,
 )
+from facesynth.runtime.heap_trim import HeapTrimmer
 
 log = logging.getLogger("facesynth")
 
@@ -38,7 +40,9 @@ def open_embedded(
 
     With ``fallback`` (run's default endpoint, no ``--listen``) a taken endpoint is replaced by a
     free port on loopback, and said; without it (an explicit ``--listen``: other hosts may be
-    told that address) a taken endpoint is an error, as ``facesynth doctor`` reports it."""
+    told that address) a taken endpoint is an error, as ``facesynth doctor`` reports it. The
+    session is configured as a router's (:mod:`facesynth.runtime.bus.router_options`)."""
+    options = router_options(options)
     try:
         session = open_session(
             ZenohOptions(**{**options.__dict__, "mode": "router", "listen": listen})
@@ -59,13 +63,18 @@ async def embedded_bus(
     listen: list[str], options: ZenohOptions, *, rig: str, fallback: bool = True
 ) -> AsyncIterator[tuple[ZenohBus, list[str]]]:
     """A bus over a router embedded in this process (see :func:`open_embedded`), and its
-    locators; logged, and closed on the way out."""
+    locators; logged, and closed on the way out. While it is open, the process gives free heap
+    back to the system after bursts, as ``facesynth router`` does
+    (:mod:`facesynth.runtime.heap_trim`)."""
     session, locators = await asyncio.to_thread(open_embedded, listen, options, fallback=fallback)
     bus = ZenohBus(session, mode="router")
     log.info("embedded Zenoh router on %s (rig %s)", ", ".join(locators), rig)
+    trimmer = HeapTrimmer()
+    trimmer.start()
     try:
         yield bus, locators
     finally:
+        trimmer.stop()
         await bus.close()
 
 

@@ -1,0 +1,178 @@
+"""Free heap goes back to the system: a thread trims glibc's heap after the process has grown.
+
+A message Zenoh reassembles from fragments is collected in many small buffers on Zenoh's own
+threads, each thread allocating from its own glibc arena. Once the message is delivered or
+refused those buffers are free, but glibc keeps the pages: it only gives back the free top of
+the main heap, never free chunks inside an arena. Measured on a Zenoh router here
+(eclipse-zenoh 1.10.2): three 22 MB messages to a subscriber left 37-44 MB of free heap resident
+with 6 MB of the heap in use, and ``malloc_trim(0)`` gave 30 MB of it back in 4-22 ms. Leaving
+glibc's mmap threshold dynamic (no :func:`facesynth.app.tuning.keep_buffers`) kept 33 MB free
+instead, since no single buffer is big, and ``MALLOC_ARENA_MAX=1`` 22 MB. With the trimmer,
+``facesynth router`` peaked at 82-102 MB during each burst and was back at 61 MB (its level
+before) within 5 s.
+
+:class:`HeapTrimmer` checks every :data:`INTERVAL_S` seconds whether the process's idle
+memory (resident anonymous memory that ``malloc`` has not handed out) has risen by
+:data:`RISE_BYTES` since its last trim (or its start), and only then calls ``malloc_trim``: a
+steady service never trims (a buffer it reuses each frame stays), one that held a burst returns
+it within seconds, and growth that is memory in use (a cache) never counts. ``facesynth
+router``, every stage process and ``facesynth run`` (through its embedded router) run one.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import ctypes.util
+import logging
+import sys
+import threading
+from dataclasses import dataclass
+from typing import Any, Final
+
+log = logging.getLogger("facesynth")
+
+#: How often the thread looks (seconds).
+INTERVAL_S: Final = 5.0
+#: Growth of resident memory (and of free heap) that is worth a trim (bytes): as much free heap
+#: as :func:`facesynth.app.tuning.keep_buffers` lets glibc keep for reuse.
+RISE_BYTES: Final = 16 * 1024 * 1024
+
+
+class _MallInfo2(ctypes.Structure):
+    """glibc's ``struct mallinfo2`` (glibc 2.33 and later)."""
+
+    _fields_ = [
+        (name, ctypes.c_size_t)
+        for name in (
+            "arena",
+            "ordblks",
+            "smblks",
+            "hblks",
+            "hblkhd",
+            "usmblks",
+            "fsmblks",
+            "uordblks",
+            "fordblks",
+            "keepcost",
+        )
+    ]
+
+
+def _glibc() -> Any | None:
+    """The C library when it is glibc with ``malloc_trim`` and ``mallinfo2`` (2.33 and later),
+    else ``None`` (musl, macOS, an older glibc)."""
+    if not sys.platform.startswith("linux"):
+        return None
+    name = ctypes.util.find_library("c")
+    if name is None:
+        return None
+    try:
+        libc = ctypes.CDLL(name)
+        trim = libc.malloc_trim
+        info = libc.mallinfo2
+    except (OSError, AttributeError):
+        return None
+    trim.argtypes = (ctypes.c_size_t,)
+    trim.restype = ctypes.c_int
+    info.restype = _MallInfo2
+    return libc
+
+
+def resident_bytes() -> int:
+    """This process's resident anonymous memory (bytes: ``RssAnon`` in ``/proc/self/status``),
+    where freed heap that glibc keeps shows; 0 where there is no such line."""
+    with open("/proc/self/status", encoding="ascii") as status:
+        for line in status:
+            if line.startswith("RssAnon:"):
+                return int(line.split()[1]) * 1024
+    return 0
+
+
+@dataclass(frozen=True)
+class Trim:
+    """One trim: resident memory before and after it (bytes)."""
+
+    before: int
+    after: int
+
+    @property
+    def returned(self) -> int:
+        """Bytes given back (never negative)."""
+        return max(0, self.before - self.after)
+
+
+class HeapTrimmer:
+    """Gives free heap back to the system after the process has grown (see the module doc).
+
+    What it watches is the *idle* memory: resident anonymous memory minus the heap glibc has
+    handed out (``mallinfo2``), which grows when freed heap stays resident and not when memory
+    in use does. :meth:`check` is one look (called by the thread :meth:`start` runs, or
+    directly); the thread is a daemon and :meth:`stop` ends it. ``malloc_trim`` runs without the
+    GIL (``ctypes``), so the event loop keeps running while it does."""
+
+    def __init__(self, *, interval_s: float = INTERVAL_S, rise_bytes: int = RISE_BYTES) -> None:
+        self.interval_s = interval_s
+        self.rise_bytes = rise_bytes
+        self.trims: list[Trim] = []
+        self._libc = _glibc()
+        self._baseline = self.idle_bytes() if self._libc is not None else 0
+        self._stopped = threading.Event()
+        self._thread: threading.Thread | None = None
+
+    @property
+    def available(self) -> bool:
+        """Whether this C library can trim (glibc 2.33 or later, on Linux)."""
+        return self._libc is not None
+
+    def idle_bytes(self) -> int:
+        """Resident anonymous memory not handed out by glibc's ``malloc`` (bytes): free heap
+        still resident, plus what never came from ``malloc`` (stacks, Python's own arenas)."""
+        if self._libc is None:
+            return 0
+        info = self._libc.mallinfo2()
+        return resident_bytes() - int(info.uordblks) - int(info.hblkhd)
+
+    def check(self) -> Trim | None:
+        """Trim if idle memory rose by ``rise_bytes`` since the last trim (or the start); the
+        trim done, or ``None``."""
+        if self._libc is None:
+            return None
+        idle = self.idle_bytes()
+        self._baseline = min(self._baseline, idle)
+        if idle - self._baseline < self.rise_bytes:
+            return None
+        before = resident_bytes()
+        self._libc.malloc_trim(0)
+        trim = Trim(before, resident_bytes())
+        self._baseline = self.idle_bytes()
+        self.trims.append(trim)
+        log.info(
+            "returned %.1f MB of free heap to the system (anonymous resident %.1f -> %.1f MB)",
+            trim.returned / 1e6,
+            trim.before / 1e6,
+            trim.after / 1e6,
+        )
+        return trim
+
+    def start(self) -> bool:
+        """Start checking every ``interval_s`` seconds; ``False`` where nothing can be trimmed."""
+        if self._libc is None or self._thread is not None:
+            return self._thread is not None
+        self._thread = threading.Thread(target=self._run, name="heap-trim", daemon=True)
+        self._thread.start()
+        return True
+
+    def stop(self) -> None:
+        """Stop the thread (a no-op when it never started)."""
+        self._stopped.set()
+        if self._thread is not None:
+            self._thread.join(timeout=self.interval_s + 1.0)
+            self._thread = None
+
+    def _run(self) -> None:
+        while not self._stopped.wait(self.interval_s):
+            try:
+                self.check()
+            except OSError as exc:  # /proc unreadable: stop looking rather than spin on it
+                log.warning("heap trimming stopped: %s", exc)
+                return
