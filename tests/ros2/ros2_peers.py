@@ -1,5 +1,6 @@
 """Real rclpy nodes in processes of their own (started with ``spawn``): a subscriber that writes
-every message it takes to a JSON-lines file, and a publisher of the performer video's frames.
+every message it takes to a JSON-lines file, a publisher of the performer video's frames, and
+a relay publishing an MJPEG stream's frames (a simulated head's camera).
 
 They inherit the test's ``ROS_DOMAIN_ID`` and ``ROS_AUTOMATIC_DISCOVERY_RANGE``. Each is a
 :class:`Peer`: started, waited for (its node is up), stopped, or killed.
@@ -151,6 +152,35 @@ def _publisher(
     rclpy.shutdown()
 
 
+def _relay(url: str, topic: str, ready: Any, stop: Any) -> None:
+    import urllib.request
+
+    import rclpy
+    from rclpy.qos import qos_profile_sensor_data
+    from sensor_msgs.msg import CompressedImage
+
+    rclpy.init()
+    node = rclpy.create_node("test_camera_relay")
+    publisher = node.create_publisher(CompressedImage, topic, qos_profile_sensor_data)
+    ready.set()
+    buffer = b""
+    with urllib.request.urlopen(url, timeout=10) as stream:
+        while not stop.is_set():
+            chunk = stream.read1(65536)
+            if not chunk:
+                break
+            buffer += chunk
+            while (start := buffer.find(b"\xff\xd8")) >= 0 and (
+                end := buffer.find(b"\xff\xd9", start)
+            ) >= 0:
+                msg = CompressedImage(format="jpeg", data=buffer[start : end + 2])
+                msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(time.time_ns(), 10**9)
+                publisher.publish(msg)
+                buffer = buffer[end + 2 :]
+    node.destroy_node()
+    rclpy.shutdown()
+
+
 class Peer:
     """One rclpy node in a spawned process."""
 
@@ -189,3 +219,10 @@ def camera(
     ``raw`` (``encoding``) images, stamped when sent (marked with :data:`STAMP_MARK`; zero
     without ``stamped``), best effort as cameras do."""
     return Peer(_publisher, topic, kind, encoding, fps, stamped)
+
+
+def relay(url: str, topic: str) -> Peer:
+    """A robot camera on ROS 2: each JPEG of the MJPEG stream at ``url`` (``facesynth
+    simhead``'s camera) republished as it comes, a CompressedImage on ``topic`` stamped when
+    sent, best effort as cameras do."""
+    return Peer(_relay, url, topic)

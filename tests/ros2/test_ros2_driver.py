@@ -4,10 +4,10 @@ The performer video's chain (one ``facesynth run``) drives a robot of four contr
 ``facesynth run``, started first, so every node is up before the first frame) on the same
 commands: the ``record`` driver and the ``ros2`` driver in its three forms (JointState,
 JointTrajectory, Float64MultiArray). The profile is paper16 without speed limits and with a
-neutral ramp of 0, so each control node sends exactly the translator's commands whatever its
-timing: every command of the record file must arrive on ROS 2, in radians of the profile's
-angle maps (one servo with a map of its own), stamped with its frame's capture time, and the
-last one neutral.
+neutral ramp of 0 and commands up to 5 s old executed, so each control node sends exactly the
+translator's commands whatever its timing: every command of the record file must arrive on
+ROS 2, in radians of the profile's angle maps (one servo with a map of its own), stamped with
+its frame's capture time, and the last one neutral.
 """
 
 from __future__ import annotations
@@ -39,10 +39,14 @@ JAW_ANGLE = "angle = { min_us = 1000, max_us = 2000, min_deg = -45, max_deg = 45
 
 
 def unlimited_profile(folder: Path) -> tuple[Path, Profile]:
-    """paper16 without speed limits, with a neutral ramp of 0, and the jaw's own angle map."""
+    """paper16 without speed limits, with a neutral ramp of 0, commands executed up to 5 s
+    old, and the jaw's own angle map."""
     text = _paper16_text()
     text = re.sub(r"(?m)^max_(speed|accel) = .*\n", "", text)
     text = re.sub(r"(?m)^neutral_ramp_s = .*$", "neutral_ramp_s = 0", text)
+    # Each node judges a command's age on its own: on a loaded machine the node that takes it
+    # after the record node could drop one captured 0.25 s ago that the record node executed.
+    text = text.replace("neutral_ramp_s = 0\n", "neutral_ramp_s = 0\nmax_command_age_s = 5\n", 1)
     text = re.sub(r'(?m)^name = "paper16"$', 'name = "paper16_ros2"', text)
     text = text.replace('name = "jaw"\n', 'name = "jaw"\n' + JAW_ANGLE, 1)
     path = folder / "paper16_ros2.toml"

@@ -1,10 +1,10 @@
 """The ``ros2`` source against a real rclpy camera publisher in another process.
 
 The publisher sends the performer video's frames at 30 fps, stamped (marked to the
-nanosecond), best effort, as CompressedImage (JPEG) or Image (bgr8, rgb8): the chain tracks her
-and the commands come out with a face, each stamped with its image's stamp. A camera killed
-mid-run leaves the chain running (the face returns to neutral, the process stops cleanly), and
-an encoding the source does not take stops it with one line.
+nanosecond), best effort, as CompressedImage (JPEG) or Image (bgr8, rgb8, mono8): the chain
+tracks her and the commands come out with a face, each stamped with its image's stamp. A
+camera killed mid-run leaves the chain running (the face returns to neutral, the process stops
+cleanly), and an encoding the source does not take stops it with one line.
 """
 
 from __future__ import annotations
@@ -63,8 +63,9 @@ def run_chain(*args: str) -> subprocess.CompletedProcess[str]:
         ("/camera/image_raw/compressed", "compressed", ""),
         ("/camera/image_raw", "raw", "bgr8"),
         ("/camera/image_raw", "raw", "rgb8"),
+        ("/camera/image_raw", "raw", "mono8"),  # a grey camera: her face in grey
     ],
-    ids=["compressed-jpeg", "image-bgr8", "image-rgb8"],
+    ids=["compressed-jpeg", "image-bgr8", "image-rgb8", "image-mono8"],
 )
 def test_the_chain_tracks_her_from_ros2_images(
     tmp_path: Path, topic: str, kind: str, encoding: str
