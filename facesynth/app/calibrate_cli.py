@@ -2,7 +2,8 @@
 
 Live camera: prompts on the terminal, ``--seconds`` per step (10 steps x 4 s = 40 s by default).
 Video: ``--schedule "neutral=9.6-10.4,smile=14-15,…"`` says when each step happens. Frames go
-straight through the tracker and the feature maths in this process (no bus needed); the result
+straight through the tracker (P of :class:`facesynth.app.engine.stepped.SteppedChain`) and the
+feature maths in this process (no bus needed); the result
 is written atomically to ``~/.config/facesynth/calibrations/NAME.json`` (or ``--out``), where
 ``--calibration NAME`` finds it.
 """
@@ -16,16 +17,13 @@ import time
 from pathlib import Path
 from typing import TextIO
 
-import numpy as np
-
+from facesynth.app.engine.stepped import SteppedChain, sensor_frame
 from facesynth.app.nodes import PointsNode, SensorNode
 from facesynth.app.stage_args import apply_arguments
 from facesynth.app.wiring import build_backend, build_source
 from facesynth.runtime.calibration import CALIBRATIONS, save_calibration
-from facesynth.runtime.frames import encode_frame
 from facesynth.runtime.keys import check_name
 from facesynth.runtime.outputs import check_output
-from facesynth.schemas.messages import Frame
 from facesynth.services.features.calibrate import (
     PROMPTS,
     STEPS,
@@ -35,7 +33,6 @@ from facesynth.services.features.calibrate import (
     step_at,
 )
 from facesynth.services.features.expressions import raw_features
-from facesynth.services.sensor.service import TICK_SIZE
 from facesynth.services.sensor.sources.base import pixels
 
 #: Seconds skipped at the start of each live step: the performer is still changing expression.
@@ -64,22 +61,6 @@ def guided_schedule(args: argparse.Namespace, live: bool) -> list[tuple[str, flo
     return [(step, i * args.seconds, (i + 1) * args.seconds) for i, step in enumerate(steps)]
 
 
-def _frame(image: np.ndarray | None, seq: int, t_media_ns: int) -> Frame:
-    if image is None:  # a tick: replayed recordings (OpenFace CSV, track files) need no pixels
-        width, height = TICK_SIZE
-        return Frame(
-            seq=seq,
-            t_capture_ns=time.time_ns(),
-            t_media_ns=t_media_ns,
-            width=width,
-            height=height,
-            encoding="none",
-        )
-    return encode_frame(
-        image, seq=seq, t_capture_ns=time.time_ns(), t_media_ns=t_media_ns, encoding="raw"
-    )
-
-
 def run_calibration(args: argparse.Namespace, out: TextIO | None = None) -> Path:
     """Record and save a calibration; return its path. Progress goes to ``out`` (stdout)."""
     out = out if out is not None else sys.stdout
@@ -91,6 +72,7 @@ def run_calibration(args: argparse.Namespace, out: TextIO | None = None) -> Path
     _, backend_config = apply_arguments("points", PointsNode(), args)
     _, source_config = apply_arguments("sensor", SensorNode(), args)
     backend = build_backend(backend_config)
+    chain = SteppedChain(backend)  # P alone: the recorder takes the points
     source = build_source(source_config, backend.frame_count())
     if backend.needs_pixels() and source.info.name == "ticks":
         raise CalibrationStepError("the tracker needs images: give --camera or --video")
@@ -115,7 +97,10 @@ def run_calibration(args: argparse.Namespace, out: TextIO | None = None) -> Path
                 print(
                     f"\n>>> {step.replace('_', ' ').upper()}: {PROMPTS[step]}", file=out, flush=True
                 )
-            recorder.add(step, t_in_step, backend.process(_frame(pixels(image), seq, t_media_ns)))
+            frame = sensor_frame(pixels(image), seq, t_media_ns, t_capture_ns=time.time_ns())
+            points = chain.step(frame).points
+            assert points is not None
+            recorder.add(step, t_in_step, points)
     finally:
         source.close()
     created = datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds")

@@ -3,8 +3,9 @@
 For ``facesynth bench fidelity``. Each expression of :mod:`.synthetic_faces` (smile, brow
 raise, frown, jaw drop, gaze in four directions, vertical gaze with the lids following) is
 rendered on the still face, then goes through the real chain's cores: the tracker (the chosen
-tracker model, LiteRT), F (``FeatureProcessor``: no calibration, the first second of the still
-face as the neutral) and T (``Translator`` of each profile). The still face is shown for 1.5 s
+tracker model, LiteRT), then F (no calibration, the profile's neutral window on the still face)
+and T of each profile, stepped as :class:`facesynth.app.engine.stepped.SteppedChain` runs
+them; T's commands are measured. The still face is shown for 1.5 s
 and the expression for 1 s at 30 fps; each image is tracked for a few frames until the crop
 settles, and its points are replayed for the rest (a still image gives the same points every
 frame once the crop holds).
@@ -26,13 +27,13 @@ from typing import Final
 import msgspec
 import numpy as np
 
-from facesynth.runtime.frames import encode_frame
+from facesynth.app.engine.stepped import RobotCores, SteppedChain, sensor_frame
+from facesynth.app.nodes import FeaturesNode
+from facesynth.app.wiring import build_processor
 from facesynth.runtime.profiles import Profile, ServoSpec, load_profile
 from facesynth.schemas.messages import Points
-from facesynth.services.features.core import FeatureProcessor
 from facesynth.services.points.backends.tracker import TrackerBackend, TrackerConfig
 from facesynth.services.points.tracker.offline import iter_video_frames
-from facesynth.services.translator.core import Translator
 
 from .synthetic_faces import BASE_FRAME, Face, base_face, expressions, render
 
@@ -171,8 +172,7 @@ class FidelityRow:
 def _track(backend: TrackerBackend, image: np.ndarray, seq: int) -> Points:
     points: Points | None = None
     for i in range(SETTLE_FRAMES):
-        frame = encode_frame(image, seq=seq + i, t_capture_ns=0, t_media_ns=0, encoding="raw")
-        points = backend.process(frame)
+        points = backend.process(sensor_frame(image, seq + i, 0))
     assert points is not None
     if not points.face:
         raise RuntimeError(f"the {backend.tracker.model.name} model found no face")
@@ -189,10 +189,12 @@ def _sequence(neutral: Points, expression: Points) -> list[Points]:
 
 
 def _rows(model: str, profile: Profile, name: str, stream: list[Points]) -> FidelityRow:
-    processor = FeatureProcessor(neutral_seconds=profile.neutral_seconds)
-    translator = Translator(profile)
+    # F with the profile's neutral window, T of the profile: T's commands are measured.
+    processor = build_processor(FeaturesNode(), profile.neutral_seconds)
+    robot = RobotCores.of_profile(profile.name, profile, motion_time="media")
+    chain = SteppedChain(processor=processor, robots=[robot])
     n0 = round(NEUTRAL_S * FPS)
-    positions = [translator.step(processor.process(points)) for points in stream]
+    positions = [step.commands[profile.name].positions for step in chain.run(stream)]
     before, after = positions[n0 - 1], positions[-1]
     specs = {spec.name: spec for spec in profile.servos}
     moves = {n: _travel(specs[n], after[n] - before[n]) for n in specs}
@@ -230,9 +232,7 @@ def still_face(video: str, frame: int = BASE_FRAME) -> Face:
     frames = list(iter_video_frames(video, frame + 1))
     points: Points | None = None
     for i, image in enumerate(frames[max(0, frame - 30) :]):
-        points = backend.process(
-            encode_frame(image, seq=i, t_capture_ns=0, t_media_ns=0, encoding="raw")
-        )
+        points = backend.process(sensor_frame(image, i, 0))
     assert points is not None and points.face
     mesh = next(s for s in points.sets if s.scheme == "mesh478")
     return base_face(frames[frame], np.reshape(mesh.coords, (478, 3)))

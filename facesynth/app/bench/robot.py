@@ -6,7 +6,8 @@ In process, for simulated heads, faster than real time and deterministic (time i
   (its neutral: the first second with a face), once (:func:`track_performer`), shared by every
   profile and head;
 * the robot (:class:`RobotLoop`, one per profile and head): each performer frame's features →
-  T (the profile) → C (:class:`services.control.core.ControlCore` on the robot's own clock:
+  T (the profile) → C (T and C as the stepped chain runs them,
+  :class:`facesynth.app.engine.stepped.RobotCores`; C on the robot's own clock:
   checks, clamping, ``max_speed``/``max_accel``, and its own catch-up steps every
   ``MAX_STEP_S`` between commands, as the control service runs them) → each servo's channel on
   the head (``command(channel, pulse_us)``, the head's own dynamics stepped to each move's
@@ -26,16 +27,15 @@ from typing import Final, Protocol
 
 import numpy as np
 
+from facesynth.app.engine.stepped import RobotCores, SteppedChain, sensor_frame
 from facesynth.runtime.calibration import Calibration
-from facesynth.runtime.frames import encode_frame
 from facesynth.runtime.profiles import Profile, load_profile
 from facesynth.schemas.messages import Features, Points
-from facesynth.services.control.core import Arrival, ControlCore, Move
+from facesynth.services.control.core import Move
 from facesynth.services.features.core import FeatureProcessor
 from facesynth.services.points.backends.base import PointsBackend
 from facesynth.services.points.backends.tracker import TrackerBackend, TrackerConfig
 from facesynth.services.sensor.sources.video import VideoConfig, VideoSource
-from facesynth.services.translator.core import Translator
 
 from .robot_compare import (
     FeatureRow,
@@ -127,8 +127,7 @@ def track_performer(
         raise RobotError("the first frame must be 0 or later")
     started = time.monotonic()
     source = VideoSource(VideoConfig(path=video))
-    backend = tracker(model)
-    processor = FeatureProcessor(neutral_seconds=NEUTRAL_S)
+    chain = SteppedChain(tracker(model), FeatureProcessor(neutral_seconds=NEUTRAL_S))
     out: list[Features] = []
     origin_ns: int | None = None
     try:
@@ -142,10 +141,10 @@ def track_performer(
                 raise RobotError(f"{video}: a frame without pixels")
             origin_ns = media_ns if origin_ns is None else origin_ns
             t_media_ns = media_ns - origin_ns
-            frame = encode_frame(
-                image, seq=seq, t_capture_ns=t_media_ns, t_media_ns=t_media_ns, encoding="raw"
-            )
-            out.append(processor.process(backend.process(frame)))
+            frame = sensor_frame(image, seq, t_media_ns, t_capture_ns=t_media_ns)
+            step = chain.step(frame)
+            assert step.features is not None
+            out.append(step.features)
     finally:
         source.close()
     if not any(robot_features(f) for f in out):
@@ -175,8 +174,10 @@ class RobotLoop:
             raise RobotError("the frame rate must be positive")
         self.profile = profile
         self.head = head
-        self.translator = Translator(profile, calibration)
-        self.control = ControlCore(profile)
+        #: T and C as the stepped chain runs them (C on the robot's clock, in real time).
+        self.cores = RobotCores.of_profile("robot", profile, calibration=calibration)
+        self.translator = self.cores.translator
+        self.control = self.cores.control
         self.channels = {spec.name: spec.channel for spec in profile.servos}
         self.backend = backend if backend is not None else tracker()
         self.processor = FeatureProcessor(neutral_seconds=NEUTRAL_S, neutral_held=True)
@@ -192,7 +193,7 @@ class RobotLoop:
     def start(self) -> Features:
         """Hold the head at the profile's neutral until F has learned the robot's neutral;
         the last frame's features (raise :class:`RobotError` if no face is seen)."""
-        self._send(self.control.start(0))
+        self._send(self.cores.start(0))
         limit = self.settle_ns + round(NEUTRAL_TIMEOUT_S * 1e9)
         while self.now_ns <= limit:
             self.now_ns += self.period_ns
@@ -217,7 +218,7 @@ class RobotLoop:
         assert self.origin_ns is not None
         t_ns = max(self.now_ns, self.origin_ns + performer.t_media_ns)
         self._advance(t_ns)
-        move, _ = self.control.command(self.translator.translate(performer), Arrival(t_ns, t_ns))
+        _, move = self.cores.command(performer, t_ns)
         self._send(move)
         self.now_ns = t_ns
         self.head.step(t_ns)
@@ -226,12 +227,8 @@ class RobotLoop:
 
     def _advance(self, t_ns: int) -> None:
         """C's own moves (catch-up steps, returns) due up to ``t_ns``, sent as they happen."""
-        while (due := self.control.due_ns()) <= t_ns:
-            move = self.control.tick(due)
-            if move is not None and move.send:
-                self._send(move)
-            elif move is None:
-                break  # pragma: no cover - due_ns said something was due
+        for move in self.cores.advance(t_ns):
+            self._send(move)
 
     def _send(self, move: Move) -> None:
         self.head.step(move.t_ns)
@@ -242,9 +239,7 @@ class RobotLoop:
                 raise RobotError(f"profile {self.profile.name}, servo {name}: {exc}") from None
 
     def _points(self, image: np.ndarray) -> Points:
-        frame = encode_frame(
-            image, seq=self.seq, t_capture_ns=self.now_ns, t_media_ns=self.now_ns, encoding="raw"
-        )
+        frame = sensor_frame(image, self.seq, self.now_ns, t_capture_ns=self.now_ns)
         self.seq += 1
         self.points = self.backend.process(frame)
         return self.points
@@ -326,14 +321,14 @@ def bench_robot(
 def measure(
     performance: Performance,
     heads: Iterable[str],
-    profiles: Sequence[str],
+    profiles: Sequence[str | Profile],
     run: Callable[[str, Profile], FeatureStream],
     *,
     progress: Callable[[str], None] | None = None,
 ) -> RobotBench:
     """Every profile on every head, each run by ``run(head, profile)`` (the robot's stream),
-    compared with the performer's; reach marked per head."""
-    loaded = [_load(name) for name in profiles]
+    compared with the performer's; reach marked per head (a profile: by name, or loaded)."""
+    loaded = [p if isinstance(p, Profile) else _load(p) for p in profiles]
     result = RobotBench(
         video=performance.video,
         frames=len(performance.features),

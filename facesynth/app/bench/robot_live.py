@@ -9,7 +9,8 @@ are played at the video's rate on the monotonic clock:
 
 * C (:class:`facesynth.services.control.core.ControlCore`, real time) starts the head at neutral and
   makes its own catch-up steps between commands, as the control service does, each sent
-  through the driver;
+  through the driver; T and C are the stepped chain's
+  (:class:`facesynth.app.engine.stepped.RobotCores`), stepped on the monotonic clock;
 * the head is held at neutral for :data:`.robot.SETTLE_S`, then F learns the robot's neutral
   from the camera;
 * at each performer frame's instant: T → C → the driver, then the camera's latest frame →
@@ -32,15 +33,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from facesynth.runtime.frames import encode_frame
+from facesynth.app.engine.stepped import RobotCores, sensor_frame
 from facesynth.runtime.profiles import Profile
 from facesynth.schemas.messages import Features
-from facesynth.services.control.core import MAX_STEP_S, Arrival, ControlCore, Move
+from facesynth.services.control.core import MAX_STEP_S, Move
 from facesynth.services.control.drivers.base import ServoDriver
 from facesynth.services.features.core import FeatureProcessor
 from facesynth.services.points.backends.base import PointsBackend
 from facesynth.services.sensor.sources.base import FrameSource, SourceError, pixels
-from facesynth.services.translator.core import Translator
 
 from .robot import (
     NEUTRAL_S,
@@ -128,8 +128,9 @@ class _Live:
         self.camera = camera
         self.backend = backend
         self.clock = clock
-        self.control = ControlCore(profile)
-        self.translator = Translator(profile)
+        #: T and C as the stepped chain runs them, here on the monotonic clock.
+        self.cores = RobotCores.of_profile("robot", profile)
+        self.control = self.cores.control
         self.processor = FeatureProcessor(neutral_seconds=NEUTRAL_S, neutral_held=True)
         self.seq = 0
         self.seen = 0
@@ -147,7 +148,7 @@ class _Live:
                 await asyncio.sleep(wait / 1e9)
             if due >= t_ns:
                 return
-            move = self.control.tick(self.clock())
+            move = self.cores.tick(self.clock())
             if move is None:  # nothing was due after all: wait a step rather than spin
                 await asyncio.sleep(min(t_ns - self.clock(), MAX_STEP_NS) / 1e9)
             await self.send(move)
@@ -159,13 +160,7 @@ class _Live:
         if frame is None or frame.number == self.seen:
             return None
         self.seen = frame.number
-        encoded = encode_frame(
-            frame.image,
-            seq=self.seq,
-            t_capture_ns=frame.t_ns,
-            t_media_ns=frame.t_ns,
-            encoding="raw",
-        )
+        encoded = sensor_frame(frame.image, self.seq, frame.t_ns, t_capture_ns=frame.t_ns)
         self.seq += 1
         points = self.backend.process(encoded)
         return self.processor.process(points) if learn else None
@@ -173,7 +168,7 @@ class _Live:
     async def neutral(self, period_ns: int, settle_ns: int, timeout_ns: int) -> Mapping[str, float]:
         """Hold the head at neutral until F knows the robot's neutral; its raw features then."""
         start = self.clock()
-        await self.send(self.control.start(start))
+        await self.send(self.cores.start(start))
         limit = start + settle_ns + timeout_ns
         while self.clock() <= limit:
             await self.until(self.clock() + period_ns)
@@ -197,8 +192,7 @@ class _Live:
         for performer in performance.features:
             await self.until(start + performer.t_media_ns)
             now = self.clock()
-            commands = self.translator.translate(performer)
-            move, _ = self.control.command(commands, Arrival(time.time_ns(), now))
+            _, move = self.cores.command(performer, now, wall_ns=time.time_ns())
             await self.send(move)
             features = self.look()
             if features is not None:
@@ -216,7 +210,7 @@ class _Live:
         limit = self.clock() + round(self.control.stop_budget_s() * 1e9)
         while not self.control.stopped and self.clock() <= limit:
             await self.until(self.control.due_ns())
-            await self.send(self.control.tick(self.clock()))
+            await self.send(self.cores.tick(self.clock()))
 
 
 async def live_profile(

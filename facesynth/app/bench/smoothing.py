@@ -35,11 +35,11 @@ from typing import Any
 import msgspec
 import numpy as np
 
+from facesynth.app.engine.stepped import RobotCores, SteppedChain
 from facesynth.runtime.feature_names import BY_NAME
 from facesynth.runtime.landmarks import N_IBUG
 from facesynth.runtime.profiles import Profile, ServoSpec, Smoothing, describe_source, load_profile
 from facesynth.schemas.messages import Features
-from facesynth.services.translator.core import Translator
 
 #: Tracker noise on a still face, measured on the bundled video (see the module docstring).
 DEFAULT_SIGMA_IOD = 0.0034  # right brow group mean distance to the nose tip, IOD units
@@ -103,8 +103,9 @@ def _run(
     profile: Profile, deltas: np.ndarray, named: list[dict[str, float]], fps: float
 ) -> list[dict[str, float]]:
     """Feed frames through T: ``deltas`` one value per frame for every point, ``named`` the
-    named features per frame."""
-    translator = Translator(profile)
+    named features per frame; T's commands (stepped with C, on media time, as a ``--fast``
+    chain runs them)."""
+    chain = SteppedChain(robots=[RobotCores.of_profile("t", profile, motion_time="media")])
     out = []
     for index, (delta, values) in enumerate(zip(deltas, named, strict=True)):
         features = Features(
@@ -116,7 +117,7 @@ def _run(
             deltas=[float(delta)] * N_IBUG,
             named=values,
         )
-        out.append(translator.step(features))
+        out.append(chain.step(features).commands["t"].positions)
     return out
 
 

@@ -21,10 +21,13 @@ from typing import Any
 import msgspec
 
 from facesynth.app.bench.robot import Head
+from facesynth.app.engine.stepped import RobotCores, SteppedChain
 from facesynth.app.graph import Graph, plugin_config
-from facesynth.app.nodes import FeaturesNode, SensorNode, TranslatorNode
+from facesynth.app.nodes import ControlNode, FeaturesNode, SensorNode, TranslatorNode
 from facesynth.app.render.robot import RobotPanel, open_simulated_head
 from facesynth.app.render.video import (
+    BARS,
+    FACE,
     Progress,
     RenderChain,
     RenderError,
@@ -39,7 +42,6 @@ from facesynth.app.wiring import (
     build_source,
 )
 from facesynth.services.sensor.sources.video import VideoConfig
-from facesynth.services.translator.core import Translator
 
 __all__ = ["RenderError", "render_graph", "render_run", "video_input"]
 
@@ -141,7 +143,6 @@ def render_graph(
     calibration = build_calibration(base.calibration)
     backend = build_backend(backend_config)
     face_name = FACE_PROFILE_BLENDSHAPES if backend.gives_blendshapes() else FACE_PROFILE
-    face_profile = build_profile(face_name, base.mirror)
     bars_profile = bars
     if bars_profile is None:
         bars_profile = next(
@@ -169,15 +170,19 @@ def render_graph(
         except BaseException:
             source.close()
             raise
+    robots = []
+    if robot is None:
+        shown = [(FACE, face_name)]
+        if bars_profile and bars_profile != "none":
+            shown.append((BARS, bars_profile))
+        for name, profile in shown:  # T and C as a --fast run to a virtual face builds them
+            translator = TranslatorNode(
+                profile=profile, mirror=base.mirror, calibration=base.calibration
+            )
+            control = ControlNode(profile=profile, mirror=base.mirror, motion_time="media")
+            robots.append(RobotCores.from_nodes(name, translator, control))
     chain = RenderChain(
-        backend=backend,
-        processor=build_processor(features, neutral_s),
-        face=Translator(face_profile, calibration) if robot is None else None,
-        bars=(
-            Translator(build_profile(bars_profile, base.mirror), calibration)
-            if bars_profile and bars_profile != "none" and robot is None
-            else None
-        ),
+        SteppedChain(backend, build_processor(features, neutral_s), robots),
         encoding=sensor.encoding,
         quality=sensor.quality,
         robot=robot,

@@ -1,12 +1,13 @@
 """The side-by-side video: performer with landmarks | virtual face | servo bars of a profile.
 
-The renderer runs the chain's pure cores in this process, frame by frame, without the bus:
-the frame (encoded as the sensor would) → the points backend → F → T with the ``virtual``
-profile → C's checks and clamping (and the same for the bars' profile). Every input frame gives
-exactly one output frame, so the video is aligned with the input whatever the machine's speed
-(a real-time bus run drops frames when a stage falls behind), and a re-render gives the same
-video. F and T take time from the media clock, so the controls equal those a ``--fast`` bus run
-of the same input sends. The face is drawn from the same geometry as the live page.
+The renderer runs the chain's pure cores in this process, frame by frame, without the bus
+(:class:`facesynth.app.engine.stepped.SteppedChain`): the frame (encoded as the sensor would)
+→ the points backend → F → T with the ``virtual`` profile → C's checks and clamping (and the
+same for the bars' profile). Every input frame gives exactly one output frame, so the video is
+aligned with the input whatever the machine's speed (a real-time bus run drops frames when a
+stage falls behind), and a re-render gives the same video. F and T take time from the media
+clock, so the controls equal those a ``--fast`` bus run of the same input sends (a test holds
+the stepped chain to that). The face is drawn from the same geometry as the live page.
 
 The output is written to a temporary file beside ``out`` and renamed over it when complete.
 """
@@ -26,6 +27,7 @@ from typing import IO, Any
 import cv2
 import numpy as np
 
+from facesynth.app.engine.stepped import RobotCores, SteppedChain, sensor_frame
 from facesynth.app.render.draw import (
     BarSpec,
     bar_specs,
@@ -36,20 +38,16 @@ from facesynth.app.render.draw import (
     panel,
 )
 from facesynth.app.render.robot import RobotPanel
-from facesynth.runtime.frames import encode_frame
 from facesynth.runtime.outputs import OutputError, check_output
 from facesynth.runtime.profiles import Profile
 from facesynth.schemas.messages import Points
-from facesynth.services.control.core import Arrival, ControlCore
 from facesynth.services.control.drivers.virtual.geometry import (
     FACE_HEIGHT,
     FACE_WIDTH,
     face_geometry,
 )
-from facesynth.services.features.core import FeatureError, FeatureProcessor, ibug_points
-from facesynth.services.points.backends.base import PointsBackend
+from facesynth.services.features.core import FeatureError, ibug_points
 from facesynth.services.sensor.sources.base import FrameSource, pixels
-from facesynth.services.translator.core import Translator
 
 #: Containers the renderer writes, with their codec.
 CODECS = {".mp4": "mp4v", ".mov": "mp4v", ".mkv": "mp4v", ".avi": "MJPG"}
@@ -82,29 +80,34 @@ class Rendered:
     robot: np.ndarray | None = None
 
 
+#: The stepped chain's robots the renderer shows: the virtual face, and the bars' profile.
+FACE = "face"
+BARS = "bars"
+
+
 @dataclass
 class RenderChain:
-    """The stages a frame goes through: points backend, F, T (+ C's checks, clamping and speed
-    limits, on media time as a ``--fast`` run to a virtual face or a file) per profile; or,
-    with ``robot``, T and C onto a simulated head whose camera image is shown instead of the
-    virtual face (the bars then show what C sent the head, unless ``robot_bars`` is off)."""
+    """The stages a frame goes through: the stepped chain (:class:`SteppedChain`: points
+    backend, F, and a T and C per profile shown, :data:`FACE` and :data:`BARS`, C on media time
+    as a ``--fast`` run to a virtual face or a file); or, with ``robot``, T and C onto a
+    simulated head whose camera image is shown instead of the virtual face (the bars then show
+    what C sent the head, unless ``robot_bars`` is off)."""
 
-    backend: PointsBackend
-    processor: FeatureProcessor
-    face: Translator | None
-    bars: Translator | None = None
+    chain: SteppedChain
     encoding: str = "jpeg"
     quality: int = 90
     robot: RobotPanel | None = None
     robot_bars: bool = True
 
-    def __post_init__(self) -> None:
-        self._face_control = (
-            ControlCore(self.face.profile, motion_time="media") if self.face is not None else None
-        )
-        self._bars_control = (
-            ControlCore(self.bars.profile, motion_time="media") if self.bars is not None else None
-        )
+    @property
+    def face(self) -> RobotCores | None:
+        """The virtual face's T and C (``None`` with a robot)."""
+        return self.chain.robots.get(FACE)
+
+    @property
+    def bars(self) -> RobotCores | None:
+        """The bars' T and C (``None``: no bars, or a robot's)."""
+        return self.chain.robots.get(BARS)
 
     @property
     def bars_profile(self) -> Profile | None:
@@ -116,32 +119,27 @@ class RenderChain:
     def step(self, image: np.ndarray, seq: int, t_media_ns: int, fps: float) -> Rendered:
         """Points, the face's controls, the bars' positions and the robot's image for one
         frame."""
-        frame = encode_frame(
+        frame = sensor_frame(
             image,
-            seq=seq,
+            seq,
+            t_media_ns,
             t_capture_ns=time.time_ns(),
-            t_media_ns=t_media_ns,
             encoding=self.encoding,
             quality=self.quality,
             fps=fps,
         )
-        points = self.backend.process(frame)
-        features = self.processor.process(points)
+        step = self.chain.step(frame, t_media_ns)
+        assert step.points is not None and step.features is not None
         if self.robot is not None:
-            camera, _ = self.robot.step(features)
+            camera, _ = self.robot.step(step.features)
             bars = self.robot.positions if self.robot_bars else None
             side = image.shape[0] // 2 * 2
-            return Rendered(points, None, bars, self.robot.picture(camera, image.shape[0], side))
-        arrival = Arrival(t_media_ns, t_media_ns)  # unstamped commands: not aged
-        face = None
-        if self.face is not None and self._face_control is not None:
-            move, _ = self._face_control.command(self.face.translate(features), arrival)
-            face = move.positions
-        bars = None
-        if self.bars is not None and self._bars_control is not None:
-            bars_move, _ = self._bars_control.command(self.bars.translate(features), arrival)
-            bars = bars_move.positions
-        return Rendered(points, face, bars)
+            return Rendered(
+                step.points, None, bars, self.robot.picture(camera, image.shape[0], side)
+            )
+        face = step.positions(FACE) if FACE in step.moves else None
+        bars = step.positions(BARS) if BARS in step.moves else None
+        return Rendered(step.points, face, bars)
 
 
 @dataclass
