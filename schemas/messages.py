@@ -7,6 +7,11 @@ they evolve under strict rules (see ``schemas/README.md``):
 * a new field always has a default, so old senders stay readable;
 * a field is never retyped or renamed; a field that is no longer used keeps its default.
 
+Every struct is frozen: stages in one process hand each other the message object itself
+(``facesynth.runtime.bus.base.Bus.publish_message``), shared by every reader, so nobody may
+change one after it is built (``msgspec.structs.replace`` makes a changed copy; the lists and
+tables inside are shared too and are never changed in place).
+
 Every message derived from a frame carries that frame's ``seq``, ``t_capture_ns`` (wall clock,
 ``time.time_ns()`` at capture) and ``t_media_ns`` (position in the recording, or time since the
 live stream started), so latency can be measured at any stage and replays are deterministic.
@@ -31,7 +36,7 @@ TAG_FIELD = "type"
 FrameEncoding = Literal["jpeg", "raw", "none"]
 
 
-class Frame(msgspec.Struct, tag="frame", tag_field=TAG_FIELD, kw_only=True):
+class Frame(msgspec.Struct, tag="frame", tag_field=TAG_FIELD, kw_only=True, frozen=True):
     """One image from the sensor (topic ``…/input``).
 
     ``encoding`` is ``"jpeg"`` (JPEG bytes), ``"raw"`` (BGR uint8, ``height*width*3`` bytes,
@@ -51,7 +56,7 @@ class Frame(msgspec.Struct, tag="frame", tag_field=TAG_FIELD, kw_only=True):
     capture_host: str = ""
 
 
-class PointSet(msgspec.Struct, kw_only=True):
+class PointSet(msgspec.Struct, kw_only=True, frozen=True):
     """Landmarks of one scheme, flattened: ``[x0, y0, (z0,) x1, y1, …]`` in frame pixels.
 
     Known schemes: ``ibug68`` (2D, the iBUG/CLM 68-point numbering used by the paper),
@@ -66,7 +71,7 @@ class PointSet(msgspec.Struct, kw_only=True):
     coords: list[float]
 
 
-class ScoreSet(msgspec.Struct, kw_only=True):
+class ScoreSet(msgspec.Struct, kw_only=True, frozen=True):
     """Named scores of one scheme, as values in the scheme's fixed order.
 
     Known scheme: ``blendshapes52`` (the 52 ARKit-style blendshapes in MediaPipe's order,
@@ -77,7 +82,7 @@ class ScoreSet(msgspec.Struct, kw_only=True):
     values: list[float]
 
 
-class Points(msgspec.Struct, tag="points", tag_field=TAG_FIELD, kw_only=True):
+class Points(msgspec.Struct, tag="points", tag_field=TAG_FIELD, kw_only=True, frozen=True):
     """Face landmarks for one frame (topic ``…/points``).
 
     When ``face`` is false, ``sets`` and ``scores`` are empty: a missing face is said, never
@@ -99,7 +104,7 @@ class Points(msgspec.Struct, tag="points", tag_field=TAG_FIELD, kw_only=True):
     capture_host: str = ""
 
 
-class Features(msgspec.Struct, tag="features", tag_field=TAG_FIELD, kw_only=True):
+class Features(msgspec.Struct, tag="features", tag_field=TAG_FIELD, kw_only=True, frozen=True):
     """Pose-free features for one frame (topic ``…/features``).
 
     ``distances`` are the paper's features: the distance of each ``ibug68`` point to the nose tip
@@ -128,7 +133,9 @@ class Features(msgspec.Struct, tag="features", tag_field=TAG_FIELD, kw_only=True
     capture_host: str = ""
 
 
-class ServoCommands(msgspec.Struct, tag="servo_commands", tag_field=TAG_FIELD, kw_only=True):
+class ServoCommands(
+    msgspec.Struct, tag="servo_commands", tag_field=TAG_FIELD, kw_only=True, frozen=True
+):
     """Servo targets for one frame (topic ``…/servo_commands``).
 
     ``positions`` maps the profile's servo names to pulse widths in microseconds, already
@@ -178,7 +185,9 @@ class ServoCommands(msgspec.Struct, tag="servo_commands", tag_field=TAG_FIELD, k
     capture_host: str = ""
 
 
-class ServiceStats(msgspec.Struct, tag="service_stats", tag_field=TAG_FIELD, kw_only=True):
+class ServiceStats(
+    msgspec.Struct, tag="service_stats", tag_field=TAG_FIELD, kw_only=True, frozen=True
+):
     """Periodic health figures of one running service (topic ``…/stats/<service>/<instance>``).
 
     Latencies are from the source frame's capture to this service's publication, in
@@ -217,7 +226,9 @@ class ServiceStats(msgspec.Struct, tag="service_stats", tag_field=TAG_FIELD, kw_
     stale: int = 0
 
 
-class BabbleSample(msgspec.Struct, tag="babble_sample", tag_field=TAG_FIELD, kw_only=True):
+class BabbleSample(
+    msgspec.Struct, tag="babble_sample", tag_field=TAG_FIELD, kw_only=True, frozen=True
+):
     """One settled pose of a babbling robot (topic ``…/babble``, from ``facesynth learn``).
 
     The robot was commanded ``commanded`` (pulse widths in µs by servo name, within the

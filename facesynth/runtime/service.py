@@ -107,6 +107,10 @@ class ServiceContext:
         never crowds the stream out. ``check`` (pure, thread-safe: it runs on the transport's
         thread) may refuse a decoded message too, by raising ``ValueError``. Refusals are
         counted as rejected and logged.
+
+        A message published as an object in this process (:meth:`publish`) is taken as it is,
+        with the same checks but no decoding (:func:`codec.check`, then ``check``); without
+        ``message`` the mailbox gets its bytes.
         """
         key = self.key(stage)
         if maxsize <= 1:
@@ -120,7 +124,7 @@ class ServiceContext:
             self.stats.rejected += count - 1  # reject() counts one
             self.reject(f"{key}: {count} message(s) refused on arrival, the last: {reason}")
 
-        screen = None
+        screen = take = None
         if message is not None:
 
             def screen(payload: bytes) -> Any:
@@ -129,13 +133,21 @@ class ServiceContext:
                     check(decoded)
                 return decoded
 
-        subscription.guard(limit, screen, refused)
+            def take(obj: Any) -> Any:
+                checked = codec.check(obj, message)
+                if check is not None:
+                    check(checked)
+                return checked
+
+        subscription.guard(limit, screen, refused, take)
         self.subscriptions.append(subscription)
         return subscription
 
     def publish(self, stage: keys.Stage, message: msgspec.Struct) -> None:
-        """Encode and publish ``message`` on a stage key, and count it."""
-        self.bus.publish(self.key(stage), codec.encode(message))
+        """Publish ``message`` on a stage key, and count it: as the object to this process's
+        readers, encoded once for the others (:meth:`Bus.publish_message`). It is shared from
+        here on and must not be changed (the message structs are frozen)."""
+        self.bus.publish_message(self.key(stage), message, codec.encode)
         self.stats.record_published(getattr(message, "t_capture_ns", 0), self.clock.time_ns())
 
     def reject(self, reason: str) -> None:
@@ -154,7 +166,7 @@ class ServiceContext:
         self.stats.dropped = self.dropped()
         snapshot = self.stats.snapshot(self.clock.time_ns(), note=note, link=self.bus.link())
         key = keys.stats_key(self.rig, self.service, self.instance)
-        self.bus.publish(key, codec.encode(snapshot))
+        self.bus.publish_message(key, snapshot, codec.encode)
 
 
 async def serve_transform(

@@ -152,16 +152,26 @@ class StageRun:
     # --- input and time ------------------------------------------------------------------
 
     async def send(
-        self, topic: keys.Stage, message: msgspec.Struct | bytes, *, robot: str | None = None
+        self,
+        topic: keys.Stage,
+        message: msgspec.Struct | bytes,
+        *,
+        robot: str | None = None,
+        in_process: bool = False,
     ) -> None:
         """Publish ``message`` (encoded, or raw bytes as given) on the rig's ``topic`` now
-        (``robot``'s key of it, for the per-robot stages).
+        (``robot``'s key of it, for the per-robot stages); with ``in_process``, as the object
+        itself, as a stage of the same process publishes (``Bus.publish_message``).
 
         The stage then runs until it waits again; the test's own messages are not recorded.
         """
         self._drain()
-        payload = message if isinstance(message, bytes) else codec.encode(message)
-        self._probe.publish(keys.stage_key(self.rig, topic, robot), payload)
+        key = keys.stage_key(self.rig, topic, robot)
+        if in_process:
+            self._probe.publish_message(key, message, codec.encode)
+        else:
+            payload = message if isinstance(message, bytes) else codec.encode(message)
+            self._probe.publish(key, payload)
         if self._recorder is not None:
             self._recorder.receive_nowait()  # our own message, delivered synchronously
         await self.clock.settle()

@@ -173,7 +173,7 @@ class ControlService:
         if move.command:
             ctx.publish("servo_state", state)
         else:  # the controller's own move: not a command applied, so not counted as one
-            ctx.bus.publish(ctx.key("servo_state"), codec.encode(state))
+            ctx.bus.publish_message(ctx.key("servo_state"), state, codec.encode)
 
     def _readings(self) -> Mapping[str, ServoReading]:
         """What the driver last read back from the servos (never waits on the device); a

@@ -22,6 +22,10 @@ def _decode_ack(payload: bytes) -> ServoCommands:
     return codec.decode(payload, ServoCommands)
 
 
+def _take_ack(message: object) -> ServoCommands:
+    return codec.check(message, ServoCommands)
+
+
 async def ack_stage(ctx: ServiceContext) -> keys.Stage:
     """Where the credit comes from: ``servo_state`` while a control interface of the rig is
     alive, else ``servo_commands``."""
@@ -46,7 +50,7 @@ class CreditGate:
         # Acks are not data: a full mailbox only drops old ones, so they stay out of the stats.
         subscription = ctx.bus.subscribe_queued(keys.robots_pattern(ctx.rig, stage), 64)
         # Screened on arrival: a flood of bad messages never takes an ack's place.
-        subscription.guard(limits.stage_limit(stage), _decode_ack)
+        subscription.guard(limits.stage_limit(stage), _decode_ack, take=_take_ack)
         credit = SlowestCredit(round(self.ack_timeout * 1e9))
         try:
             async for sample in subscription:

@@ -1,4 +1,7 @@
-"""One contract, two transports: the in-memory bus and Zenoh through a real loopback router."""
+"""One contract, two transports: the in-memory bus and Zenoh through a real loopback router.
+
+Messages are published as bytes (``Bus.publish``) or as objects (``Bus.publish_message``).
+"""
 
 from __future__ import annotations
 
@@ -8,9 +11,12 @@ from collections.abc import AsyncIterator, Callable
 
 import pytest
 
-from facesynth.runtime.bus.base import Bus, SubscriptionClosed
+from facesynth.runtime import codec
+from facesynth.runtime.bus.base import Bus, Subscription, SubscriptionClosed
 from facesynth.runtime.bus.memory import MemoryNetwork
 from facesynth.runtime.bus.zenoh_bus import ZenohBus, ZenohOptions
+from facesynth.runtime.bus.zenoh_outlet import MATCH_GRACE_S
+from facesynth.schemas.messages import ServoCommands
 
 DELIVERY_TIMEOUT = 5.0
 Factory = Callable[[], Bus]
@@ -360,3 +366,168 @@ async def test_buses_sharing_a_zenoh_session_see_each_others_publications(
         await guest.close()
         await remote.close()
         await owner.close()
+
+
+# --- Messages published as objects (Bus.publish_message) ------------------------------------
+
+
+class CountingEncoder:
+    """``codec.encode``, counting its calls."""
+
+    def __init__(self) -> None:
+        self.calls = 0
+
+    def __call__(self, message: ServoCommands) -> bytes:
+        self.calls += 1
+        return codec.encode(message)
+
+
+def _command(seq: int, jaw: float = 1500.0) -> ServoCommands:
+    return ServoCommands(
+        seq=seq, t_capture_ns=seq, t_media_ns=seq, face=True, profile="p", positions={"jaw": jaw}
+    )
+
+
+def _takes_commands(subscription: Subscription, refused: list[tuple[int, str]] | None = None):
+    """Guard ``subscription`` as a stage does: bytes decoded, in-process objects checked."""
+
+    def take(message: object) -> ServoCommands:
+        checked = codec.check(message, ServoCommands)
+        if checked.positions.get("jaw") == 0.0:
+            raise ValueError("a jaw at 0")
+        return checked
+
+    subscription.guard(
+        10_000,
+        lambda payload: take(codec.decode(payload, ServoCommands)),
+        (lambda count, reason: refused.append((count, reason))) if refused is not None else None,
+        take,
+    )
+    return subscription
+
+
+async def settle_outlet(bus: Bus, key: str) -> None:
+    """Declare ``key``'s publisher and let a Zenoh bus learn who listens to it: a new publisher
+    hands Zenoh every message for its first ``MATCH_GRACE_S``."""
+    if isinstance(bus, ZenohBus):
+        bus.publish_message(key, _command(0), codec.encode)
+        await asyncio.sleep(MATCH_GRACE_S + 0.1)
+
+
+async def test_a_message_reaches_mailboxes_of_its_own_process_as_the_object_itself(
+    make_bus: Factory, key_prefix: str
+) -> None:
+    bus = make_bus()
+    key = f"{key_prefix}/obj"
+    first = _takes_commands(bus.subscribe_queued(key, 8))
+    second = _takes_commands(bus.subscribe_latest(key))
+    await settle(bus)
+    await settle_outlet(bus, key)
+    for subscription in (first, second):
+        while subscription.receive_nowait() is not None:
+            pass
+    encoder = CountingEncoder()
+    message = _command(1)
+    bus.publish_message(key, message, encoder)
+    for subscription in (first, second):
+        sample = await asyncio.wait_for(subscription.receive(), DELIVERY_TIMEOUT)
+        assert sample.message is message and sample.parcel is not None
+    assert encoder.calls == 0, "encoded with no reader of bytes in this or another process"
+    # Bytes are still there for whoever asks, encoded once for every reader.
+    assert codec.decode(sample.payload, ServoCommands) == message
+    assert sample.payload is sample.payload and encoder.calls == 1
+    await asyncio.sleep(0.2)  # and nothing twice (Zenoh does not bring it back)
+    assert first.pending() == second.pending() == 0
+
+
+async def test_mailboxes_reading_bytes_get_the_message_encoded_once(
+    make_bus: Factory, key_prefix: str
+) -> None:
+    sender, receiver = make_bus(), make_bus()
+    key = f"{key_prefix}/bytes"
+    local_bytes = [sender.subscribe_queued(key, 8) for _ in range(2)]
+    local_objects = _takes_commands(sender.subscribe_queued(key, 8))
+    remote_bytes = [receiver.subscribe_queued(key, 8) for _ in range(2)]
+    remote_objects = _takes_commands(receiver.subscribe_queued(key, 8))
+    await settle(receiver)
+    encoder = CountingEncoder()
+    message = _command(7, jaw=1234.5)
+    sender.publish_message(key, message, encoder)
+    for subscription in [*local_bytes, *remote_bytes]:
+        sample = await asyncio.wait_for(subscription.receive(), DELIVERY_TIMEOUT)
+        assert codec.decode(sample.payload, ServoCommands) == message
+    assert (await asyncio.wait_for(local_objects.receive(), DELIVERY_TIMEOUT)).message is message
+    remote = await asyncio.wait_for(remote_objects.receive(), DELIVERY_TIMEOUT)
+    assert remote.message == message
+    assert encoder.calls == 1, "one encoding per publication, however many read bytes"
+
+
+async def test_zenoh_gets_the_bytes_only_while_a_subscriber_elsewhere_matches(
+    zenoh_router: str, key_prefix: str
+) -> None:
+    # Encoded (and put) once per publication while another session subscribes, never before
+    # or after: the publisher's matching status follows the remote subscriber.
+    key = f"{key_prefix}/match"
+    sender = ZenohBus.open(ZenohOptions(mode="client", connect=[zenoh_router]))
+    observer = ZenohBus.open(ZenohOptions(mode="client", connect=[zenoh_router]))
+    try:
+        local = _takes_commands(sender.subscribe_queued(key, 64))
+        elsewhere = observer.subscribe_queued(f"{key_prefix}/other", 8)  # no match
+        await settle_outlet(sender, key)
+        encoder = CountingEncoder()
+        for seq in range(1, 6):
+            sender.publish_message(key, _command(seq), encoder)
+        assert encoder.calls == 0
+        remote = observer.subscribe_queued(f"{key_prefix}/*", 64)
+        await _until(lambda: sender._outlets[key].matching)
+        for seq in range(6, 11):
+            sender.publish_message(key, _command(seq), encoder)
+        assert encoder.calls == 5
+        got = [
+            codec.decode(
+                (await asyncio.wait_for(remote.receive(), DELIVERY_TIMEOUT)).payload, ServoCommands
+            ).seq
+            for _ in range(5)
+        ]
+        assert got == [6, 7, 8, 9, 10]
+        remote.close()
+        await _until(lambda: not sender._outlets[key].matching)
+        sender.publish_message(key, _command(11), encoder)
+        assert encoder.calls == 5
+        seqs = [s.message.seq for s in iter(local.receive_nowait, None)]
+        assert seqs == list(range(0, 12)), "the local mailbox got every message, once"
+        assert elsewhere.pending() == 0
+    finally:
+        await observer.close()
+        await sender.close()
+
+
+async def test_objects_refused_by_the_mailbox_are_counted_and_displace_nothing(
+    make_bus: Factory, key_prefix: str
+) -> None:
+    bus = make_bus()
+    key = f"{key_prefix}/refuse"
+    refused: list[tuple[int, str]] = []
+    latest = _takes_commands(bus.subscribe_latest(key), refused)
+    await settle(bus)
+    bus.publish_message(key, _command(1), codec.encode)
+    bus.publish_message(key, _command(2, jaw=0.0), codec.encode)  # refused by the check
+    bus.publish_message(key, _command(3, jaw=float("nan")), codec.encode)  # refused: not finite
+    bus.publish_message(key, "not a message", codec.encode)  # refused: not a ServoCommands
+    await _wait_reported(refused, 3)
+    sample = await asyncio.wait_for(latest.receive(), DELIVERY_TIMEOUT)
+    assert sample.message.seq == 1 and latest.refused == 3 and latest.dropped == 0
+    assert "not a valid ServoCommands message: a str object" in refused[-1][1]
+    for seq in range(4, 9):  # latest keeps the newest object, counting the ones it dropped
+        bus.publish_message(key, _command(seq), codec.encode)
+    await _wait_received(latest, 6)
+    assert (await asyncio.wait_for(latest.receive(), DELIVERY_TIMEOUT)).message.seq == 8
+    assert latest.dropped == 4
+
+
+async def _until(condition: Callable[[], bool]) -> None:
+    for _ in range(int(DELIVERY_TIMEOUT / 0.01)):
+        if condition():
+            return
+        await asyncio.sleep(0.01)
+    raise AssertionError("the condition never held")

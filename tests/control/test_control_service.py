@@ -136,6 +136,32 @@ async def test_refuses_bad_commands_whole_and_counts_them() -> None:
         assert [s.move for s in run.messages("servo_state")] == ["start"]
 
 
+@pytest.mark.parametrize("in_process", [False, True], ids=["bytes", "object"])
+async def test_every_command_is_checked_and_clamped_whatever_path_it_took(in_process: bool) -> None:
+    # A stage of the same process hands C the message object, never encoded nor decoded: C
+    # refuses and clamps exactly as it does for bytes from another process.
+    run, driver = control_run()
+    async with run:
+
+        async def send(message: ServoCommands) -> None:
+            await run.send("servo_commands", message, in_process=in_process)
+
+        await send(commands(0, jaw=1500.0))  # the start-up catch-up is over
+        await run.advance(0.2)
+        await send(commands(1, jaw=2600.0, right_eyebrow=900.0))
+        assert driver.sent[-1][1] == {**NEUTRAL, "jaw": 2000.0, "right_eyebrow": 1000.0}
+        moved = len(driver.sent)
+        await send(commands(2, tail=1500.0))  # unknown servo
+        await send(commands(3, profile="other", jaw=1600.0))
+        await send(commands(4, jaw=float("nan")))
+        await send(commands(5, jaw=float("inf")))
+        await send(commands(6, jaw=-5.0))
+        await send(commands(7, jaw="1600"))  # type: ignore[arg-type]  # not a number
+        await send(msgspec.structs.replace(commands(8, jaw=1600.0), sender=["not", "a name"]))
+        assert run.ctx.stats.rejected == 7 and run.ctx.stats.received == 9
+        assert len(driver.sent) == moved, "nothing moved"
+
+
 async def test_silence_ramps_to_neutral_reaching_it_exactly_after_watchdog_plus_ramp() -> None:
     run, driver = control_run(watchdog_s=0.5)
     async with run:

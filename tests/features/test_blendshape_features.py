@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import msgspec
 import numpy as np
 import pytest
 from synthetic_face import IRIS, MESH, S, points_message
@@ -28,7 +29,8 @@ def _message(scores: np.ndarray | None, seq: int) -> Points:
     points = points_message(MESH, IRIS, seq=seq, t_media_ns=seq * S // FPS)
     if scores is not None:
         values = scores.tolist()
-        points.scores = [ScoreSet(scheme=blendshapes.BLENDSHAPES52, values=values)]
+        scores = [ScoreSet(scheme=blendshapes.BLENDSHAPES52, values=values)]
+        points = msgspec.structs.replace(points, scores=scores)
     return points
 
 
@@ -102,8 +104,8 @@ def test_auto_range_widens_a_blendshape() -> None:
     ],
 )
 def test_malformed_blendshapes_are_refused(values: list[float], message: str) -> None:
-    points = _message(None, 0)
-    points.scores = [ScoreSet(scheme=blendshapes.BLENDSHAPES52, values=values)]
+    scores = [ScoreSet(scheme=blendshapes.BLENDSHAPES52, values=values)]
+    points = msgspec.structs.replace(_message(None, 0), scores=scores)
     with pytest.raises(FeatureError, match=message):
         blendshape_scores(points)
     with pytest.raises(FeatureError, match=message):
@@ -112,8 +114,8 @@ def test_malformed_blendshapes_are_refused(values: list[float], message: str) ->
 
 def test_malformed_blendshapes_do_not_stop_a_calibration() -> None:
     recorder = CalibrationRecorder("erin", raw_features, settle_s=0.0)
-    bad = _message(None, 0)
-    bad.scores = [ScoreSet(scheme=blendshapes.BLENDSHAPES52, values=[2.0] * 52)]
+    scores = [ScoreSet(scheme=blendshapes.BLENDSHAPES52, values=[2.0] * 52)]
+    bad = msgspec.structs.replace(_message(None, 0), scores=scores)
     assert recorder.add("neutral", 0.0, bad)
     for i in range(1, 4):
         recorder.add("neutral", i / FPS, _message(REST, i))

@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 from importlib import resources
 
+import msgspec
 import numpy as np
 import pytest
 
@@ -189,8 +190,7 @@ def test_ibug_points_found_among_other_sets() -> None:
     ids=["no-sets", "other-schemes", "67-points", "2d-count-as-3d", "dims-4"],
 )
 def test_ibug_points_errors(sets: list[PointSet], detail: str) -> None:
-    message = _points_message(SHAPE)
-    message.sets = sets
+    message = msgspec.structs.replace(_points_message(SHAPE), sets=sets)
     with pytest.raises(FeatureError) as info:
         ibug_points(message)
     assert str(info.value) == detail
@@ -314,8 +314,8 @@ def test_bad_neutral_is_refused(neutral: np.ndarray) -> None:
 
 def test_unusable_points_raise_feature_error() -> None:
     processor = FeatureProcessor()
-    message = _points_message(SHAPE)
-    message.sets = [PointSet(scheme="mesh468", dims=3, coords=[0.0] * 1404)]
+    mesh_only = [PointSet(scheme="mesh468", dims=3, coords=[0.0] * 1404)]
+    message = msgspec.structs.replace(_points_message(SHAPE), sets=mesh_only)
     with pytest.raises(FeatureError, match="no ibug68 point set"):
         processor.process(message)
     collapsed = SHAPE.copy()

@@ -4,6 +4,7 @@ servo commands all the way into the control interface's core (never a servo outs
 
 from __future__ import annotations
 
+import contextlib
 import math
 from pathlib import Path
 from typing import Any
@@ -242,3 +243,71 @@ def test_servo_commands_decode_and_never_move_a_servo_outside_its_limits() -> No
     case()
     check_tally(target, "valid", "refused")
     check_tally(core_target, "valid", "refused", every_case=False)
+
+
+# --- Messages handed over within a process (never encoded): codec.check ---------------------
+
+
+def _built(payload: bytes, cls: type[Any]) -> Any:
+    """The struct a stage of this process could have built from ``payload``'s fields, with
+    whatever values they hold (a struct's constructor checks no types), or ``None``."""
+    try:
+        tree = msgspec.msgpack.decode(payload)
+    except (msgspec.DecodeError, UnicodeDecodeError):
+        return None
+    if not isinstance(tree, dict):
+        return None
+    try:
+        return cls(**{k: v for k, v in tree.items() if k in cls.__struct_fields__})
+    except TypeError:  # a required field is missing
+        return None
+
+
+@pytest.mark.parametrize(
+    ("cls", "fixtures"),
+    [
+        (Frame, ("frame_jpeg", "frame_raw")),
+        (Points, ("points_face", "points_no_face")),
+        (Features, ("features",)),
+        (ServoCommands, ("servo_commands", "servo_commands_sent", "servo_state_own_move")),
+        (ServiceStats, ("service_stats", "service_stats_idle")),
+    ],
+    ids=["Frame", "Points", "Features", "ServoCommands", "ServiceStats"],
+)
+def test_an_object_is_refused_exactly_when_its_bytes_would_be(
+    cls: type[Any], fixtures: tuple[str, ...]
+) -> None:
+    # The in-process path checks the object a stage built (codec.check) instead of decoding
+    # bytes: it must refuse what decode refuses (within the byte limit, which objects do not
+    # have), and refuse anything built with values of the wrong types, never crash.
+    target = f"codec.check {cls.__name__}"
+    core = ControlCore(PROFILE)
+    now = 10**9
+    core.start(now)
+
+    @FUZZ
+    @given(_strategy(*fixtures))
+    def case(payload: bytes) -> None:
+        built = _built(payload, cls)
+        if built is not None:
+            checked = outcome(target, lambda: codec.check(built, cls), codec.MessageError)
+            if checked is not None and cls is ServoCommands:
+                arrival = Arrival(wall_ns=10**18 + now, mono_ns=now)
+                with contextlib.suppress(CommandError, StaleCommand):
+                    check_within_limits(PROFILE, core.command(checked, arrival)[0])
+        try:
+            typed = msgspec.msgpack.decode(payload, type=cls)  # types checked, nothing else
+        except (msgspec.DecodeError, msgspec.ValidationError, UnicodeDecodeError):
+            return
+        if len(payload) > codec.MAX_BYTES[cls]:
+            return
+        try:
+            codec.decode(payload, cls)
+        except codec.MessageError:
+            with pytest.raises(codec.MessageError):
+                codec.check(typed, cls)
+        else:
+            assert codec.check(typed, cls) is typed
+
+    case()
+    check_tally(target, "valid", "refused", every_case=False)

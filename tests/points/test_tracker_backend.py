@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import cv2
+import msgspec
 import numpy as np
 import pytest
 
@@ -76,7 +77,7 @@ def test_frames_without_pixels_are_refused() -> None:
 
 def test_corrupt_jpeg_is_a_clear_error(video_frames: list[np.ndarray]) -> None:
     frame = _frame(video_frames[0], 0)
-    frame.data = frame.data[:300]
+    frame = msgspec.structs.replace(frame, data=frame.data[:300])
     with pytest.raises(ValueError, match="cannot be decoded"):
         TrackerBackend().process(frame)
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 import socket
 from typing import Any
 
+import msgspec
 import pytest
 from translator_fixtures import DT, feature_servo, features_at, profile_of
 
@@ -125,8 +126,7 @@ async def test_reports_for_another_profile_or_undecodable_are_ignored() -> None:
     async with StageRun(
         lambda ctx: serve_translator(ctx, Translator(LIMITED)), service="translator"
     ) as run:
-        other = state("report", jaw=1100.0, brow=1100.0)
-        other.profile = "other"
+        other = msgspec.structs.replace(state("report", jaw=1100.0, brow=1100.0), profile="other")
         await run.send("servo_state", other)
         await run.send("servo_state", b"\x93garbage")
         first = await translate(run, 0, {})

@@ -1,12 +1,20 @@
 """The bus seam (publish / subscribe-latest / subscribe-queued / liveliness) and its transports."""
 
-from facesynth.runtime.bus.base import Bus, Sample, Subscription, SubscriptionClosed, Token
+from facesynth.runtime.bus.base import (
+    Bus,
+    Parcel,
+    Sample,
+    Subscription,
+    SubscriptionClosed,
+    Token,
+)
 from facesynth.runtime.bus.memory import MemoryBus, MemoryNetwork
 
 __all__ = [
     "Bus",
     "MemoryBus",
     "MemoryNetwork",
+    "Parcel",
     "Sample",
     "Subscription",
     "SubscriptionClosed",

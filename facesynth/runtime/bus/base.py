@@ -8,6 +8,12 @@ Subscriptions are mailboxes owned by the asyncio loop: a transport thread hands 
 with ``loop.call_soon_threadsafe`` and never blocks. A *latest* subscription keeps only the newest
 sample (older ones count as dropped); a *queued* one keeps up to ``maxsize`` and drops the oldest
 when full, also counted.
+
+**Messages within a process travel as objects.** :meth:`Bus.publish_message` takes the message
+itself (an immutable struct) in a :class:`Parcel`: a mailbox of the same process that *takes*
+objects (:meth:`Subscription.guard`'s ``take``, which checks the object as its screen checks
+decoded bytes) gets that very object, without msgpack; the bytes are encoded at most once, and
+only when a mailbox that reads bytes (a recorder) or a subscriber in another process wants them.
 """
 
 from __future__ import annotations
@@ -19,22 +25,63 @@ import contextlib
 import threading
 import time
 from collections.abc import AsyncIterator, Callable
-from dataclasses import dataclass
 from types import TracebackType
 from typing import Any, Self
 
 from facesynth.runtime.bus.link import LinkFigures
 
 
-@dataclass(frozen=True, slots=True)
-class Sample:
-    """One received payload, with the key it was published on and when it arrived; ``message``
-    is what a subscription's screen decoded it to (``None`` without a screen)."""
+class Parcel:
+    """A message published within a process: the object, and its bytes encoded when first
+    asked for (at most once, however many readers ask)."""
 
-    key: str
-    payload: bytes
-    t_received_ns: int
-    message: Any = None
+    __slots__ = ("_encode", "_payload", "message")
+
+    def __init__(self, message: Any, encode: Callable[[Any], bytes]) -> None:
+        self.message = message
+        self._encode = encode
+        self._payload: bytes | None = None
+
+    def payload(self) -> bytes:
+        """The message's bytes, encoded on the first call."""
+        if self._payload is None:
+            self._payload = self._encode(self.message)
+        return self._payload
+
+
+class Sample:
+    """One received message: the key it was published on, when it arrived, its bytes and,
+    where a screen decoded them or the mailbox took a message published in this process,
+    its ``message`` (``None`` otherwise).
+
+    A sample of a message published in this process holds its :class:`Parcel` (``parcel``):
+    ``payload`` is then encoded on first use (once for every reader of that publication)."""
+
+    __slots__ = ("_data", "key", "message", "t_received_ns")
+
+    def __init__(
+        self, key: str, payload: bytes | Parcel, t_received_ns: int, message: Any = None
+    ) -> None:
+        self.key = key
+        self._data = payload
+        self.t_received_ns = t_received_ns
+        self.message = message
+
+    @property
+    def payload(self) -> bytes:
+        """The message's bytes (encoded now for an in-process message not encoded before)."""
+        data = self._data
+        return data.payload() if isinstance(data, Parcel) else data
+
+    @property
+    def parcel(self) -> Parcel | None:
+        """The in-process publication this sample carries, or ``None`` (bytes from a transport)."""
+        data = self._data
+        return data if isinstance(data, Parcel) else None
+
+    def __repr__(self) -> str:
+        what = "parcel" if self.parcel is not None else f"{len(self.payload)} bytes"
+        return f"Sample({self.key!r}, {what}, {self.t_received_ns}, {self.message!r})"
 
 
 class SubscriptionClosed(Exception):
@@ -60,6 +107,7 @@ class Subscription:
         #: Payloads refused on arrival (too big, or refused by the screen).
         self.refused = 0
         self._screen: Callable[[bytes], Any] | None = None
+        self._take: Callable[[Any], Any] | None = None
         self._on_refused: Callable[[int, str], None] | None = None
         self._refusals = 0  # refused since the last report to ``on_refused``
         self._reason = ""
@@ -84,6 +132,7 @@ class Subscription:
         max_bytes: int,
         screen: Callable[[bytes], Any] | None = None,
         on_refused: Callable[[int, str], None] | None = None,
+        take: Callable[[Any], Any] | None = None,
     ) -> None:
         """Refuse, on arrival, payloads over ``max_bytes`` (before they are copied out of the
         transport) and, with ``screen``, payloads it refuses by raising ``ValueError`` (its
@@ -94,14 +143,22 @@ class Subscription:
         ``on_refused(count, reason)`` is called on the event loop with how many were refused
         since its last call and why the latest was; at most one call is pending at a time, so
         a flood costs the loop nothing per message.
+
+        With ``take``, the mailbox takes messages published in this process as they are
+        (:meth:`Bus.publish_message`): ``take(message)`` checks the object as ``screen`` checks
+        what it decodes (refusing by raising ``ValueError``, counted and reported alike) and
+        its result becomes the sample's ``message``; nothing is encoded or decoded. Without
+        it, such a message reaches the mailbox as bytes, encoded once for all its readers. No
+        byte limit applies to an object (it has no bytes); ``take`` checks its counts.
         """
         self.max_bytes = max_bytes
         self._screen = screen
         self._on_refused = on_refused
+        self._take = take
 
     def limit(self, max_bytes: int) -> None:
         """Refuse payloads over ``max_bytes`` on arrival (see :meth:`guard`)."""
-        self.guard(max_bytes, self._screen, self._on_refused)
+        self.guard(max_bytes, self._screen, self._on_refused, self._take)
 
     def too_big(self, size: int) -> bool:
         """Whether a payload of ``size`` bytes is refused (and count it); any thread."""
@@ -138,11 +195,20 @@ class Subscription:
             self._on_refused(count, reason)
 
     def deliver(self, sample: Sample) -> None:
-        """Add a sample (screened, unless it comes screened from :meth:`deliver_threadsafe`);
-        call on the subscription's event loop thread only."""
+        """Add a sample (screened, unless it comes screened from :meth:`deliver_threadsafe`;
+        an in-process message taken as it is, with ``take``); call on the subscription's event
+        loop thread only."""
         if self._closed:
             return
-        if sample.message is None and (self.max_bytes is not None or self._screen is not None):
+        parcel = sample.parcel
+        if parcel is not None and self._take is not None:
+            try:
+                message = self._take(parcel.message)
+            except ValueError as exc:
+                self._refuse(str(exc))
+                return
+            sample = Sample(sample.key, parcel, sample.t_received_ns, message)
+        elif sample.message is None and (self.max_bytes is not None or self._screen is not None):
             admitted, message = self._admit(sample.payload)
             if not admitted:
                 return
@@ -287,6 +353,16 @@ class Bus(abc.ABC):
     @abc.abstractmethod
     def publish(self, key: str, payload: bytes) -> None:
         """Send ``payload`` on ``key``; returns without waiting for any subscriber."""
+
+    @abc.abstractmethod
+    def publish_message(self, key: str, message: Any, encode: Callable[[Any], bytes]) -> None:
+        """Send ``message`` on ``key`` as :meth:`publish` sends bytes: mailboxes of this process
+        that take objects get ``message`` itself, the others and other processes get
+        ``encode(message)``, called at most once and only when someone wants bytes.
+
+        ``message`` is shared by every reader from here on: nobody may change it (facesynth's
+        message structs are frozen).
+        """
 
     @abc.abstractmethod
     def _subscribe(self, key_expr: str, maxsize: int) -> Subscription:

@@ -4,13 +4,19 @@ Several :class:`MemoryBus` instances made from one :class:`MemoryNetwork` see ea
 services on one Zenoh network. Key expressions match with Zenoh's own rules. Publishing delivers
 synchronously into the subscribers' mailboxes, so it never waits; samples are stamped with the
 network's clock (a :class:`~facesynth.runtime.clock.FakeClock` in tests that control time).
+The buses of a network share one process, so a message published as an object
+(:meth:`~facesynth.runtime.bus.base.Bus.publish_message`) reaches every mailbox taking objects as
+that object, and is encoded only for mailboxes that read bytes.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from typing import Any
+
 import zenoh
 
-from facesynth.runtime.bus.base import Bus, Sample, Subscription, Token
+from facesynth.runtime.bus.base import Bus, Parcel, Sample, Subscription, Token
 from facesynth.runtime.clock import Clock, SystemClock
 
 
@@ -57,8 +63,14 @@ class MemoryBus(Bus):
         self._tokens: list[Token] = []
 
     def publish(self, key: str, payload: bytes) -> None:
+        self._deliver(Sample(key, bytes(payload), self.network.clock.time_ns()))
+
+    def publish_message(self, key: str, message: Any, encode: Callable[[Any], bytes]) -> None:
+        self._deliver(Sample(key, Parcel(message, encode), self.network.clock.time_ns()))
+
+    def _deliver(self, sample: Sample) -> None:
+        key = sample.key
         concrete = zenoh.KeyExpr(key)
-        sample = Sample(key, bytes(payload), self.network.clock.time_ns())
         for key_expr, subscription in list(self.network.subscriptions):
             if key_expr.intersects(concrete):
                 subscription.deliver(sample)

@@ -13,6 +13,13 @@ publication reaches the session's own matching subscriptions directly (as the in
 does), while Zenoh carries it to other sessions only (``allowed_destination=REMOTE``). Otherwise
 each local message would cross Zenoh's routing and a Python callback thread per subscriber:
 measured with 16 robots in one process (``facesynth bench fanout --layout shared``), … .
+
+A message published as an object (:meth:`ZenohBus.publish_message`) reaches the session's own
+mailboxes that take objects as that object, and is handed to Zenoh only while a subscriber of
+another session matches its key (the publisher's matching status, followed by a matching
+listener), encoded once however many match: stages sharing a process pay no msgpack and no
+Zenoh ``put`` while nobody elsewhere listens, and recorders, observers and remote stages still
+get every message.
 """
 
 from __future__ import annotations
@@ -25,21 +32,20 @@ import logging
 import os
 import re
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Final
 
 import zenoh
 
-from facesynth.runtime.bus.base import Bus, Sample, Subscription, Token
+from facesynth.runtime.bus.base import Bus, Parcel, Sample, Subscription, Token
 from facesynth.runtime.bus.link import LinkFigures, RouterLink, short_id
+from facesynth.runtime.bus.zenoh_outlet import Outlet
 from facesynth.runtime.bus.zenoh_routes import SessionRoutes, ZenohSubscription
 
 #: Where services look for a router when given no --connect (``facesynth router``'s default).
 DEFAULT_ROUTER = "tcp/127.0.0.1:7447"
 MODES = ("peer", "client", "router")
-#: Every facesynth publication's priority: one above Zenoh's default (see ZenohBus.publish).
-PRIORITY = zenoh.Priority.DATA_HIGH
 
 log = logging.getLogger("facesynth.link")
 
@@ -263,7 +269,7 @@ class ZenohBus(Bus):
         self.session = session
         self._owns_session = owns_session
         self._routes = SessionRoutes.attach(session)
-        self._publishers: dict[str, Any] = {}
+        self._outlets: dict[str, Outlet] = {}
         self._subscriptions: list[Subscription] = []
         self._tokens: list[Token] = []
         self._closed = False
@@ -280,29 +286,32 @@ class ZenohBus(Bus):
         """Open a session from ``options`` and wrap it."""
         return cls(open_session(options), mode=options.effective_mode())
 
+    def _outlet(self, key: str) -> Outlet:
+        outlet = self._outlets.get(key)
+        if outlet is None:
+            outlet = self._outlets[key] = Outlet(self.session, key)
+        return outlet
+
     def publish(self, key: str, payload: bytes) -> None:
-        publisher = self._publishers.get(key)
-        if publisher is None:
-            # DROP, not BLOCK: a stopped subscriber must not stall this service or the rig (see
-            # Bus). Not express: Zenoh's adaptive batching adds no latency on an idle link and
-            # keeps a burst in few batches (express + DROP lost messages of bursts, measured).
-            # DATA_HIGH: a link's queue is per priority, so a publisher flooding at Zenoh's
-            # default priority (DATA) does not crowd the rig's own messages out of it.
-            # Other sessions only: this session's subscriptions get it below, directly.
-            publisher = self.session.declare_publisher(
-                key,
-                congestion_control=zenoh.CongestionControl.DROP,
-                express=False,
-                priority=PRIORITY,
-                allowed_destination=zenoh.Locality.REMOTE,
-            )
-            self._publishers[key] = publisher
+        outlet = self._outlet(key)
         targets = self._routes.targets(key)
         if targets:
             sample = Sample(key, bytes(payload), time.time_ns())
             for feed in targets:
                 feed.deliver_local(sample)
-        publisher.put(payload)
+        if outlet.wanted():
+            outlet.publisher.put(payload)
+
+    def publish_message(self, key: str, message: Any, encode: Callable[[Any], bytes]) -> None:
+        outlet = self._outlet(key)
+        parcel = Parcel(message, encode)
+        targets = self._routes.targets(key)
+        if targets:
+            sample = Sample(key, parcel, time.time_ns())
+            for feed in targets:
+                feed.deliver_local(sample)
+        if outlet.wanted():
+            outlet.publisher.put(parcel.payload())
 
     def _subscribe(self, key_expr: str, maxsize: int) -> Subscription:
         zenoh.KeyExpr(key_expr)  # a bad key expression fails here, as Zenoh would
@@ -330,10 +339,9 @@ class ZenohBus(Bus):
             subscription.close()
         for token in self._tokens:
             token.close()
-        for publisher in self._publishers.values():
-            with contextlib.suppress(Exception):  # the session is already closed
-                publisher.undeclare()
-        self._publishers.clear()
+        for outlet in self._outlets.values():
+            outlet.close()
+        self._outlets.clear()
         self._watch.close()
         self._routes.detach()
         if self._owns_session:

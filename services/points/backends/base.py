@@ -13,25 +13,36 @@ from typing import ClassVar
 
 import numpy as np
 
-from facesynth.schemas.messages import Frame, Points, PointSet
+from facesynth.schemas.messages import Frame, Points, PointSet, ScoreSet
 
 
 class BackendError(ValueError):
     """A backend that cannot be set up (unreadable recording, missing model)."""
 
 
-def face_points(frame: Frame, sets: list[PointSet], confidence: float, source: str) -> Points:
-    """A "face present" Points message for ``frame``."""
-    return _points(frame, True, sets, confidence, source)
+def face_points(
+    frame: Frame,
+    sets: list[PointSet],
+    confidence: float,
+    source: str,
+    scores: list[ScoreSet] | None = None,
+) -> Points:
+    """A "face present" Points message for ``frame`` (with ``scores``, e.g. blendshapes)."""
+    return _points(frame, True, sets, confidence, source, scores or [])
 
 
 def no_face(frame: Frame, source: str, confidence: float = 0.0) -> Points:
     """A "no face" Points message for ``frame`` (never stale points)."""
-    return _points(frame, False, [], confidence, source)
+    return _points(frame, False, [], confidence, source, [])
 
 
 def _points(
-    frame: Frame, face: bool, sets: list[PointSet], confidence: float, source: str
+    frame: Frame,
+    face: bool,
+    sets: list[PointSet],
+    confidence: float,
+    source: str,
+    scores: list[ScoreSet],
 ) -> Points:
     return Points(
         seq=frame.seq,
@@ -42,6 +53,7 @@ def _points(
         image_width=frame.width,
         image_height=frame.height,
         sets=sets,
+        scores=scores,
         source=source,
         capture_host=frame.capture_host,
     )

@@ -131,6 +131,4 @@ class TrackReplay(Replay):
         face, presence, sets, scores = self.lines[index]
         if not face:
             return no_face(frame, self.name, presence)
-        points = face_points(frame, sets, presence, self.name)
-        points.scores = list(scores)
-        return points
+        return face_points(frame, sets, presence, self.name, list(scores))

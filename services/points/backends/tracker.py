@@ -140,8 +140,8 @@ class TrackerBackend(PointsBackend):
             sets.append(point_set(MESH468, result.mesh))
         if result.iris is not None:
             sets.append(point_set(IRIS10, result.iris))
-        points = face_points(frame, sets, result.presence, self.name)
+        scores = None
         if result.blendshapes is not None:
             values = result.blendshapes.astype(float).tolist()
-            points.scores = [ScoreSet(scheme=BLENDSHAPES52, values=values)]
-        return points
+            scores = [ScoreSet(scheme=BLENDSHAPES52, values=values)]
+        return face_points(frame, sets, result.presence, self.name, scores)
