@@ -428,6 +428,27 @@ CASES = [
         "--models: bench fanout takes one value",
     ),
     ("robot name", ["translator", "--robot", "a/b"], "invalid robot name 'a/b'"),
+    (
+        "closed loop on a written profile",
+        ["translator", "--robot-rig", "self", "--profile", "head16"],
+        "--robot-rig: profile head16 is not learned",
+    ),
+    ("closed loop rig", ["translator", "--robot-rig", "a/b"], "invalid --robot-rig name 'a/b'"),
+    (
+        "loop state without a loop",
+        ["translator", "--loop-state", "x.loop"],
+        "--loop-state goes with --robot-rig or --robot-camera",
+    ),
+    (
+        "closed loop two ways",
+        ["translator", "--robot-rig", "self", "--robot-camera", "0"],
+        "two ways to see the robot's face: give one",
+    ),
+    (
+        "closed loop camera on a written profile",
+        ["translator", "--robot-camera", "0", "--profile", "head16"],
+        "--robot-camera: profile head16 is not learned",
+    ),
     ("robot name in a graph", ["run", "{robotgraph.toml}"], "node t: invalid robot name"),
     ("unknown core", ["features", "--cpus", "4096"], "--cpus 4096: no core 4096 here"),
     ("nice range", ["features", "--nice", "30"], "--nice: Expected `int` <= 19"),
@@ -555,6 +576,26 @@ CASES = [
         "bench robot live driver",
         ["bench", "robot", "--driver", "teleporter", "--camera", "0"],
         "teleporter",
+    ),
+    (
+        "bench robot ros2 camera without driver",
+        ["bench", "robot", "--ros2-image-topic", "/camera/image_raw"],
+        "needs both --driver and --camera (or --ros2-image-topic)",
+    ),
+    (
+        "bench robot two cameras",
+        ["bench", "robot", "--driver", "maestro", "--camera", "0", "--ros2-image-topic", "/c"],
+        "--camera or --ros2-image-topic: one camera watches the head",
+    ),
+    (
+        "bench robot closed loop written",
+        ["bench", "robot", "--closed-loop", "--profile", "head16"],
+        "--closed-loop needs a learned --profile",
+    ),
+    (
+        "bench robot closed loop live",
+        ["bench", "robot", "--closed-loop", "--driver", "maestro", "--camera", "0"],
+        "--closed-loop drives the simulated heads in process; omit --driver",
     ),
     ("render robot head", ["render", "--robot-head", "robo9", "--out", "x.mp4"], "'robo9'"),
     (

@@ -33,7 +33,10 @@ Per frame, per servo:
    then every position is clamped to its limits (always last).
 
 A learned profile replaces steps 1-4 with :mod:`services.translator.learned`; a hardware profile
-(servos without a source) that is not learned is refused.
+(servos without a source) that is not learned is refused. Its loop can be closed through the
+robot's own camera (:meth:`Translator.close_loop`, the robot's faces given to
+:meth:`Translator.observe`; :mod:`facesynth.services.translator.closed_loop`): each command is
+then corrected before smoothing, on the clock ``now_ns`` of :meth:`Translator.step`.
 
 The first frame after construction or :meth:`Translator.reset` initialises every filter and
 limiter (no history to smooth or limit against). In a chain this is a neutral frame: F needs a
@@ -53,6 +56,7 @@ from facesynth.runtime.calibration import Calibration
 from facesynth.runtime.landmarks import MIRROR, N_IBUG
 from facesynth.runtime.profiles import Profile, ServoSpec, Smoothing
 from facesynth.schemas.messages import Features, ServoCommands
+from facesynth.services.translator.closed_loop import ClosedLoop, LoopOptions, LoopState
 from facesynth.services.translator.filters import OneEuroFilter, RateLimiter
 from facesynth.services.translator.learned import learned_targets, unsourced
 from facesynth.services.translator.safety import apply_exclusive
@@ -200,6 +204,8 @@ class Translator:
             servo.seen = False
             servo.ramp = None
         self._tracking: bool | None = None
+        if self._learned is not None and self._learned.closed is not None:
+            self._learned.closed.reset()
 
     def neutral(self) -> dict[str, float]:
         """Every servo at neutral."""
@@ -308,10 +314,15 @@ class Translator:
         return interpolate(max(movement, 0.0) if spec.one_sided else movement, low, high, spec)
 
     def _targets(
-        self, deltas: np.ndarray | None, named: Mapping[str, float], t_ns: int | None, raw: Raw
+        self,
+        deltas: np.ndarray | None,
+        named: Mapping[str, float],
+        t_ns: int | None,
+        raw: Raw,
+        now_ns: int | None = None,
     ) -> list[float | None]:
         if self._learned is not None:  # facesynth.services.translator.learned
-            return self._learned.targets(raw or {}, named, t_ns)
+            return self._learned.targets(raw or {}, named, t_ns, now_ns)
         cache: dict[object, float] = {}
         return [self._target(servo, deltas, named, t_ns, cache) for servo in self._servos]
 
@@ -359,9 +370,39 @@ class Translator:
             servo.ramp = None
         return position
 
-    def step(self, features: Features) -> dict[str, float]:
-        """Servo positions for one frame; updates the filters and limiters."""
+    def close_loop(
+        self, options: LoopOptions | None = None, state: LoopState | None = None
+    ) -> ClosedLoop:
+        """Correct a learned profile's commands through the robot's observed face from now on
+        (:meth:`observe`; :mod:`facesynth.services.translator.closed_loop`)."""
+        if self._learned is None:
+            raise TranslationError(f"profile {self.profile.name} is not learned: no closed loop")
+        try:
+            return self._learned.close_loop(options, state)
+        except ValueError as exc:
+            raise TranslationError(f"profile {self.profile.name}: {exc}") from None
+
+    def close_loop_once(self) -> ClosedLoop:
+        """The loop closed by :meth:`close_loop` (closed now, with its defaults, if not yet)."""
+        closed = self._learned.closed if self._learned is not None else None
+        return closed if closed is not None else self.close_loop()
+
+    def observe(self, features: Features) -> None:
+        """The robot's own face, as its camera's tracker and F saw it at ``t_capture_ns``
+        (no face or no neutral: lost); a no-op unless the loop is closed."""
+        learned = self._learned
+        if learned is None or learned.closed is None:
+            return
+        seen = features.face and features.neutral_ready and features.raw
+        face = learned.observed(features.raw) if seen else None
+        learned.closed.observe(face, features.t_capture_ns)
+
+    def step(self, features: Features, now_ns: int | None = None) -> dict[str, float]:
+        """Servo positions for one frame; updates the filters and limiters. ``now_ns``: the
+        instant on the robot camera's clock (default the frame's ``t_capture_ns``), for a
+        closed loop."""
         t_ns = features.t_media_ns
+        now_ns = features.t_capture_ns if now_ns is None else now_ns
         tracking = features.face and features.neutral_ready
         deltas = self._deltas(features.deltas) if tracking and features.deltas else None
         named: Mapping[str, float] = {}
@@ -371,7 +412,11 @@ class Translator:
             if self._learned is not None:
                 raw_in = mirror_named(features.raw) if self.profile.mirror else features.raw
             tracking = deltas is not None or bool(named) or bool(raw_in)
-        raw = self._targets(deltas, named, t_ns, raw_in) if tracking else [None] * len(self._servos)
+        raw = (
+            self._targets(deltas, named, t_ns, raw_in, now_ns)
+            if tracking
+            else [None] * len(self._servos)
+        )
         targets = {}
         for servo, target in zip(self._servos, raw, strict=True):
             spec = servo.spec
@@ -396,16 +441,18 @@ class Translator:
             if safe[name] != out[name]:
                 servo.limiter.position, servo.limiter.velocity = safe[name], 0.0
             safe[name] = servo.spec.clamp(safe[name])
+        if self._learned is not None:
+            self._learned.sent(safe, now_ns)
         return safe
 
-    def translate(self, features: Features) -> ServoCommands:
-        """Servo commands for one frame's features."""
+    def translate(self, features: Features, now_ns: int | None = None) -> ServoCommands:
+        """Servo commands for one frame's features (``now_ns``: see :meth:`step`)."""
         return ServoCommands(
             seq=features.seq,
             t_capture_ns=features.t_capture_ns,
             t_media_ns=features.t_media_ns,
             face=features.face,
             profile=self.profile.name,
-            positions=self.step(features),
+            positions=self.step(features, now_ns),
             capture_host=features.capture_host,
         )

@@ -46,6 +46,7 @@ import numpy as np
 from facesynth.runtime.profiles import Profile, Smoothing, has_source
 from facesynth.runtime.profiles.learned import PolyRidge, command_range, unpack
 from facesynth.runtime.profiles.learned_predict import predictor
+from facesynth.services.translator.closed_loop import ClosedLoop, LoopOptions, LoopState
 from facesynth.services.translator.filters import OneEuroFilter
 from facesynth.services.translator.retarget import Retargeter
 from facesynth.services.translator.self_model import SelfModelPlanner
@@ -92,6 +93,48 @@ class LearnedTargets:
         self.min_us = np.array([s.min_us for s in specs])
         self.max_us = np.array([s.max_us for s in specs])
         self.fixed = {name: profile.servo(name).neutral_us for name in learned.dead}
+        self.forward = learned.forward
+        #: The closed loop through the robot's camera (None: open loop; :meth:`close_loop`).
+        self.closed: ClosedLoop | None = None
+
+    def close_loop(
+        self, options: LoopOptions | None = None, state: LoopState | None = None
+    ) -> ClosedLoop:
+        """Close the loop through the robot's observed face
+        (:mod:`facesynth.services.translator.closed_loop`); ValueError without a
+        ``poly_ridge`` self-model."""
+        if not isinstance(self.forward, PolyRidge):
+            raise ValueError("a closed loop needs a learned profile with a poly_ridge self-model")
+        planner = self.planner or SelfModelPlanner(self.forward, 0, 0.0, self.u_low, self.u_high)
+        self.closed = ClosedLoop(planner, self.u_low, self.u_high, options, state)
+        return self.closed
+
+    def observed(self, raw: Mapping[str, float]) -> np.ndarray | None:
+        """The robot's observed face (``Features.raw`` of its own camera) standardized as the
+        models see it (NaN: missing), or None when it has none of the inputs."""
+        values = np.array([raw.get(name, np.nan) for name in self.inputs], dtype=np.float64)
+        if not np.isfinite(values).any():
+            return None
+        with np.errstate(all="ignore"):
+            out: np.ndarray = (values - self.mean) / self.scale
+        return out
+
+    def sent(self, positions: Mapping[str, float], now_ns: int) -> None:
+        """The translator's final ``positions`` went out at ``now_ns``: the closed loop pairs
+        the robot's next observed faces with them (as normalized commands)."""
+        if self.closed is None:
+            return
+        pulses = np.array([positions[name] for name in self.outputs], dtype=np.float64)
+        offset = pulses - self.neutral
+        with np.errstate(all="ignore"):  # a servo without travel on a side: 0 there
+            u = np.where(offset >= 0, offset / self.up, offset / self.down)
+        self.closed.sent(np.where(np.isfinite(u), u, 0.0), now_ns)
+
+    def plan_weights(self) -> np.ndarray | None:
+        """Each input's weight in the plan now (None: all 1)."""
+        if self.weights is None and self.retargeter is not None:
+            return self.retargeter.weights.weights()
+        return self.weights
 
     def retarget(
         self, raw: Mapping[str, float], named: Mapping[str, float], t_ns: int | None = None
@@ -127,10 +170,7 @@ class LearnedTargets:
             out: np.ndarray = np.clip(self.predict(x[None, :])[0], self.u_low, self.u_high)
         out = np.where(np.isfinite(out), out, np.nan)
         if self.planner is not None and np.isfinite(x).all() and np.isfinite(out).all():
-            weights = self.weights
-            if weights is None and self.retargeter is not None:
-                weights = self.retargeter.weights.weights()
-            out = self.planner.plan(x, out, weights)
+            out = self.planner.plan(x, out, self.plan_weights())
         return out
 
     def positions(self, u: np.ndarray) -> np.ndarray:
@@ -141,13 +181,22 @@ class LearnedTargets:
         return out
 
     def targets(
-        self, raw: Mapping[str, float], named: Mapping[str, float], t_ns: int | None
+        self,
+        raw: Mapping[str, float],
+        named: Mapping[str, float],
+        t_ns: int | None,
+        now_ns: int | None = None,
     ) -> list[float | None]:
-        """Every servo's target in the profile's order (None: hold); filtered when ``t_ns``."""
+        """Every servo's target in the profile's order (None: hold); filtered when ``t_ns``;
+        corrected by the closed loop (when closed) at ``now_ns`` (its clock) when given."""
         t = self.retarget(raw, named, t_ns)
         if t is None:
             return [None] * len(self.names)
         u = self.commands(t)
+        if self.closed is not None and now_ns is not None and np.isfinite(u).all():
+            with np.errstate(all="ignore"):
+                x = (t - self.mean) / self.scale
+            u = self.closed.correct(u, x, self.plan_weights(), now_ns)
         finite = np.isfinite(u)
         if t_ns is not None:  # a servo held (no finite command) leaves its filter as it was
             u = np.array(

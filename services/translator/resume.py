@@ -85,7 +85,7 @@ class ResumingTranslator:
                 self.translator.resume(where)
                 self.resumed = "reported" if positions is not None else "neutral"
             self.started = True
-        commands = self.translator.translate(features)
+        commands = self.translator.translate(features, now_ns)
         self.sent += 1
         return msgspec.structs.replace(
             commands,

@@ -134,7 +134,7 @@ def add_bench_arguments(p: argparse.ArgumentParser) -> None:
         metavar="NAME",
         help="robot: drive a head outside this process in real time through this servo "
         "driver (maestro, arduino, ssc32; e.g. facesynth simhead's serial port) instead of "
-        "the simulated heads in process; needs --camera",
+        "the simulated heads in process; needs --camera or --ros2-image-topic",
     )
     p.add_argument("--port", metavar="PORT", help="robot: the --driver's serial port")
     p.add_argument(
@@ -142,6 +142,19 @@ def add_bench_arguments(p: argparse.ArgumentParser) -> None:
         metavar="CAMERA",
         help="robot: the camera watching the --driver's head: a device index, a /dev/video* "
         "path or a stream URL (e.g. http://127.0.0.1:8080/camera.mjpg)",
+    )
+    p.add_argument(
+        "--ros2-image-topic",
+        metavar="TOPIC",
+        help="robot: instead of --camera, the robot's camera on ROS 2 (sensor_msgs "
+        "CompressedImage JPEG on a topic ending in /compressed, else Image rgb8, bgr8 or "
+        "mono8; the [ros2] extra)",
+    )
+    p.add_argument(
+        "--closed-loop",
+        action="store_true",
+        help="robot: also drive each learned --profile with T's loop closed through the "
+        "head's camera, beside its open loop (simulated heads in process)",
     )
     p.add_argument(
         "--track", help="smoothing: a facesynth track file to measure tracking noise from"

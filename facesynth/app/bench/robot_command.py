@@ -47,8 +47,9 @@ def profiles_of(args: argparse.Namespace) -> list[str]:
 
 
 def bench_robot_command(args: argparse.Namespace) -> int:
-    """Every profile on every simulated head in process, or (``--driver``, ``--camera``) on a
-    head outside it in real time; a table (or ``--json``) on stdout."""
+    """Every profile on every simulated head in process, or (``--driver``, ``--camera`` or
+    ``--ros2-image-topic``) on a head outside it in real time; a table (or ``--json``) on
+    stdout."""
     from facesynth.app.data import sample_video
     from facesynth.runtime.profiles import load_profile
 
@@ -62,7 +63,9 @@ def bench_robot_command(args: argparse.Namespace) -> int:
             load_profile(name)  # before any tracking
         except ValueError as exc:
             raise RobotError(f"--profile {name}: {exc}") from None
-    live = args.driver is not None or args.camera is not None
+    live = any(v is not None for v in (args.driver, args.camera, args.ros2_image_topic))
+    if getattr(args, "closed_loop", False):
+        _check_closed_loop(profiles, live)
 
     def progress(what: str) -> None:
         print(f"bench robot: {what}", file=sys.stderr, flush=True)
@@ -75,7 +78,12 @@ def bench_robot_command(args: argparse.Namespace) -> int:
         heads, open_head = simulated_heads(args.head)
         progress("tracking the performer")
         performance = track_performer(args.video or str(sample_video()), frames=args.frames)
-        result = bench_robot(performance, heads, profiles, open_head, progress=progress)
+        if getattr(args, "closed_loop", False):
+            from .robot_closed import bench_closed
+
+            result = bench_closed(performance, heads, profiles, open_head, progress=progress)
+        else:
+            result = bench_robot(performance, heads, profiles, open_head, progress=progress)
     text = json.dumps(robot_json(result), indent=2)
     if args.json == "-":
         print(text)
@@ -84,6 +92,16 @@ def bench_robot_command(args: argparse.Namespace) -> int:
         write_atomic(args.json, text + "\n", mode=0o644)
     print(format_robot(result))
     return 0
+
+
+def _check_closed_loop(profiles: list[str], live: bool) -> None:
+    """``--closed-loop``: simulated heads in process, and a learned profile to close it on."""
+    from facesynth.runtime.profiles import load_profile
+
+    if live:
+        raise OptionError("--closed-loop drives the simulated heads in process; omit --driver")
+    if not any(load_profile(name).learned is not None for name in profiles):
+        raise OptionError("--closed-loop needs a learned --profile (e.g. runs/head.learned)")
 
 
 def driver_config(name: str, port: str | None) -> msgspec.Struct:
@@ -108,27 +126,41 @@ def camera_config(value: str) -> msgspec.Struct:
     raise OptionError("--camera: the camera source has no --camera field")  # pragma: no cover
 
 
+def ros2_camera_config(topic: str) -> msgspec.Struct:
+    """``--ros2-image-topic TOPIC`` as a checked config of the ``ros2`` source."""
+    from facesynth.services.sensor.sources.registry import SOURCES
+
+    return SOURCES.parse({"source": "ros2", "topic": topic}, "--ros2-image-topic")
+
+
 def _live(
     args: argparse.Namespace, profiles: list[str], progress: Callable[[str], None]
 ) -> RobotBench:
-    """Every profile on the head behind ``--driver``, watched through ``--camera``."""
+    """Every profile on the head behind ``--driver``, watched through ``--camera`` (or the
+    robot's camera on ROS 2, ``--ros2-image-topic``)."""
     from facesynth.app.data import sample_video
     from facesynth.services.control.drivers.registry import DRIVERS
     from facesynth.services.sensor.sources.registry import SOURCES
 
     from .robot_live import CameraFeed, live_profile
 
-    if args.driver is None or args.camera is None:
-        raise OptionError("a head outside this process needs both --driver and --camera")
+    if args.camera is not None and args.ros2_image_topic is not None:
+        raise OptionError("--camera or --ros2-image-topic: one camera watches the head")
+    watch = args.camera if args.camera is not None else args.ros2_image_topic
+    if args.driver is None or watch is None:
+        raise OptionError(
+            "a head outside this process needs both --driver and --camera (or --ros2-image-topic)"
+        )
     if args.head:
         raise OptionError("--head names a simulated head in process; with --driver, omit it")
     driver = driver_config(args.driver, args.port)
-    camera = camera_config(args.camera)
+    camera = camera_config(watch) if args.camera is not None else ros2_camera_config(watch)
     feed = CameraFeed(SOURCES.build(camera))  # a camera that cannot open: before any tracking
     try:
         progress("tracking the performer")
         performance = track_performer(args.video or str(sample_video()), frames=args.frames)
-        name = f"{args.driver} {args.port or ''} | camera {args.camera}".replace("  ", " ")
+        seen = f"camera {args.camera}" if args.camera is not None else f"ros2 {watch}"
+        name = f"{args.driver} {args.port or ''} | {seen}".replace("  ", " ")
 
         def run(head: str, profile: Profile) -> FeatureStream:
             output = DRIVERS.build(driver, profile)

@@ -32,12 +32,23 @@ class TranslatorNode(RobotNode, tag="translator"):
         ]
         | None
     ) = None
+    robot_camera: (
+        Annotated[
+            str,
+            Meta(
+                description="close the loop through the robot's own camera, tracked in this "
+                "process (tracker and F): a device index, a /dev/video* path or a stream URL; "
+                "a learned profile only"
+            ),
+        ]
+        | None
+    ) = None
     loop_state: (
         Annotated[
             str,
             Meta(
-                description="with --robot-rig: the file the closed loop keeps what it learns "
-                "in (default: beside the learned profile, NAME.loop)"
+                description="with --robot-rig or --robot-camera: the file the closed loop "
+                "keeps what it learns in (default: beside the learned profile, NAME.loop)"
             ),
         ]
         | None
@@ -50,7 +61,7 @@ def build(request: NodeBuild) -> StageParts:
     translator = Translator(
         request.setup.profile(node.profile, node.mirror), build_calibration(node.calibration)
     )
-    face = robot_face(translator, node.robot_rig, node.profile, node.loop_state)
+    face = robot_face(translator, node.robot_rig, node.profile, node.loop_state, node.robot_camera)
     return StageParts(
         request.name,
         STAGE.name,

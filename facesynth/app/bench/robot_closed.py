@@ -1,0 +1,129 @@
+"""``bench robot --closed-loop``: a learned profile driving a simulated head with its camera in
+the loop, in process and in virtual time, beside the same profile in open loop.
+
+:class:`ClosedRobotLoop` is :class:`~.robot.RobotLoop` (T → C → the head → its camera → the
+tracker → F) whose F output is also handed back to T (:meth:`Translator.observe`), as
+``--robot-camera`` does live: T's closed loop
+(:mod:`facesynth.services.translator.closed_loop`) corrects the next frame's commands from the
+robot's face it saw, on the robot's clock. The head's camera image of a frame is taken after
+that frame's command, so T sees each face one frame later, as a real camera would show it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable, Sequence
+
+import msgspec
+import numpy as np
+
+from facesynth.runtime.clock import FAKE_EPOCH_NS
+from facesynth.runtime.profiles import Profile
+from facesynth.schemas.messages import Features
+from facesynth.services.points.backends.base import PointsBackend
+from facesynth.services.translator.closed_loop import LoopOptions, LoopState
+
+from .robot import (
+    SETTLE_S,
+    Head,
+    Performance,
+    RobotBench,
+    RobotError,
+    RobotLoop,
+    measure,
+    robot_features,
+)
+from .robot_compare import FeatureStream
+
+__all__ = ["CLOSED_SUFFIX", "ClosedRobotLoop", "bench_closed", "run_closed"]
+
+#: How a closed-loop run of a profile is named beside its open-loop run.
+CLOSED_SUFFIX = " (closed loop)"
+
+
+class ClosedRobotLoop(RobotLoop):
+    """A :class:`~.robot.RobotLoop` whose translator sees the robot's own face."""
+
+    def __init__(
+        self,
+        profile: Profile,
+        head: Head,
+        *,
+        fps: float,
+        options: LoopOptions | None = None,
+        state: LoopState | None = None,
+        backend: PointsBackend | None = None,
+        settle_s: float = SETTLE_S,
+    ) -> None:
+        super().__init__(profile, head, fps=fps, backend=backend, settle_s=settle_s)
+        try:
+            self.loop = self.translator.close_loop(options, state)
+        except ValueError as exc:
+            raise RobotError(str(exc)) from None
+
+    def step(self, performer: Features) -> tuple[np.ndarray, Features]:
+        """Play one performer frame as :class:`~.robot.RobotLoop` does (T's command, corrected
+        by the faces seen so far → C → the head → its camera → F), then hand that face to T,
+        stamped on T's clock (the stepped chain's wall clock: the robot's clock from
+        :data:`~facesynth.runtime.clock.FAKE_EPOCH_NS`)."""
+        image, features = super().step(performer)
+        captured = FAKE_EPOCH_NS + features.t_capture_ns  # captured at the robot's now_ns
+        self.translator.observe(msgspec.structs.replace(features, t_capture_ns=captured))
+        return image, features
+
+
+def run_closed(
+    performance: Performance,
+    profile: Profile,
+    head: Head,
+    options: LoopOptions | None = None,
+    state: LoopState | None = None,
+) -> tuple[FeatureStream, LoopState]:
+    """The robot's raw features for every performer frame with the loop closed, and what the
+    loop learned."""
+    loop = ClosedRobotLoop(profile, head, fps=performance.fps, options=options, state=state)
+    loop.start()
+    frames: list[dict[str, float] | None] = []
+    for performer in performance.features:
+        _, features = loop.step(performer)
+        frames.append(robot_features(features))
+    stream = FeatureStream.from_frames(frames, names=performance.stream.names)
+    return stream, loop.loop.state
+
+
+def bench_closed(
+    performance: Performance,
+    heads: Iterable[str],
+    profiles: Sequence[str],
+    open_head: Callable[[str], Head],
+    *,
+    options: LoopOptions | None = None,
+    progress: Callable[[str], None] | None = None,
+) -> RobotBench:
+    """Every profile on every head as ``bench robot`` runs it, and each learned one again with
+    the loop closed (named ``NAME (closed loop)``), side by side."""
+    from .robot import run_profile
+
+    def closed_name(profile: Profile) -> str:
+        return profile.name + CLOSED_SUFFIX
+
+    def run(head: str, profile: Profile) -> FeatureStream:
+        if profile.name.endswith(CLOSED_SUFFIX):
+            original = msgspec.structs.replace(
+                profile, name=profile.name.removesuffix(CLOSED_SUFFIX)
+            )
+            return run_closed(performance, original, open_head(head), options)[0]
+        return run_profile(performance, profile, open_head(head))
+
+    def load(name: str) -> list[Profile]:
+        from facesynth.runtime.profiles import load_profile
+
+        try:
+            profile = load_profile(name)
+        except ValueError as exc:
+            raise RobotError(str(exc)) from None
+        if profile.learned is None:
+            return [profile]
+        return [profile, msgspec.structs.replace(profile, name=closed_name(profile))]
+
+    loaded = [p for name in profiles for p in load(name)]
+    return measure(performance, heads, loaded, run, progress=progress)
