@@ -29,7 +29,7 @@ Per frame, for each of the mapping's inputs ``i`` (a key of ``Features.raw``):
 3. **Smoothing.** Each output's ``u`` goes through a One Euro filter with the profile's
    (per-servo) smoothing parameters, in range units (the filters belong to the translator, so
    :meth:`~facesynth.services.translator.core.Translator.reset` and ``resume`` restart them).
-4. **Position.** ``u`` → µs as :func:`services.translator.core.scaled_position` maps it (+1
+4. **Position.** ``u`` → µs as :func:`services.translator.mapping.scaled_position` maps it (+1
    ``max_us``, -1 ``min_us``) but never reversed: the model learned the wiring. Dead servos
    stay at ``neutral_us``.
 
