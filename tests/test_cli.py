@@ -71,6 +71,7 @@ def _files(tmp: Path) -> dict[str, Path]:
         'driver = { driver = "vmc" }\n',
         "features.toml": '[nodes.f]\nstage = "features"\n',
         "robotgraph.toml": '[nodes.t]\nstage = "translator"\nrobot = "a b"\n',
+        "agegraph.toml": '[nodes.p]\nstage = "points"\nmax_input_age_s = -0.5\n',
         "servotable.toml": 'name = "t"\n\n[servos.jaw]\nchannel = 0\n',
         "noavatar.toml": (
             'name = "noavatar"\n[[servos]]\nname = "tail"\nchannel = 0\nfeature = "jaw_open"\n'
@@ -453,6 +454,21 @@ CASES = [
     ("unknown core", ["features", "--cpus", "4096"], "--cpus 4096: no core 4096 here"),
     ("nice range", ["features", "--nice", "30"], "--nice: Expected `int` <= 19"),
     ("realtime range", ["points", "--realtime", "0"], "--realtime: Expected `int` >= 1"),
+    (
+        "negative input age",
+        ["points", "--max-input-age-s", "-1"],
+        "--max-input-age-s: Expected `float` >= 0.0",
+    ),
+    (
+        "NaN input age",
+        ["features", "--max-input-age-s", "nan"],
+        "--max-input-age-s: Expected `float` >= 0.0",
+    ),
+    (
+        "input age in a graph",
+        ["run", "{agegraph.toml}"],
+        "node p: max_input_age_s: Expected `float` >= 0.0",
+    ),
     ("router realtime range", ["router", "--realtime", "200"], "--realtime 200: must be within"),
     ("learn without a camera", ["learn", "--profile", "paper16", "--out", "s.mcap"], "--camera"),
     (

@@ -28,11 +28,15 @@ import msgspec
 
 from facesynth.app.graph import Graph, plugin_config
 from facesynth.app.nodes import stage_of
+from facesynth.app.stages.registry import STAGES
 
 MOUNT = "/etc/facesynth"
 CERTS_MOUNT = "/etc/facesynth-certs"
-#: Stages that need the full image (frames and the tracker); the rest run on the board image.
-TRACKER_STAGES = frozenset({"sensor", "points"})
+#: Stages that need the full image: those that make or read frames (``…/input``: the camera and
+#: the tracker); the rest run on the board image.
+TRACKER_STAGES = frozenset(
+    stage.name for stage in STAGES if "input" in (stage.consumes, stage.produces)
+)
 #: The rig deploy/secure's access control is written for.
 SECURE_RIG = "default"
 

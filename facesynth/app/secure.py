@@ -20,17 +20,23 @@ from dataclasses import dataclass
 from pathlib import PurePath
 from typing import Any
 
+from facesynth.app.stages.registry import STAGES
 from facesynth.runtime import keys
 
-#: Keys a stage publishes and subscribes to beyond its own stats and liveliness token.
-#: The sensor may follow ``servo_state`` (credit for ``--fast``); observers read the rig's
-#: health figures and what the controllers applied.
+#: Keys a stage reads beyond the one it consumes: the chain's source (the sensor) may follow
+#: ``servo_state`` (credit for ``--fast``).
+FOLLOWS: dict[str, tuple[str, ...]] = {source: ("servo_state",) for source in STAGES.sources()}
+#: Keys each identity publishes and subscribes to beyond its own stats and liveliness token:
+#: each stage's from its descriptor (what it produces; what it consumes, and follows);
+#: observers read the rig's health figures and what the controllers applied.
 ROLES: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
-    "sensor": (("input",), ("servo_state",)),
-    "points": (("points",), ("input",)),
-    "features": (("features",), ("points",)),
-    "translator": (("servo_commands",), ("features",)),
-    "control": (("servo_state",), ("servo_commands",)),
+    **{
+        stage.name: (
+            (stage.produces,) if stage.produces else (),
+            ((stage.consumes,) if stage.consumes else ()) + FOLLOWS.get(stage.name, ()),
+        )
+        for stage in STAGES
+    },
     "observer": ((), ("servo_state", "stats/**", "health/**")),
 }
 #: Every identity a rig's CA issues a certificate for.

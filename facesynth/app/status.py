@@ -51,12 +51,13 @@ def cmd_status(args: argparse.Namespace) -> int:
 
 
 def format_status(alive: list[str], stats: dict[str, Any]) -> str:
-    """A table of live services with their latest stats; the state column is
+    """A table of live services with their latest stats (``stale``: inputs dropped because
+    their frame was captured longer ago than the stage's limit); the state column is
     :func:`describe_state`."""
     by_instance = {keys.parse_service_key(k): s for k, s in stats.items()}
     header = (
         f"{'rig':<12} {'service':<11} {'instance':<28} {'rate Hz':>8} {'p50 ms':>8} "
-        f"{'p99 ms':>8} {'recv':>7} {'sent':>7} {'drop':>5} {'rej':>5} {'router':<21} "
+        f"{'p99 ms':>8} {'recv':>7} {'sent':>7} {'drop':>5} {'rej':>5} {'stale':>5} {'router':<21} "
         f"{'RSS MB':>7}  state"
     )
     lines = [header]
@@ -70,9 +71,10 @@ def format_status(alive: list[str], stats: dict[str, Any]) -> str:
             continue
         p50 = f"{s.latency_p50_ms:.2f}" if s.latency_p50_ms is not None else "-"
         p99 = f"{s.latency_p99_ms:.2f}" if s.latency_p99_ms is not None else "-"
+        stale = getattr(s, "stale", 0)  # inputs dropped for their capture age
         lines.append(
             f"{parsed[0]:<12} {parsed[1]:<11} {parsed[2]:<28} {s.rate_hz:>8.1f} {p50:>8} {p99:>8} "
-            f"{s.received:>7} {s.published:>7} {s.dropped:>5} {s.rejected:>5} "
+            f"{s.received:>7} {s.published:>7} {s.dropped:>5} {s.rejected:>5} {stale:>5} "
             f"{describe_link(s):<21} {s.rss_mb:>7.1f}  {describe_state(s)}"
         )
     if len(lines) == 1:

@@ -36,8 +36,8 @@ BUCKET_S = 1.0
 RELEARN_S = 2.0
 #: ... provided at least this many messages arrived meanwhile.
 RELEARN_COUNT = 10
-#: The capture age limit of the stages that know no profile (points, features): the profiles'
-#: default ``max_command_age_s``.
+#: The default capture age limit of the stages that know no profile (points, features: their
+#: node option ``max_input_age_s``): the profiles' default ``max_command_age_s``.
 DEFAULT_MAX_AGE_S = 0.25
 #: How many capture hosts are remembered.
 HOSTS = 64

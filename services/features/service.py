@@ -142,8 +142,10 @@ async def serve_features(
     processor: FeatureProcessor,
     queue: int = 8,
     keeping: StateKeeping | None = None,
+    max_age_s: float = DEFAULT_MAX_AGE_S,
 ) -> None:
-    """Compute features for every Points message until cancelled."""
+    """Compute features for every Points message until cancelled; points of a frame captured
+    longer ago than ``max_age_s`` when their turn comes are dropped (0: never)."""
     ctx.log.info("feature processor on %s", ctx.key("points"))
     keeper = None
     if keeping is not None:
@@ -163,7 +165,7 @@ async def serve_features(
 
     try:
         await serve_transform(
-            ctx, "points", Points, "features", transform, queue, max_age_s=DEFAULT_MAX_AGE_S
+            ctx, "points", Points, "features", transform, queue, max_age_s=max_age_s or None
         )
     finally:
         if keeper is not None:

@@ -190,3 +190,17 @@ def test_deploy_secure_configs_are_generated() -> None:
         "deploy/secure is stale: facesynth certs default --configs-only --out deploy/secure "
         "--cert-dir /etc/facesynth-certs --connect tls/router:7447"
     )
+
+
+def test_each_stage_s_access_comes_from_its_descriptor() -> None:
+    """A stage publishes what its descriptor says it produces and subscribes to what it
+    consumes; the chain's source also follows ``servo_state`` (credit for ``--fast``)."""
+    from facesynth.app.stages.registry import STAGES
+
+    assert [name for name in ROLES if name in STAGES] == list(STAGES.names())
+    for stage in STAGES:
+        publishes, subscribes = ROLES[stage.name]
+        assert publishes == ((stage.produces,) if stage.produces else ())
+        assert stage.consumes is None or subscribes[0] == stage.consumes
+    assert ROLES["sensor"] == (("input",), ("servo_state",))
+    assert ROLES["control"] == (("servo_state",), ("servo_commands",))

@@ -5,6 +5,7 @@ from __future__ import annotations
 import msgspec
 
 from facesynth.app.status import describe_link, describe_state, format_status
+from facesynth.runtime import codec
 from facesynth.runtime.stats import StageStats
 from facesynth.schemas.messages import ServiceStats
 
@@ -89,3 +90,22 @@ def test_the_state_column_is_never_empty() -> None:
     assert describe_state(older) == "idle"
     stopped = msgspec.structs.replace(stats("stopped"), rate_hz=0.0, idle_s=0.2)
     assert describe_state(stopped) == "idle 0 s; stopped"
+
+
+def test_each_stage_shows_its_stale_count_next_to_dropped_and_rejected() -> None:
+    """P dropped 7 frames for their capture age, 2 for a full queue, rejected 1: its stats as
+    published on the bus (encoded, decoded as ``facesynth status`` does) show all three."""
+    points = StageStats("points", "host-1", "r1")
+    points.received, points.dropped, points.rejected, points.stale = 40, 2, 1, 7
+    for frame in range(30):
+        points.record_published(0, now_ns=frame * S // 30)
+    payload = codec.encode(points.snapshot(now_ns=S))
+    key = "facesynth/r1/stats/points/host-1"
+    alive = ["facesynth/r1/health/points/host-1"]
+    header, line = format_status(alive, {key: codec.decode(payload, ServiceStats)}).splitlines()
+    columns = header.split()
+    assert columns[columns.index("drop") : columns.index("drop") + 3] == ["drop", "rej", "stale"]
+    at = header.index("stale")
+    assert line[at : at + 5] == "    7"
+    assert line[header.index(" rej") : at].split() == ["1"]
+    assert line[header.index(" drop") : header.index(" rej")].split() == ["2"]

@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 
 from facesynth.app.bench.rig_run import RigRun, RunOptions, run_graph
+from facesynth.app.compose import TRACKER_STAGES
 from facesynth.app.data import sample_video
 from facesynth.app.graph import Graph
 from facesynth.app.nodes import (
@@ -34,6 +35,7 @@ from facesynth.app.nodes import (
     SensorNode,
     TranslatorNode,
 )
+from facesynth.app.stages.registry import STAGES as REGISTRY
 from facesynth.runtime import keys
 
 STAGES = keys.SERVICES
@@ -48,7 +50,10 @@ GOAL_CPU_MS = 10.0
 #: Process layouts of the chain: one process per service, or F + T + C in one ``board`` process.
 LAYOUTS = ("processes", "board")
 BOARD = "board"
-BOARD_NODES = ("features", "translator", "control")
+#: The board process's nodes: the stages that neither make nor read frames (named as their stage).
+BOARD_NODES = tuple(name for name in REGISTRY.names() if name not in TRACKER_STAGES)
+#: What a chain's sensor waits for: every stage that reads something.
+READERS = [stage.name for stage in REGISTRY if stage.consumes is not None]
 #: ``--sched realtime``: every process of the chain (the router included) at this SCHED_FIFO
 #: priority.
 REALTIME_PRIORITY = 10
@@ -171,7 +176,7 @@ def bench_graph(
                 source={"source": "video", "path": video, "loop": True, "fps": fps},
                 max_frames=frames,
                 encoding=variant.encoding,  # type: ignore[arg-type]
-                wait_for=["points", "features", "translator", "control"],
+                wait_for=list(READERS),
                 wait_timeout=60.0,
                 realtime=realtime,
             ),

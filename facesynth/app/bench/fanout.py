@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from facesynth.app.bench.chain import STEADY_AFTER_S, latency_figures
+from facesynth.app.bench.chain import READERS, STEADY_AFTER_S, latency_figures
 from facesynth.app.bench.rig_run import RigRun, RunOptions, run_graph
 from facesynth.app.data import sample_video
 from facesynth.app.graph import Graph
@@ -105,7 +105,7 @@ def fanout_graph(
             source={"source": "video", "path": video, "loop": True, "fps": fps},
             max_frames=frames,
             encoding=encoding,  # type: ignore[arg-type]
-            wait_for=["points", "features", "translator", "control"],
+            wait_for=list(READERS),
             wait_timeout=60.0,
             realtime=realtime,
         ),

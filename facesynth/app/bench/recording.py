@@ -27,6 +27,7 @@ import numpy as np
 
 from facesynth.app.recording.layout import Layout
 from facesynth.app.recording.writer import SessionWriter
+from facesynth.app.stages.registry import STAGES
 from facesynth.runtime import codec
 from facesynth.runtime.feature_names import NAMES
 from facesynth.schemas.messages import (
@@ -39,7 +40,8 @@ from facesynth.schemas.messages import (
 )
 
 T0 = 1_700_000_000_000_000_000
-SERVICES = ("sensor", "points", "features", "translator", "control")
+#: The services whose stats the session holds: every stage of the chain.
+SERVICES = STAGES.names()
 SERVOS = tuple(f"servo_{i}" for i in range(16))
 
 

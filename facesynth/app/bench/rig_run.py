@@ -25,6 +25,7 @@ from facesynth.app.bench.observe import RigObserver, Trigger, loadavg, machine_b
 from facesynth.app.bench.processes import CpuWindow, ProcessGroup
 from facesynth.app.graph import Graph, graph_to_toml
 from facesynth.app.nodes import ControlNode, stage_of
+from facesynth.app.stages.registry import STAGES
 from facesynth.runtime import keys
 from facesynth.runtime.bus.zenoh_bus import ZenohBus, ZenohOptions
 from facesynth.runtime.gc_watch import parse_summary
@@ -106,7 +107,8 @@ class RunOptions:
 def run_graph(graph: Graph, options: RunOptions) -> RigRun:
     """Run ``graph`` (its sensor plays ``options.frames`` frames) and measure it."""
     layout = process_layout(graph, options.groups)
-    sensors = [p for p, nodes in layout.items() if stage_of(graph.nodes[nodes[0]]) == "sensor"]
+    sources = STAGES.sources()
+    sensors = [p for p, nodes in layout.items() if stage_of(graph.nodes[nodes[0]]) in sources]
     if len(sensors) != 1 or len(layout[sensors[0]]) != 1:
         raise BenchRunError("the benchmark graph needs one sensor node, in a process of its own")
     sensor = sensors[0]

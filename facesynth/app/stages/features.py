@@ -8,8 +8,9 @@ from msgspec import Meta
 
 from facesynth.app.stages.calibration import build_calibration
 from facesynth.app.stages.descriptor import NodeBuild, OptionError, StageDescriptor, StageParts
-from facesynth.app.stages.node import StageNode
+from facesynth.app.stages.node import InputAge, StageNode
 from facesynth.app.stages.setup import DEFAULT_NEUTRAL_S
+from facesynth.runtime.capture_age import DEFAULT_MAX_AGE_S
 from facesynth.services.features.core import FeatureProcessor
 from facesynth.services.features.service import StateKeeping, serve_features
 from facesynth.services.features.state import StateError
@@ -49,6 +50,7 @@ class FeaturesNode(StageNode, tag="features"):
         ),
     ] = False
     queue: Annotated[int, Meta(ge=1, description="input queue length; 1 = latest only")] = 8
+    max_input_age_s: InputAge = DEFAULT_MAX_AGE_S
     performer: Annotated[
         str,
         Meta(
@@ -112,7 +114,7 @@ def build(request: NodeBuild) -> StageParts:
     return StageParts(
         request.name,
         STAGE.name,
-        lambda ctx: serve_features(ctx, processor, node.queue, keeping),
+        lambda ctx: serve_features(ctx, processor, node.queue, keeping, node.max_input_age_s),
         processor,
     )
 

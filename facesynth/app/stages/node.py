@@ -11,6 +11,20 @@ from typing import Annotated
 import msgspec
 from msgspec import Meta
 
+from facesynth.runtime.capture_age import DEFAULT_MAX_AGE_S
+
+#: P's and F's input-age limit (``max_input_age_s``): one flag for both stages.
+InputAge = Annotated[
+    float,
+    Meta(
+        ge=0,
+        le=3600,
+        description="drop an input whose frame was captured longer ago than this many seconds "
+        f"when its turn comes, e.g. after a stall upstream (default {DEFAULT_MAX_AGE_S:g}; "
+        "0 = never drop)",
+    ),
+]
+
 
 class StageNode(msgspec.Struct, kw_only=True, forbid_unknown_fields=True, tag_field="stage"):
     """Options every node may have: a description, and how its process is scheduled

@@ -8,7 +8,8 @@ import msgspec
 from msgspec import Meta
 
 from facesynth.app.stages.descriptor import NodeBuild, PluginTable, StageDescriptor, StageParts
-from facesynth.app.stages.node import StageNode
+from facesynth.app.stages.node import InputAge, StageNode
+from facesynth.runtime.capture_age import DEFAULT_MAX_AGE_S
 from facesynth.services.points.backends.base import PointsBackend
 from facesynth.services.points.backends.registry import BACKENDS
 from facesynth.services.points.service import serve_points
@@ -19,6 +20,7 @@ class PointsNode(StageNode, tag="points"):
 
     backend: dict[str, Any] = msgspec.field(default_factory=lambda: {"backend": "tracker"})
     queue: Annotated[int, Meta(ge=1, description="input queue length; 1 = latest only")] = 2
+    max_input_age_s: InputAge = DEFAULT_MAX_AGE_S
 
 
 def build_backend(config: msgspec.Struct) -> PointsBackend:
@@ -30,9 +32,12 @@ def build(request: NodeBuild) -> StageParts:
     """A points node: its backend, serving the frames on the bus."""
     assert request.config is not None
     backend = build_backend(request.config)
-    queue = request.node.queue
+    node: PointsNode = request.node
     return StageParts(
-        request.name, STAGE.name, lambda ctx: serve_points(ctx, backend, queue), backend
+        request.name,
+        STAGE.name,
+        lambda ctx: serve_points(ctx, backend, node.queue, node.max_input_age_s),
+        backend,
     )
 
 

@@ -318,7 +318,7 @@ async def test_the_stage_table_lists_c_and_the_console(console: ConsoleServer) -
         )
     rows = {row["service"]: row for row in table["services"]}
     assert rows["control"]["status"] == "running"
-    assert set(rows["control"]) >= {"rate_hz", "p50_ms", "dropped", "rejected", "note"}
+    assert set(rows["control"]) >= {"rate_hz", "p50_ms", "dropped", "rejected", "stale", "note"}
 
 
 async def test_frames_are_followed_only_while_a_page_shows_them(console: ConsoleServer) -> None:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 
+import msgspec
 import pytest
 
 from facesynth.schemas.messages import Frame, Points, PointSet, ServiceStats
@@ -142,3 +143,16 @@ def test_the_status_board_says_which_services_run() -> None:
     ]
     assert rows[2].rate_hz == 30.0 and rows[2].p50_ms == 1.23 and rows[0].p50_ms is None
     assert json.loads(board.message(0))["services"][0]["service"] == "sensor"
+
+
+def test_the_status_board_shows_each_stage_s_stale_count() -> None:
+    board = wire.StatusBoard()
+    board.update(msgspec.structs.replace(_stats("features"), stale=5), now_ns=0)
+    board.update(_stats("translator"), now_ns=0)
+    services = json.loads(board.message(0))["services"]
+    assert [
+        (row["service"], row["dropped"], row["rejected"], row["stale"]) for row in services
+    ] == [
+        ("features", 1, 0, 5),
+        ("translator", 1, 0, 0),
+    ]

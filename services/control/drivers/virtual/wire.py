@@ -169,6 +169,8 @@ class ServiceRow(msgspec.Struct):
     published: int
     dropped: int
     rejected: int
+    #: Inputs dropped because their frame was captured longer ago than the stage's limit.
+    stale: int = 0
 
 
 class StatusBoard:
@@ -211,6 +213,7 @@ class StatusBoard:
                     published=s.published,
                     dropped=s.dropped,
                     rejected=s.rejected,
+                    stale=s.stale,
                 )
             )
         return rows

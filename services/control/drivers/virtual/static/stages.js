@@ -11,7 +11,7 @@ function showStages(services, notes) {
   for (const s of services) {
     const row = document.createElement("tr");
     const cells = [s.service, s.instance, s.status, s.rate_hz.toFixed(1), fmt(s.p50_ms),
-      fmt(s.p99_ms), s.received, s.published, s.dropped, s.rejected];
+      fmt(s.p99_ms), s.received, s.published, s.dropped, s.rejected, s.stale];
     if (notes) cells.push(s.note || "");
     cells.forEach((value, i) => {
       const td = document.createElement("td");
