@@ -7,6 +7,9 @@ import numpy as np
 from facesynth.runtime.opencv import import_cv2
 from facesynth.schemas.messages import Frame
 
+#: A nominal image size for frames without pixels (ticks).
+TICK_SIZE = (640, 480)
+
 
 class FrameError(ValueError):
     """A frame whose pixels cannot be encoded or decoded."""
@@ -45,6 +48,23 @@ def encode_frame(
         height=height,
         encoding=encoding,  # type: ignore[arg-type]
         data=data,
+        source=source,
+        fps=fps,
+    )
+
+
+def tick_frame(
+    *, seq: int, t_capture_ns: int, t_media_ns: int, source: str = "", fps: float = 0.0
+) -> Frame:
+    """A Frame message without pixels (a tick: replayed point streams need only its clock)."""
+    width, height = TICK_SIZE
+    return Frame(
+        seq=seq,
+        t_capture_ns=t_capture_ns,
+        t_media_ns=t_media_ns,
+        width=width,
+        height=height,
+        encoding="none",
         source=source,
         fps=fps,
     )

@@ -22,16 +22,13 @@ from dataclasses import dataclass, field
 import msgspec
 
 from facesynth.runtime import keys
-from facesynth.runtime.frames import FrameError
+from facesynth.runtime.frames import FrameError, tick_frame
 from facesynth.runtime.service import ServiceContext
 from facesynth.schemas.messages import Frame
 from facesynth.services.sensor.core import Pacer
 from facesynth.services.sensor.credit import CreditGate, ack_stage
 from facesynth.services.sensor.sources import FrameSource, JpegImage
 from facesynth.services.sensor.sources.base import Image
-
-#: A nominal image size for frames without pixels (ticks).
-TICK_SIZE = (640, 480)
 
 
 @dataclass
@@ -129,16 +126,8 @@ class SensorService:
                 )
             image = jpeg_pixels(image)
         if image is None:
-            width, height = TICK_SIZE
-            return Frame(
-                seq=seq,
-                t_capture_ns=now,
-                t_media_ns=t_media_ns,
-                width=width,
-                height=height,
-                encoding="none",
-                source=info.name,
-                fps=info.fps,
+            return tick_frame(
+                seq=seq, t_capture_ns=now, t_media_ns=t_media_ns, source=info.name, fps=info.fps
             )
         return encode_frame(
             image,  # type: ignore[arg-type]

@@ -30,14 +30,13 @@ from facesynth.app.stages.setup import Setup
 from facesynth.app.wiring import OptionError, build_node, build_profile, build_translator
 from facesynth.runtime.calibration import Calibration
 from facesynth.runtime.clock import FAKE_EPOCH_NS
-from facesynth.runtime.frames import encode_frame
+from facesynth.runtime.frames import encode_frame, tick_frame
 from facesynth.runtime.profiles import Profile
 from facesynth.schemas.messages import Features, Frame, Points, ServoCommands
 from facesynth.services.control.core import Arrival, ControlCore, MotionTime, Move
 from facesynth.services.control.drivers.registry import DRIVERS
 from facesynth.services.features.core import FeatureProcessor
 from facesynth.services.points.backends.base import PointsBackend
-from facesynth.services.sensor.service import TICK_SIZE
 from facesynth.services.translator.core import Translator
 from facesynth.services.translator.resume import ResumingTranslator
 
@@ -64,16 +63,7 @@ def sensor_frame(
     """The frame message a sensor makes of ``image`` (``None``: a tick without pixels, as
     replayed point streams take)."""
     if image is None:
-        width, height = TICK_SIZE
-        return Frame(
-            seq=seq,
-            t_capture_ns=t_capture_ns,
-            t_media_ns=t_media_ns,
-            width=width,
-            height=height,
-            encoding="none",
-            fps=fps,
-        )
+        return tick_frame(seq=seq, t_capture_ns=t_capture_ns, t_media_ns=t_media_ns, fps=fps)
     return encode_frame(
         image,
         seq=seq,

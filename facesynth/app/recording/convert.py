@@ -24,12 +24,12 @@ from facesynth.app.recording.writer import SessionWriter
 from facesynth.runtime import codec, keys
 from facesynth.runtime.atomic import open_atomic
 from facesynth.runtime.feature_names import NAMES
+from facesynth.runtime.frames import TICK_SIZE
 from facesynth.schemas.messages import Frame, ServoCommands
 from facesynth.services.control.drivers.record import RecordLine
 from facesynth.services.points.backends import PointsBackend
 from facesynth.services.points.backends.openface import OpenFaceConfig, OpenFaceReplay
 from facesynth.services.points.backends.track import TrackFileConfig, TrackReplay
-from facesynth.services.sensor.service import TICK_SIZE
 
 #: What ``convert`` can export, and from which stages.
 EXPORT_STAGES = ("servo_state", "servo_commands", "features")
