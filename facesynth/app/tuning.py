@@ -26,10 +26,11 @@ import ctypes
 import ctypes.util
 import logging
 import os
-import sys
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
+
+from facesynth.runtime.memory import c_library
 
 log = logging.getLogger("facesynth")
 
@@ -138,13 +139,12 @@ def _apply_realtime(priority: int, pid: int) -> None:
 def keep_buffers() -> bool:
     """Let glibc reuse freed buffers of up to :data:`MMAP_THRESHOLD` instead of unmapping them
     (see the module docstring); ``False`` where the C library is not glibc."""
-    if not sys.platform.startswith("linux"):
-        return False
-    name = ctypes.util.find_library("c")
+    libc = c_library()
     try:
-        libc = ctypes.CDLL(name)
-        mallopt = libc.mallopt
-    except (OSError, AttributeError, TypeError):
+        mallopt = libc.mallopt if libc is not None else None
+    except AttributeError:
+        mallopt = None
+    if mallopt is None:
         return False
     mallopt.argtypes = (ctypes.c_int, ctypes.c_int)
     mallopt.restype = ctypes.c_int

@@ -24,10 +24,11 @@ from __future__ import annotations
 import ctypes
 import ctypes.util
 import logging
-import sys
 import threading
 from dataclasses import dataclass
 from typing import Any, Final
+
+from facesynth.runtime.memory import c_library
 
 log = logging.getLogger("facesynth")
 
@@ -61,16 +62,13 @@ class _MallInfo2(ctypes.Structure):
 def _glibc() -> Any | None:
     """The C library when it is glibc with ``malloc_trim`` and ``mallinfo2`` (2.33 and later),
     else ``None`` (musl, macOS, an older glibc)."""
-    if not sys.platform.startswith("linux"):
-        return None
-    name = ctypes.util.find_library("c")
-    if name is None:
+    libc = c_library()
+    if libc is None:
         return None
     try:
-        libc = ctypes.CDLL(name)
         trim = libc.malloc_trim
         info = libc.mallinfo2
-    except (OSError, AttributeError):
+    except AttributeError:
         return None
     trim.argtypes = (ctypes.c_size_t,)
     trim.restype = ctypes.c_int

@@ -20,15 +20,25 @@ MMAP_THRESHOLD = 128 * 1024
 M_MMAP_THRESHOLD = -3  # from glibc's malloc.h
 
 
-def return_big_allocations() -> bool:
-    """Fix glibc's mmap threshold (see the module doc); False where there is no glibc."""
+def c_library() -> ctypes.CDLL | None:
+    """This process's C library on Linux (its allocator is glibc's where these tunings apply),
+    else ``None``; callers look up the functions they need and treat a missing one as "not
+    glibc"."""
     if not sys.platform.startswith("linux"):
-        return False
+        return None
     name = ctypes.util.find_library("c")
     if name is None:
-        return False
+        return None
     try:
-        libc = ctypes.CDLL(name)
-        return bool(libc.mallopt(M_MMAP_THRESHOLD, MMAP_THRESHOLD))
-    except (OSError, AttributeError):  # a libc without mallopt (musl): nothing to do
+        return ctypes.CDLL(name)
+    except OSError:
+        return None
+
+
+def return_big_allocations() -> bool:
+    """Fix glibc's mmap threshold (see the module doc); False where there is no glibc."""
+    libc = c_library()
+    try:
+        return libc is not None and bool(libc.mallopt(M_MMAP_THRESHOLD, MMAP_THRESHOLD))
+    except AttributeError:  # a libc without mallopt (musl): nothing to do
         return False
