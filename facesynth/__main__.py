@@ -1,5 +1,5 @@
 """``python -m facesynth`` runs the ``facesynth`` command."""
 
-from facesynth.app.entry import main
+from facesynth.app.entry import run
 
-raise SystemExit(main())
+run()

@@ -62,4 +62,6 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    from facesynth.app.entry import run
+
+    run(main)

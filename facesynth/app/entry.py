@@ -3,14 +3,32 @@
 Ctrl-C at any moment ends the command quietly with exit status 130, also in its first half
 second, while the command's modules are still being imported (OpenCV, Zenoh, the services),
 before :func:`facesynth.app.cli.main` can catch it.
+
+A process ends without Python's finalization (:func:`leave`). The command has closed what it
+opened by then (buses, drivers, files, written atomically); what finalization would add is a
+hazard: a thread still inside native code with a catch-all frame (Zenoh's Rust through pyo3, the
+tracker's or OpenCV's C++) that returns while the interpreter is finalizing is ended by CPython
+with ``pthread_exit``, and that forced unwind, caught by such a frame, aborts the whole process
+with glibc's ``FATAL: exception not rethrown`` (exit 134) after a clean shutdown.
+``tests/app/test_entry.py`` shows it with a thread waiting in a Zenoh subscriber.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import contextlib
+import logging
+import os
+import sys
+import threading
+import time
+from collections.abc import Callable, Sequence
+from typing import NoReturn
 
 #: Exit status after Ctrl-C (128 + SIGINT), as shells report it.
 INTERRUPTED = 130
+#: How long :func:`leave` waits, in all, for threads that are not daemons to end, as Python's
+#: own exit would (a writer finishing its file); a thread still running after that is left.
+THREADS_GRACE_S = 5.0
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -21,3 +39,42 @@ def main(argv: Sequence[str] | None = None) -> int:
         return command(argv)
     except KeyboardInterrupt:
         return INTERRUPTED
+
+
+def run(command: Callable[[], object] = main) -> NoReturn:
+    """The console script and ``python -m facesynth`` (``command``: the images' entry point
+    passes its own): run the command, then :func:`leave` with its status."""
+    try:
+        code: object = command()
+    except SystemExit as stop:  # argparse's errors and --help, sys.exit in a command
+        code = stop.code
+    leave(code)
+
+
+def leave(code: object) -> NoReturn:
+    """End the process with ``code`` (as ``SystemExit`` reads it) without finalization.
+
+    Threads that are not daemons get :data:`THREADS_GRACE_S` to end, as at Python's own exit;
+    logging and the standard streams are flushed; then ``os._exit``. Daemon threads, and
+    threads still inside native code, end with the process instead of being unwound by a
+    finalizing interpreter (see the module's docstring).
+    """
+    if code is None:
+        status = 0
+    elif isinstance(code, int):
+        status = code
+    else:
+        print(code, file=sys.stderr)
+        status = 1
+    deadline = time.monotonic() + THREADS_GRACE_S
+    try:
+        for thread in threading.enumerate():
+            if thread is not threading.current_thread() and not thread.daemon:
+                thread.join(max(0.0, deadline - time.monotonic()))
+    except KeyboardInterrupt:  # Ctrl-C while waiting: leave now
+        status = status or INTERRUPTED
+    logging.shutdown()
+    for stream in (sys.stdout, sys.stderr):
+        with contextlib.suppress(OSError, ValueError):  # closed, or its reader went away
+            stream.flush()
+    os._exit(status & 0xFF)

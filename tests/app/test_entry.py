@@ -41,3 +41,70 @@ def test_ctrl_c_in_the_first_moments_of_run_is_quiet(delay: float, tmp_path: Pat
 def test_the_entry_point_runs_the_command(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["profile", "check", "paper16"]) == 0
     assert "paper16: ok" in capsys.readouterr().out
+
+
+#: A thread waits inside Zenoh (a subscriber's ``recv``, the GIL released) when the command
+#: ends; a sample then arrives while the interpreter is finalizing (published from an object's
+#: ``__del__``, which finalization runs), so the thread returns into a finalizing interpreter.
+ZENOH_THREAD_AT_EXIT = """
+import sys, threading, time, zenoh
+from facesynth.app.entry import leave
+config = zenoh.Config()
+config.insert_json5("scouting/multicast/enabled", "false")
+config.insert_json5("mode", '"peer"')
+session = zenoh.open(config)
+subscriber = session.declare_subscriber("facesynth/test/exit")
+threading.Thread(target=subscriber.recv, daemon=True).start()
+class LateSample:
+    def __del__(self):
+        session.put("facesynth/test/exit", b"late")
+        time.sleep(0.5)
+late = LateSample()
+time.sleep(0.1)
+print("done", flush=True)
+if sys.argv[1] == "leave":
+    leave(0)
+"""
+
+
+def _end_with(how: str) -> subprocess.CompletedProcess[str]:
+    argv = [sys.executable, "-c", ZENOH_THREAD_AT_EXIT, how]
+    return subprocess.run(argv, cwd=ROOT, capture_output=True, text=True, timeout=60)
+
+
+def test_a_thread_inside_zenoh_at_exit_aborts_a_finalizing_interpreter() -> None:
+    """The hazard :func:`leave` avoids, shown as it happens without it (CPython 3.11-3.13)."""
+    ended = _end_with("finalize")
+    assert ended.stdout == "done\n"
+    assert ended.returncode == -signal.SIGABRT
+    assert "FATAL: exception not rethrown" in ended.stderr
+
+
+def test_leaving_without_finalization_ends_cleanly_with_that_thread() -> None:
+    ended = _end_with("leave")
+    assert (ended.returncode, ended.stdout) == (0, "done\n")
+    assert "FATAL" not in ended.stderr
+
+
+@pytest.mark.parametrize(
+    ("argv", "status", "out", "err"),
+    [
+        (["profile", "check", "paper16"], 0, "paper16: ok", ""),
+        (["no-such-command"], 2, "", "invalid choice: 'no-such-command'"),
+        (["--help"], 0, "usage: facesynth", ""),
+    ],
+)
+def test_the_module_entry_keeps_status_and_every_line_written(
+    argv: list[str], status: int, out: str, err: str
+) -> None:
+    """``python -m facesynth`` ends by :func:`leave`: piped output is flushed, statuses kept."""
+    ended = subprocess.run(
+        [sys.executable, "-m", "facesynth", *argv],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert ended.returncode == status, ended.stderr
+    assert out in ended.stdout
+    assert err in ended.stderr
