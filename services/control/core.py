@@ -5,7 +5,10 @@ profile, with more positions than the profile has servos, naming servos it does 
 with a NaN position are refused whole (never half applied); every position is clamped to its
 servo's limits. Commands older than the profile's ``max_command_age_s`` (since their sender sent
 them, or since their frame was captured), or not newer than one already applied from the same
-sender, are refused too (:mod:`facesynth.services.control.freshness`).
+sender, are refused too (:mod:`facesynth.services.control.freshness`). A command's capture is
+judged again at the last moment, as the shell hands its move to the driver
+(:meth:`ControlCore.hand_over`): one that grew too old since it was taken (a loaded machine, a
+pause) is withdrawn, as if it never came, and the face holds (then the watchdog's return).
 
 Then nothing moves faster than the profile allows (:mod:`services.control.motion`): each step
 toward the commanded targets is bounded by each servo's ``max_speed`` and ``max_accel``,
@@ -35,8 +38,15 @@ from typing import Literal
 
 from facesynth.runtime.profiles import Profile
 from facesynth.schemas.messages import ServoCommands
-from facesynth.services.control.freshness import Arrival, Freshness, StaleCommand, Verdict
+from facesynth.services.control.freshness import (
+    Arrival,
+    Freshness,
+    StaleCapture,
+    StaleCommand,
+    Verdict,
+)
 from facesynth.services.control.motion import MAX_STEP_S, FaceMotion
+from facesynth.services.control.undo import Undo
 
 __all__ = [
     "MAX_STEP_S",
@@ -82,13 +92,16 @@ OWN_MOVE = CommandInfo(frame=None, t_capture_ns=None, face=False)
 @dataclass(frozen=True, slots=True)
 class Move:
     """Positions to send now (``send``) and report on ``…/servo_state``, and why; ``t_ns`` is
-    the (monotonic) instant the speed limits stepped them to."""
+    the (monotonic) instant the speed limits stepped them to; ``deadline_ns`` the controller's
+    wall clock after which a command's capture is too old to hand it to the driver (``None``:
+    not aged from capture, or not a command)."""
 
     kind: MoveKind
     positions: dict[str, float]
     info: CommandInfo = OWN_MOVE
     send: bool = True
     t_ns: int = 0
+    deadline_ns: int | None = None
 
     @property
     def command(self) -> bool:
@@ -134,7 +147,7 @@ class Watchdog:
 
 
 @dataclass
-class _Ramp:
+class Ramp:
     """An even return to neutral: step ``i`` of ``steps`` at ``start_ns + i * ramp_ns // steps``."""
 
     start_ns: int
@@ -177,10 +190,15 @@ class ControlCore:
         self.targets = dict(self.neutral_positions)
         self.mode: Literal["idle", "follow", "return", "stop"] = "idle"
         self.last_command: ServoCommands | None = None
-        self._ramp: _Ramp | None = None
+        self._ramp: Ramp | None = None
         self._last_step_ns: int | None = None
         self._last_media_ns: int | None = None
         self._last_report_ns: int | None = None
+        #: The last command's move and the state before it, until it is handed over.
+        self._pending: tuple[Move, Undo] | None = None
+        #: Commands withdrawn at the hand-over, in all, and in the current run of them.
+        self.late = 0
+        self._late_run = 0
 
     @property
     def positions(self) -> dict[str, float]:
@@ -220,6 +238,7 @@ class ControlCore:
         if self.mode == "stop":
             raise CommandError("the controller is stopping")
         wanted = self.check(commands)
+        before = Undo.of(self, commands.sender)
         verdict = self.freshness.check(commands, arrival)
         base = self.targets if self.mode == "follow" else self.positions
         if self.mode != "follow" or verdict.new_sender:
@@ -237,7 +256,43 @@ class ControlCore:
         self.watchdog.feed(arrival.mono_ns)
         self.last_command = commands
         info = CommandInfo(commands.seq, commands.t_capture_ns, commands.face)
-        return Move("command", positions, info, t_ns=arrival.mono_ns), verdict
+        deadline = verdict.capture_deadline_ns
+        move = Move("command", positions, info, t_ns=arrival.mono_ns, deadline_ns=deadline)
+        self._pending = (move, before)
+        return move, verdict
+
+    def hand_over(self, move: Move, wall_ns: int) -> None:
+        """The last check of ``move`` (the last :meth:`command`'s) as it goes to the driver, at
+        ``wall_ns`` (the controller's wall clock now): a command whose capture is older than
+        the limit by now is withdrawn (the core is as it was before the command: the face
+        holds, the watchdog counts from the last command handed over) and
+        :class:`StaleCapture` is raised, its note set on the first of a run of them."""
+        pending, self._pending = self._pending, None
+        deadline = move.deadline_ns
+        if deadline is None or wall_ns <= deadline:
+            if move.command:
+                self._late_run = 0
+            return
+        if pending is None or pending[0] is not move:
+            raise RuntimeError("only the last command's move can be withdrawn at its hand-over")
+        pending[1].restore(self)
+        self.late += 1
+        self._late_run += 1
+        limit_s = self.freshness.max_age_ns / 1e9
+        age_s = limit_s + (wall_ns - deadline) / 1e9
+        frame = move.info.frame
+        note = ""
+        if self._late_run == 1:
+            note = (
+                f"frame {frame}'s command was {age_s:.3f} s from capture when its turn at the "
+                f"driver came (limit {limit_s:g} s): not executed, nor any this late until one "
+                "is in time (a loaded machine?)"
+            )
+        raise StaleCapture(
+            f"the command of frame {frame} was {age_s:.3f} s from capture at the hand-over to "
+            f"the driver (limit {limit_s:g} s)",
+            note,
+        )
 
     # --- moves of its own ---------------------------------------------------------------------
 
@@ -310,7 +365,7 @@ class ControlCore:
     def _begin_ramp(self, mode: Literal["return", "stop"], now_ns: int) -> None:
         steps = max(1, round(self.ramp_s * RAMP_RATE_HZ))
         self.mode = mode
-        self._ramp = _Ramp(now_ns, round(self.ramp_s * 1e9), steps, self.positions)
+        self._ramp = Ramp(now_ns, round(self.ramp_s * 1e9), steps, self.positions)
 
     def _chasing(self) -> bool:
         """Whether a servo is short of its target and the controller steps it on its own

@@ -10,32 +10,38 @@ control interface refuses (:class:`StaleCommand`):
 * **an old command**: older than the profile's ``max_command_age_s``.
 
 **Clocks.** ``sent_ns`` is read on the sender's host and compared with the controller's wall
-clock at arrival, and the two hosts' clocks may differ by any amount. So the controller never
-trusts the difference itself; per sender host it keeps the smallest ``arrival - sent`` seen over
-the last ``window_s`` (30 s, in 1 s buckets, measured on its own monotonic clock): that is the
-clock offset plus the fastest delivery, and a command's *age* is how much later than that it
-arrived. A backlog that a healed link delivers at once arrives seconds later than usual and is
-dropped, whatever the clocks say; a live stream is never aged by the offset. The first command
-from a host the controller has not heard from sets that baseline (a command from the
-controller's own host starts from offset 0, so even the first one is aged exactly). The window
-follows slow clock drift; the newest bucket never expires, so a backlog after a long silence is
-still measured against the last live baseline.
+clock at arrival. A command from the controller's own host is aged exactly (one clock: no
+offset to learn, so no load and no restart can make an old command look young). Another
+host's clock may differ from the controller's by any amount, so the controller never trusts the
+difference itself; per sender host it keeps the smallest ``arrival - sent`` seen over the last
+``window_s`` (30 s, in 1 s buckets, measured on its own monotonic clock, and rising no faster
+than a clock drifts): that is the clock offset plus the fastest delivery, and a command's *age*
+is how much later than that it arrived. A backlog that a healed link delivers at once arrives
+seconds later than usual and is dropped, whatever the clocks say; a live stream is never aged
+by the offset. The first command from a host the controller has not heard from sets that
+baseline. The newest bucket never expires, so a backlog after a long silence is still measured
+against the last live baseline.
 
 Two things one-way stamps cannot tell apart are a sender clock stepped back (NTP) and a link
 that stays slower for good: both make every command look old. After ``relearn_s`` (2 s) in
 which every command from a host looked old (and at least ``relearn_count`` arrived), the
-controller takes the new delay as the baseline and says so; a backlog drains in far less than
-that. Commands without the stamps (older translators) are executed unaged; the controller says
-so once.
+controller takes the fastest delay of that run as the baseline and says so; a backlog drains
+in far less than that. The controller's own clock is never re-learnt. Commands without the
+stamps (older translators) are executed unaged; the controller says so once.
 
 **From capture.** A command is also refused (:class:`StaleCapture`) when its frame was
 captured longer than ``max_command_age_s`` ago: a stage upstream of the translator that stalls
 (points frozen for seconds) lets its backlog go afterwards, and the translator sends it on at
-once, fresh by ``sent_ns``. The frame's ``t_capture_ns`` is read on ``capture_host``, whose clock
-offset is learnt the same way, per capture host (:mod:`facesynth.runtime.capture_age`); the
-capture host and the sender may be different machines. The first of a run of such commands
-says so once, the first fresh one after it how many were dropped. Commands without a capture
-host (older senders, replays, ``--fast`` sensors) are not aged from capture.
+once, fresh by ``sent_ns``. The frame's ``t_capture_ns`` is read on ``capture_host``
+(:mod:`facesynth.runtime.capture_age`, whose module doc has the rule): exactly when that is the
+controller's own host, from the first command after any restart; on another host only once its
+clock is vouched for, so a capture host first seen is on probation (``PROBATION_S``, 1 s, and
+10 commands: none is executed while its offset is learnt, so a backlog let go as the
+controller starts cannot set the baseline). The capture host and the sender may be different
+machines. The first of a run of such commands says so once, the first fresh one after it how
+many were dropped. Commands without a capture host (older senders, replays, ``--fast``
+sensors) are not aged from capture. The verdict says until when the command stays young
+(``capture_deadline_ns``), so the controller judges it again just before its driver writes.
 """
 
 from __future__ import annotations
@@ -44,6 +50,7 @@ import collections
 from dataclasses import dataclass
 
 from facesynth.runtime.capture_age import (
+    PROBATION_S,
     RELEARN_COUNT,
     RELEARN_S,
     WINDOW_S,
@@ -54,6 +61,7 @@ from facesynth.runtime.capture_age import (
 from facesynth.schemas.messages import ServoCommands
 
 __all__ = [
+    "PROBATION_S",
     "RELEARN_COUNT",
     "RELEARN_S",
     "SENDERS",
@@ -97,13 +105,15 @@ class Arrival:
 @dataclass(frozen=True, slots=True)
 class Verdict:
     """A fresh command: its age (seconds; ``None`` when it carries no stamps), whether its
-    sender is not the one of the previous command, a line worth logging (or empty), and its
-    age since capture (seconds; ``None`` when it is not aged from capture)."""
+    sender is not the one of the previous command, a line worth logging (or empty), its
+    age since capture (seconds; ``None`` when it is not aged from capture), and the controller's
+    wall clock (ns) after which its capture is too old (``None``: not aged from capture)."""
 
     age_s: float | None
     new_sender: bool = False
     note: str = ""
     capture_age_s: float | None = None
+    capture_deadline_ns: int | None = None
 
 
 class Freshness:
@@ -114,7 +124,7 @@ class Freshness:
             raise ValueError("the command age limit must be positive")
         self.max_age_ns = round(max_age_s * 1e9)
         self.own_host = own_host
-        self.capture = CaptureAge(max_age_s, own_host, what="command")
+        self.capture = CaptureAge(max_age_s, own_host, what="command", probation_s=PROBATION_S)
         self._hosts: dict[str, OffsetBaseline] = {}
         self._last: collections.OrderedDict[str, tuple[int, int]] = collections.OrderedDict()
         self._sender: str | None = None
@@ -144,6 +154,12 @@ class Freshness:
             self._hosts, commands.sender_host, self.own_host, offset, arrival.mono_ns
         )
         judged = clock.judge(offset, arrival.mono_ns, self.max_age_ns)
+        if judged.old and judged.why == "future":
+            raise StaleCommand(
+                f"command {commands.sender_seq} of {sender} was sent "
+                f"{-judged.age_ns / 1e9:.3f} s in the future by this host's own clock "
+                "(a clock stepped back?)"
+            )
         if judged.old:
             raise StaleCommand(
                 f"command {commands.sender_seq} of {sender} is {judged.age_ns / 1e9:.3f} s old "
@@ -164,6 +180,18 @@ class Freshness:
             self._last.popitem(last=False)
         return verdict
 
+    def order_of(self, sender: str) -> tuple[str | None, str, tuple[int, int] | None]:
+        """What a command of ``sender`` changes of the order (to withdraw it later)."""
+        return self._sender, sender, self._last.get(sender)
+
+    def restore_order(self, order: tuple[str | None, str, tuple[int, int] | None]) -> None:
+        """Undo a command's mark on the order (:meth:`order_of`, taken before it)."""
+        self._sender, sender, last = order
+        if last is None:
+            self._last.pop(sender, None)
+        else:
+            self._last[sender] = last
+
     def _fresh(
         self, commands: ServoCommands, arrival: Arrival, age_s: float | None, note: str
     ) -> Verdict:
@@ -175,13 +203,18 @@ class Freshness:
             arrival.mono_ns,
         )
         if captured.old:
+            who = f"command {commands.sender_seq} of {commands.sender or 'an unstamped sender'}"
+            if captured.age_s is None:  # its capture host's clock is still being learnt
+                why = f"was captured on {commands.capture_host!r}, whose clock is being learnt"
+            elif captured.age_s < 0:
+                why = f"was captured {-captured.age_s:.3f} s in the future by this host's clock"
+            else:
+                why = f"was captured {captured.age_s:.3f} s ago"
             raise StaleCapture(
-                f"command {commands.sender_seq} of {commands.sender or 'an unstamped sender'} "
-                f"(frame {commands.seq}) was captured {captured.age_s:.3f} s ago "
-                f"(limit {self.max_age_ns / 1e9:g} s)",
+                f"{who} (frame {commands.seq}) {why} (limit {self.max_age_ns / 1e9:g} s)",
                 captured.note,
             )
         new_sender = self._sender is not None and commands.sender != self._sender
         self._sender = commands.sender
         notes = "; ".join(line for line in (note, captured.note) if line)
-        return Verdict(age_s, new_sender, notes, captured.age_s)
+        return Verdict(age_s, new_sender, notes, captured.age_s, captured.deadline_ns)

@@ -7,6 +7,11 @@ clock's readings (``ctx.clock``), hands its moves to the driver and publishes ea
 ``move`` naming which). The face starts at neutral; on shutdown it returns to neutral within the
 servos' limits before the driver closes (at once, step by step, when motion is measured on
 media time: a ``--fast`` replay to a file or a virtual face).
+
+A command's capture is aged when it leaves the input queue and once more on the last line
+before the driver's ``send`` (:meth:`ControlCore.hand_over`, with the clock read there): a
+command over the limit by then is not executed, counted ``stale`` like the others, and the face
+holds, then returns to neutral when the watchdog says so.
 """
 
 from __future__ import annotations
@@ -113,7 +118,13 @@ class ControlService:
                 continue
             if verdict.note:
                 ctx.log.warning("%s", verdict.note)
-            await self._apply(ctx, move)
+            try:
+                await self._apply(ctx, move)
+            except StaleCapture as exc:  # too old by its turn at the driver: withdrawn
+                ctx.stats.stale += 1
+                if exc.note:
+                    ctx.log.warning("%s", exc.note)
+                continue
             self.last_frame = max(self.last_frame, commands.seq)
 
     async def _stop(self, ctx: ServiceContext, clock: Clock) -> None:
@@ -139,7 +150,8 @@ class ControlService:
             log.warning("shutdown: the face did not reach neutral within %.2f s", budget)
 
     async def _apply(self, ctx: ServiceContext, move: Move) -> None:
-        """Send a move to the driver and report it on ``…/servo_state``."""
+        """Send a move to the driver and report it on ``…/servo_state``; a command too old by
+        now raises :class:`StaleCapture` before the driver sees it."""
         if move.send:
             at_neutral = move.positions == self.core.neutral_positions
             if move.kind == "start" or (move.kind == "stop" and at_neutral):
@@ -148,6 +160,8 @@ class ControlService:
                 # The wall-clock instant of the step (not of this call, which may come later).
                 offset = ctx.clock.time_ns() - ctx.clock.monotonic_ns()
                 info = dataclasses.replace(move.info, t_ns=move.t_ns + offset)
+                if move.command:  # the last moment before the write: is it still young?
+                    self.core.hand_over(move, ctx.clock.time_ns())
                 await self._guarded(self.driver.send(move.positions, info))
         last = self.core.last_command
         readings = self._readings()

@@ -10,6 +10,7 @@ import pytest
 from facesynth.runtime import codec
 from facesynth.schemas.messages import ServoCommands
 from facesynth.services.control.freshness import (
+    PROBATION_S,
     RELEARN_COUNT,
     RELEARN_S,
     WINDOW_S,
@@ -172,7 +173,13 @@ def captured(seq: int, capture_ns: int, sent_ns: int) -> ServoCommands:
 
 
 def capture_stream(fresh: Freshness, first: int, count: int, start_ns: int) -> None:
-    """``count`` commands at 30 Hz, 12 ms from capture to send, 2 ms from send to arrival."""
+    """``count`` commands at 30 Hz, 12 ms from capture to send, 2 ms from send to arrival,
+    once the camera's clock is learnt: its probation's commands, in the second and a bit
+    before ``start_ns``, are refused (and applied none)."""
+    learning = start_ns - round(PROBATION_S * S) - 2 * 33 * MS
+    for capture in range(learning, learning + round(PROBATION_S * S), 33 * MS):
+        with pytest.raises(StaleCapture, match="whose clock is being learnt"):
+            fresh.check(captured(first, capture, capture + 12 * MS), at(capture + 14 * MS))
     for i in range(count):
         capture = start_ns + i * 33 * MS
         verdict = fresh.check(
@@ -263,3 +270,40 @@ def test_unstamped_commands_are_still_aged_from_their_capture() -> None:
 def test_the_age_limit_must_be_positive() -> None:
     with pytest.raises(ValueError, match="positive"):
         Freshness(0.0)
+
+
+def test_a_controller_that_starts_as_a_backlog_arrives_executes_none_of_it() -> None:
+    # C restarted while points was stalled: the first commands it hears were captured 3 s
+    # earlier on the camera host (fresh by the translator's send stamps), then the live ones.
+    fresh = Freshness(0.25, own_host="board")
+    t = 100 * S
+    for i in range(5):
+        backlog = captured(1 + i, t - 3 * S + i * 33 * MS, t + i * MS)
+        with pytest.raises(StaleCapture, match="'camera', whose clock is being learnt"):
+            fresh.check(backlog, at(t + i * MS + 2 * MS))
+    executed = []
+    for i in range(60):
+        capture = t + i * 33 * MS
+        try:
+            verdict = fresh.check(
+                captured(6 + i, capture, capture + 12 * MS), at(capture + 14 * MS)
+            )
+        except StaleCapture:
+            continue
+        executed.append(i)
+        assert verdict.capture_age_s is not None and verdict.capture_age_s < 0.001
+    assert executed == list(range(30, 60))  # after the camera's probation (1 s and 10 commands)
+    assert fresh.capture.held == 5 + 30 and fresh.capture.old == 0
+
+
+def test_a_command_sent_in_the_future_by_the_controllers_own_clock_is_refused() -> None:
+    fresh = Freshness(0.25, own_host="board")
+    with pytest.raises(StaleCommand, match=r"sent 3\.000 s in the future by this host's own"):
+        fresh.check(cmd(1, 13 * S, host="board"), at(10 * S))
+
+
+def test_the_verdict_says_until_when_the_capture_is_young() -> None:
+    fresh = Freshness(0.25, own_host="board")
+    own = cmd(1, 10 * S, host="board", t_capture_ns=10 * S - 20 * MS, capture_host="board")
+    assert fresh.check(own, at(10 * S + MS)).capture_deadline_ns == 10 * S + 230 * MS
+    assert fresh.check(cmd(2, 10 * S + 33 * MS), at(10 * S + 34 * MS)).capture_deadline_ns is None
