@@ -23,7 +23,8 @@ from facesynth.runtime import blendshapes
 from facesynth.runtime.frames import encode_frame
 from facesynth.runtime.profiles import load_profile
 from facesynth.schemas.messages import Points
-from facesynth.services.features.core import FeatureProcessor, blendshape_scores
+from facesynth.services.features.core import FeatureProcessor
+from facesynth.services.features.point_sets import blendshape_scores
 from facesynth.services.points.backends.tracker import TrackerBackend, TrackerConfig
 from facesynth.services.translator.core import Translator
 

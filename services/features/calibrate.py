@@ -21,17 +21,15 @@ from facesynth.runtime.calibration import Calibration
 from facesynth.runtime.feature_names import BY_NAME
 from facesynth.runtime.landmarks import IRIS10, N_IBUG
 from facesynth.schemas.messages import Points
-from facesynth.services.features.core import (
-    FeatureError,
+from facesynth.services.features.core import FeatureError, nose_distances, paper_frame
+from facesynth.services.features.expressions import relative
+from facesynth.services.features.point_sets import (
     blendshape_features,
     blendshape_scores,
     ibug_points,
     mesh_points,
-    nose_distances,
     optional_points,
-    paper_frame,
 )
-from facesynth.services.features.expressions import relative
 from facesynth.services.features.pose import MeshReference
 
 #: The paper's face-section expressions (section 3.2.1), in the order they are asked for.

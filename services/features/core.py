@@ -26,15 +26,16 @@ none: its 2D values would not match the neutral's), else from the 68 points alon
 calibration has a named neutral but no neutral mesh). With
 ``auto_range=True`` the neutral then follows a rolling median and the ranges adapt
 (``facesynth.services.features.autorange``).
+
+A message's point sets are read, and checked, by :mod:`facesynth.services.features.point_sets`.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from facesynth.runtime import blendshapes
 from facesynth.runtime.calibration import Calibration
-from facesynth.runtime.landmarks import IBUG68, IRIS10, MESH468, MESH478, N_IBUG, NOSE_TIP
+from facesynth.runtime.landmarks import IRIS10, N_IBUG, NOSE_TIP
 from facesynth.schemas.messages import Features, Points
 from facesynth.services.features.brow_rest import BROW_NAMED, BROW_POINTS, BrowRest, window_at_rest
 from facesynth.services.features.expressions import (
@@ -55,6 +56,14 @@ from facesynth.services.features.neutral import (
     Sample,
     neutral_face,
 )
+from facesynth.services.features.point_sets import (
+    N_IRIS,
+    blendshape_features,
+    blendshape_scores,
+    ibug_points,
+    mesh_points,
+    optional_points,
+)
 from facesynth.services.features.pose import N_MESH, MeshReference
 
 __all__ = [
@@ -64,88 +73,16 @@ __all__ = [
     "NeutralEstimator",
     "NeutralFace",
     "Sample",
-    "blendshape_scores",
-    "ibug_points",
-    "mesh_points",
+    "ibug_points",  # facesynth.app.render reads a message's points through here
     "neutral_face",
     "normalise",
     "nose_distances",
-    "optional_points",
     "paper_frame",
 ]
 
-N_IRIS = 10
 GAZE = tuple(f"gaze_{side}_{axis}" for side in SIDES for axis in "xy")
 #: y of the eye-corner frame points down; displacements (like the named features) use y up.
 _Y_UP = np.array([1.0, -1.0])
-
-
-def ibug_points(points: Points) -> np.ndarray:
-    """The ``ibug68`` set of a message as a (68, 2) array, or raise :class:`FeatureError`."""
-    for point_set in points.sets:
-        if point_set.scheme == IBUG68:
-            if point_set.dims not in (2, 3) or len(point_set.coords) != N_IBUG * point_set.dims:
-                raise FeatureError(f"ibug68 set has {len(point_set.coords)} values")
-            array = np.asarray(point_set.coords, dtype=np.float64)
-            return array.reshape(N_IBUG, point_set.dims)[:, :2]
-    schemes = ", ".join(s.scheme for s in points.sets) or "none"
-    raise FeatureError(f"no ibug68 point set in the message (has: {schemes})")
-
-
-def optional_points(points: Points, scheme: str, count: int, dims: int) -> np.ndarray | None:
-    """A point set as a (count, dims) array; None if absent or without ``dims`` dimensions.
-
-    A set with the wrong number of values raises :class:`FeatureError`. A ``mesh468`` with 2
-    dimensions (no depth) is of no use for pose and counts as absent.
-    """
-    for point_set in points.sets:
-        if point_set.scheme == scheme:
-            if point_set.dims < dims:
-                return None
-            if len(point_set.coords) != count * point_set.dims:
-                raise FeatureError(f"{scheme} set has {len(point_set.coords)} values")
-            array = np.asarray(point_set.coords, dtype=np.float64)
-            if not np.all(np.isfinite(array)):
-                raise FeatureError(f"{scheme} set has a value that is not a finite number")
-            return array.reshape(count, point_set.dims)[:, :dims]
-    return None
-
-
-def mesh_points(points: Points) -> np.ndarray | None:
-    """The face mesh's 468 vertices (468, 3): the ``mesh468`` set, else the first 468 points of
-    a ``mesh478`` set (Face Landmarker v2: the same vertices, then the irises); None if neither
-    (or only without depth). A set with the wrong number of values raises :class:`FeatureError`.
-    """
-    mesh = optional_points(points, MESH468, N_MESH, 3)
-    if mesh is None:
-        full = optional_points(points, MESH478, N_MESH + N_IRIS, 3)
-        if full is not None:
-            mesh = full[:N_MESH]
-    return mesh
-
-
-def blendshape_scores(points: Points) -> np.ndarray | None:
-    """The ``blendshapes52`` scores of a message (52 in MediaPipe's order), or None if absent.
-
-    A set with the wrong number of values, or values that are not finite numbers in [0, 1],
-    raises :class:`FeatureError`.
-    """
-    for score_set in points.scores:
-        if score_set.scheme == blendshapes.BLENDSHAPES52:
-            values = np.asarray(score_set.values, dtype=np.float64)
-            if values.shape != (blendshapes.COUNT,):
-                raise FeatureError(f"blendshapes52 set has {values.size} values")
-            if not (np.all(np.isfinite(values)) and values.min() >= 0.0 and values.max() <= 1.0):
-                raise FeatureError("blendshapes52 set has a value that is not a number in 0..1")
-            return values
-    return None
-
-
-def blendshape_features(scores: np.ndarray | None) -> dict[str, float]:
-    """The absolute raw values of the blendshape features (``_neutral`` left out)."""
-    if scores is None:
-        return {}
-    return dict(zip(blendshapes.SHAPES, scores[1:].tolist(), strict=True))
 
 
 def nose_distances(normalised: np.ndarray) -> np.ndarray:

@@ -32,7 +32,8 @@ Per frame, per servo:
 7. **Safety.** Exclusive rules (:mod:`services.translator.safety`) on targets and on outputs,
    then every position is clamped to its limits (always last).
 
-A learned profile replaces steps 1-4 with :mod:`services.translator.learned`; a hardware profile
+Steps 1-4 are each servo's own (:mod:`facesynth.services.translator.sources`). A learned
+profile replaces them with :mod:`services.translator.learned`; a hardware profile
 (servos without a source) that is not learned is refused. Its loop can be closed through the
 robot's own camera (:meth:`Translator.close_loop`, the robot's faces given to
 :meth:`Translator.observe`; :mod:`facesynth.services.translator.closed_loop`): each command is
@@ -54,10 +55,9 @@ import numpy as np
 
 from facesynth.runtime.calibration import Calibration
 from facesynth.runtime.landmarks import MIRROR, N_IBUG
-from facesynth.runtime.profiles import Profile, ServoSpec, Smoothing
+from facesynth.runtime.profiles import Profile
 from facesynth.schemas.messages import Features, ServoCommands
 from facesynth.services.translator.closed_loop import ClosedLoop, LoopOptions, LoopState
-from facesynth.services.translator.filters import OneEuroFilter, RateLimiter
 from facesynth.services.translator.learned import learned_targets, unsourced
 from facesynth.services.translator.mapping import (
     deadband,
@@ -66,6 +66,12 @@ from facesynth.services.translator.mapping import (
     scaled_position,
 )
 from facesynth.services.translator.safety import apply_exclusive
+from facesynth.services.translator.sources import (
+    Filters,
+    ServoWiring,
+    face_range,
+    smoothing_filter,
+)
 
 Raw = Mapping[str, float] | None  # Features.raw (a learned profile's inputs)
 
@@ -84,38 +90,6 @@ class TranslationError(ValueError):
     """Features that cannot be translated with this profile."""
 
 
-def _filter(params: Smoothing | None) -> OneEuroFilter | None:
-    if params is None:
-        return None
-    return OneEuroFilter(params.min_cutoff, params.beta, params.d_cutoff)
-
-
-def _params(params: Smoothing | None) -> tuple[float, float, float] | None:
-    return None if params is None else (params.min_cutoff, params.beta, params.d_cutoff)
-
-
-class _Servo:
-    """Per-servo wiring: source, range, filters, limiter."""
-
-    def __init__(self, spec: ServoSpec, face_range: tuple[float, float], params: Smoothing | None):
-        self.spec = spec
-        self.group = np.asarray(spec.points, dtype=np.intp)
-        self.range = face_range
-        self.weights = spec.weights()
-        key = _params(params)
-        # Signals shared by several servos with the same parameters share one filter.
-        self.group_key = ("points", tuple(spec.points), face_range, key)
-        self.feature_keys = {name: ("feature", name, key) for name in self.weights or {}}
-        self.params = params
-        self.limiter = RateLimiter(spec.max_speed, spec.max_accel)
-        self.seen = False  # the named features were in a frame since reset()
-        self.ramp: float | None = None  # speed of a ramp after a tracking change (µs/s)
-
-    @property
-    def unlimited(self) -> bool:
-        return self.spec.max_speed <= 0 and self.spec.max_accel <= 0 and self.ramp is None
-
-
 class Translator:
     """Features messages in, ServoCommands messages out, for one profile (stateful)."""
 
@@ -124,33 +98,16 @@ class Translator:
             raise TranslationError(problem)
         self.profile = profile
         self._specs = {spec.name: spec for spec in profile.servos}
-        self._ranges: list[tuple[float, float]] = []
-        for spec in profile.servos:
-            self._ranges.append(self._face_range(spec, calibration))
+        self._ranges = [face_range(spec, calibration, profile.mirror) for spec in profile.servos]
         self._servos = [
-            _Servo(spec, face_range, profile.smoothing_for(spec))
-            for spec, face_range in zip(profile.servos, self._ranges, strict=True)
+            ServoWiring(spec, servo_range, profile.smoothing_for(spec))
+            for spec, servo_range in zip(profile.servos, self._ranges, strict=True)
         ]
-        self._filters: dict[tuple[object, ...], OneEuroFilter | None] = {}
+        self._filters: Filters = {}
         for servo in self._servos:
-            if len(servo.group):
-                self._filters[servo.group_key] = _filter(servo.params)
-            for key in servo.feature_keys.values():
-                self._filters[key] = _filter(servo.params)
-        self._learned = learned_targets(profile, self._filters, _filter)  # learned profile
+            servo.add_filters(self._filters)
+        self._learned = learned_targets(profile, self._filters, smoothing_filter)  # learned
         self.reset()
-
-    def _face_range(self, spec: ServoSpec, calibration: Calibration | None) -> tuple[float, float]:
-        if not spec.points or spec.face_min is None or spec.face_max is None:
-            return (-1.0, 1.0)  # named features are scaled by F
-        if calibration is None:
-            return (spec.face_min, spec.face_max)
-        group = np.asarray(spec.points, dtype=np.intp)
-        source = MIRROR[group] if self.profile.mirror else group
-        low = float(np.mean(np.asarray(calibration.delta_min)[source]))
-        high = float(np.mean(np.asarray(calibration.delta_max)[source]))
-        # A point group that did not move during calibration keeps the profile default.
-        return (low if low < 0 else spec.face_min, high if high > 0 else spec.face_max)
 
     def reset(self) -> None:
         """Forget every filter and limiter: the next frame starts afresh."""
@@ -211,66 +168,6 @@ class Translator:
             raise TranslationError(f"need {N_IBUG} deltas, got {array.shape[0]}")
         return array[MIRROR] if self.profile.mirror else array
 
-    def _group_value(
-        self, servo: _Servo, deltas: np.ndarray, t_ns: int | None, cache: dict[object, float]
-    ) -> float:
-        key = servo.group_key
-        if key not in cache:
-            movement = float(deltas[servo.group].mean())
-            flt = self._filters.get(key)
-            if flt is not None and t_ns is not None:
-                low, high = servo.range
-                half = (high - low) / 2.0
-                movement = flt(movement / half, t_ns) * half
-            cache[key] = movement
-        return cache[key]
-
-    def _feature_value(
-        self,
-        key: tuple[object, ...],
-        value: float,
-        t_ns: int | None,
-        cache: dict[object, float],
-    ) -> float:
-        if key not in cache:
-            flt = self._filters.get(key)
-            cache[key] = flt(value, t_ns) if flt is not None and t_ns is not None else value
-        return cache[key]
-
-    def _target(
-        self,
-        servo: _Servo,
-        deltas: np.ndarray | None,
-        named: Mapping[str, float],
-        t_ns: int | None,
-        cache: dict[object, float],
-    ) -> float | None:
-        """The servo's target position (None: its source is missing from this frame).
-
-        Sources are filtered when ``t_ns`` is given; ``cache`` holds each signal's value for
-        this frame, so a signal shared by several servos is computed (and filtered) once.
-        """
-        spec = servo.spec
-        if servo.weights is not None:
-            if all(math.isfinite(named.get(name, math.nan)) for name in servo.weights):
-                servo.seen = True
-                value = sum(
-                    weight * self._feature_value(servo.feature_keys[name], named[name], t_ns, cache)
-                    for name, weight in servo.weights.items()
-                )
-                value = deadband(value, spec.deadband) * spec.gain
-                return scaled_position(max(value, 0.0) if spec.one_sided else value, spec)
-            if servo.seen or not spec.points:
-                return None  # hold; points are only a fallback while the features never came
-        if deltas is None:
-            return None
-        low, high = servo.range
-        width = spec.deadband
-        if servo.weights is not None:  # a fallback: the dead-band is in scaled units
-            width *= (high - low) / 2.0
-        movement = deadband(self._group_value(servo, deltas, t_ns, cache), width) * spec.gain
-        return interpolate(max(movement, 0.0) if spec.one_sided else movement, low, high, spec)
-
     def _targets(
         self,
         deltas: np.ndarray | None,
@@ -282,7 +179,7 @@ class Translator:
         if self._learned is not None:  # facesynth.services.translator.learned
             return self._learned.targets(raw or {}, named, t_ns, now_ns)
         cache: dict[object, float] = {}
-        return [self._target(servo, deltas, named, t_ns, cache) for servo in self._servos]
+        return [servo.target(deltas, named, t_ns, self._filters, cache) for servo in self._servos]
 
     def positions(
         self, deltas: np.ndarray, named: Mapping[str, float] | None = None, raw: Raw = None
@@ -318,7 +215,7 @@ class Translator:
                 distance = abs(position - spec.neutral_us)
                 servo.ramp = distance / ramp_s if distance > 0 else None
 
-    def _move(self, servo: _Servo, target: float, t_ns: int) -> float:
+    def _move(self, servo: ServoWiring, target: float, t_ns: int) -> float:
         limiter = servo.limiter
         if servo.unlimited:
             limiter.position, limiter.velocity, limiter.t_ns = target, 0.0, t_ns

@@ -11,8 +11,9 @@ from facesynth.runtime import blendshapes, codec
 from facesynth.runtime.feature_names import BLENDSHAPE_NAMES, BY_NAME, LANDMARK_NAMES, NAMES
 from facesynth.schemas.messages import Features, Points, ScoreSet
 from facesynth.services.features.calibrate import CalibrationRecorder
-from facesynth.services.features.core import FeatureError, FeatureProcessor, blendshape_scores
+from facesynth.services.features.core import FeatureError, FeatureProcessor
 from facesynth.services.features.expressions import raw_features
+from facesynth.services.features.point_sets import blendshape_scores
 
 FPS = 30
 REST = np.full(blendshapes.COUNT, 0.1)

@@ -58,7 +58,8 @@ from facesynth.services.features.brow_rest import (
     OPEN_EYES_SCORE,
     REST_SCORE,
 )
-from facesynth.services.features.core import FeatureProcessor, blendshape_scores
+from facesynth.services.features.core import FeatureProcessor
+from facesynth.services.features.point_sets import blendshape_scores
 from facesynth.services.translator.core import Translator
 
 #: A brow control this close to neutral (share of its travel) is in its neutral band.

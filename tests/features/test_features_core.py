@@ -16,10 +16,10 @@ from facesynth.services.features.core import (
     FeatureError,
     FeatureProcessor,
     NeutralEstimator,
-    ibug_points,
     normalise,
     nose_distances,
 )
+from facesynth.services.features.point_sets import ibug_points
 from facesynth.services.points.openface_csv import load_openface_csv
 
 S = 1_000_000_000

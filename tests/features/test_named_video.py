@@ -20,8 +20,9 @@ from sample_points import track_sample
 from facesynth.runtime import codec
 from facesynth.runtime.feature_names import LANDMARK_NAMES
 from facesynth.schemas.messages import Features, Points
-from facesynth.services.features.core import FeatureProcessor, ibug_points, optional_points
+from facesynth.services.features.core import FeatureProcessor
 from facesynth.services.features.expressions import raw_features, relative
+from facesynth.services.features.point_sets import ibug_points, optional_points
 
 
 @pytest.fixture(scope="module")

@@ -10,6 +10,7 @@ from host_requirements import FIRMWARE_NEEDS, require_packages
 from uno_emulator import EmulatedUno, build_firmware
 
 from facesynth.services.control.drivers.arduino import protocol as proto
+from facesynth.services.control.drivers.arduino import replies
 
 
 @pytest.fixture(scope="session")
@@ -43,5 +44,5 @@ def uno(booted_uno: EmulatedUno) -> EmulatedUno:
     """:func:`booted_uno` with its watchdog at 60 s, so a test stalled by a busy machine does
     not see positions return to neutral (the watchdog has its own tests)."""
     reply = booted_uno.request(proto.set_watchdog(booted_uno.next_seq(), proto.WATCHDOG_MAX_MS))
-    assert isinstance(reply, proto.Ack), reply
+    assert isinstance(reply, replies.Ack), reply
     return booted_uno

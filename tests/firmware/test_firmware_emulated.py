@@ -14,6 +14,7 @@ import pytest
 from uno_emulator import EmulatedUno, Pulse
 
 from facesynth.services.control.drivers.arduino import protocol as proto
+from facesynth.services.control.drivers.arduino import replies
 
 pytestmark = pytest.mark.firmware
 
@@ -32,14 +33,14 @@ def settle(uno: EmulatedUno, want: dict[int, float]) -> None:
     uno.wait_for(lambda: all(near(uno.widths().get(ch, -1), us) for ch, us in want.items()))
 
 
-def ack(reply: proto.Reply, cmd: str, clamped: int = 0) -> None:
-    assert isinstance(reply, proto.Ack), reply
+def ack(reply: replies.Reply, cmd: str, clamped: int = 0) -> None:
+    assert isinstance(reply, replies.Ack), reply
     assert reply.cmd == proto.COMMANDS[cmd].code
     assert reply.clamped == clamped
 
 
-def nack(reply: proto.Reply, cmd: str, error: proto.ErrorCode) -> None:
-    assert isinstance(reply, proto.Nack), reply
+def nack(reply: replies.Reply, cmd: str, error: proto.ErrorCode) -> None:
+    assert isinstance(reply, replies.Nack), reply
     assert (reply.cmd, reply.error) == (proto.COMMANDS[cmd].code, error)
 
 
@@ -150,7 +151,7 @@ def test_bad_frames_change_nothing_and_are_counted(uno: EmulatedUno) -> None:
     uno.read_replies(0.3)  # > 50 ms of silence (emulation runs at about real time)
     uno.write(bytes([proto.START, proto.MAX_PAYLOAD + 1]) + bytes(40))  # oversized LEN
     reply = uno.request(proto.encode_frame(uno.next_seq(), 0x7E))
-    assert isinstance(reply, proto.Nack) and reply.error == proto.ErrorCode.UNKNOWN_COMMAND
+    assert isinstance(reply, replies.Nack) and reply.error == proto.ErrorCode.UNKNOWN_COMMAND
     short = proto.encode_frame(uno.next_seq(), proto.COMMANDS["SET_ALL"].code, bytes(30))
     nack(uno.request(short), "SET_ALL", proto.ErrorCode.BAD_LENGTH)
     bad_channel = proto.encode("SET_SOME", uno.next_seq(), [(2, 1700), (16, 1700)])
@@ -251,7 +252,7 @@ def test_missing_board_is_reported(firmware_build: str, tmp_path: Path) -> None:
     try:
         board.wait_ready()
         reply = board.request(proto.set_all(board.next_seq(), [1600] * 16))
-        assert isinstance(reply, proto.Ack) and reply.flags & proto.Flags.OUTPUT_FAULT
+        assert isinstance(reply, replies.Ack) and reply.flags & proto.Flags.OUTPUT_FAULT
         status = board.status()
         assert status.flags & proto.Flags.OUTPUT_FAULT
         assert status.output_errors >= 1

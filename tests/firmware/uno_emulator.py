@@ -17,6 +17,7 @@ import host_requirements
 import serial
 
 from facesynth.services.control.drivers.arduino import protocol as proto
+from facesynth.services.control.drivers.arduino import replies
 
 REPO = Path(__file__).resolve().parents[2]
 FIRMWARE = REPO / "firmware"
@@ -110,10 +111,10 @@ class EmulatedUno:
         else:
             raise RuntimeError(f"harness exited: {self.stderr_path.read_text()}")
         self.port = serial.Serial(str(self.link), 115200, timeout=0.05) if open_port else None
-        self.decoder = proto.ReplyDecoder()
+        self.decoder = replies.ReplyDecoder()
         self.sent_bytes = 0
         self.seq = 0
-        self.unanswered: list[proto.Reply] = []
+        self.unanswered: list[replies.Reply] = []
 
     def opened(self) -> serial.Serial:
         """The test's own pyserial port to the pty (started with ``open_port=True``)."""
@@ -133,16 +134,16 @@ class EmulatedUno:
         self.sent_bytes += len(data)
         return self.sent_bytes
 
-    def read_replies(self, timeout: float) -> list[proto.Reply]:
+    def read_replies(self, timeout: float) -> list[replies.Reply]:
         """Replies that arrive within ``timeout`` seconds (wall time)."""
         deadline = time.monotonic() + timeout
-        out: list[proto.Reply] = []
+        out: list[replies.Reply] = []
         while time.monotonic() < deadline:
             port = self.opened()
             out += self.decoder.feed(port.read(port.in_waiting or 1))
         return out
 
-    def request(self, frame: bytes, timeout: float = 3.0) -> proto.Reply:
+    def request(self, frame: bytes, timeout: float = 3.0) -> replies.Reply:
         """Send a command frame and return the reply carrying its SEQ."""
         seq = int.from_bytes(frame[2:4], "little")
         self.write(frame)
@@ -155,7 +156,7 @@ class EmulatedUno:
                 self.unanswered.append(reply)
         raise TimeoutError(f"no reply to {frame.hex()} within {timeout} s")
 
-    def wait_ready(self, timeout: float = 10.0) -> proto.Version:
+    def wait_ready(self, timeout: float = 10.0) -> replies.Version:
         """PING until VERSION comes back (pyserial flushes input on open: no boot banner)."""
         deadline = time.monotonic() + timeout
         while time.monotonic() < deadline:
@@ -163,14 +164,14 @@ class EmulatedUno:
                 reply = self.request(proto.ping(0), timeout=0.5)
             except TimeoutError:
                 continue
-            assert isinstance(reply, proto.Version), reply
+            assert isinstance(reply, replies.Version), reply
             return reply
         raise TimeoutError("the emulated Uno does not answer PING")
 
-    def status(self) -> proto.Status:
+    def status(self) -> replies.Status:
         """Its STATUS reply."""
         reply = self.request(proto.status(0))
-        assert isinstance(reply, proto.Status), reply
+        assert isinstance(reply, replies.Status), reply
         return reply
 
     def events(self, kind: str) -> list[list[str]]:

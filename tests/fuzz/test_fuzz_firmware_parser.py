@@ -24,6 +24,7 @@ from hypothesis import strategies as st
 from mutations import damaged
 
 from facesynth.services.control.drivers.arduino import protocol as proto
+from facesynth.services.control.drivers.arduino import replies
 
 pytestmark = [pytest.mark.fuzz, pytest.mark.timeout(900)]
 
@@ -164,11 +165,12 @@ def test_the_firmware_never_breaks_its_limits_and_always_answers_in_frames(
         at += 32 + 16 + 1
         (size,) = struct.unpack_from("<I", answer, at)
         replies_bytes = answer[at + 4 : at + 4 + size]
-        decoder = proto.ReplyDecoder()
-        replies = decoder.feed(replies_bytes)
+        decoder = replies.ReplyDecoder()
+        got = decoder.feed(replies_bytes)
         assert decoder.malformed == 0 and decoder.frames.dropped_bytes == 0
         assert all(
-            isinstance(r, proto.Ack | proto.Nack | proto.Version | proto.Status) for r in replies
+            isinstance(r, replies.Ack | replies.Nack | replies.Version | replies.Status)
+            for r in got
         )
         record.count("applied" if counters[0] else "refused")
 

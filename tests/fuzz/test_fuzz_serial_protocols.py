@@ -15,6 +15,7 @@ from hypothesis import strategies as st
 from mutations import damaged
 
 from facesynth.services.control.drivers.arduino import protocol as proto
+from facesynth.services.control.drivers.arduino import replies
 from facesynth.services.control.drivers.maestro import protocol as mp
 from facesynth.services.control.drivers.replies import ReplyQueue
 
@@ -46,23 +47,23 @@ def test_arduino_replies_decode_or_are_counted_malformed() -> None:
     @given(st.lists(st.one_of(reply_frames(), st.binary(max_size=24)), max_size=8), st.data())
     def case(parts: list[bytes], data: st.DataObject) -> None:
         stream = b"".join(parts)
-        decoder = proto.ReplyDecoder()
-        replies: list[proto.Reply] = []
+        decoder = replies.ReplyDecoder()
+        got: list[replies.Reply] = []
         i = 0
         while i < len(stream):  # as the serial port delivers it: in chunks
             n = data.draw(st.integers(1, 64))
-            replies += decoder.feed(stream[i : i + n])
+            got += decoder.feed(stream[i : i + n])
             i += n
             assert decoder.frames.pending <= proto.MAX_REPLY_PAYLOAD + proto.FRAME_OVERHEAD
         for _ in range(proto.MAX_REPLY_PAYLOAD + proto.FRAME_OVERHEAD):  # the line goes quiet
             if not decoder.frames.pending:
                 break
-            replies += decoder.discard_partial()
+            got += decoder.discard_partial()
         assert decoder.frames.pending == 0
-        for reply in replies:
-            assert isinstance(reply, proto.Ack | proto.Nack | proto.Version | proto.Status)
+        for reply in got:
+            assert isinstance(reply, replies.Ack | replies.Nack | replies.Version | replies.Status)
             assert 0 <= reply.seq <= 0xFFFF
-        record.count("replies" if replies else "none")
+        record.count("replies" if got else "none")
 
     case()
     check_tally(target, "replies", "none")
@@ -79,7 +80,9 @@ def test_arduino_parse_reply_types_a_frame_or_raises_protocol_error() -> None:
     )
     def case(seq: int, code: int, payload: bytes) -> None:
         outcome(
-            target, lambda: proto.parse_reply(proto.Frame(seq, code, payload)), proto.ProtocolError
+            target,
+            lambda: replies.parse_reply(proto.Frame(seq, code, payload)),
+            proto.ProtocolError,
         )
 
     case()

@@ -1,4 +1,4 @@
-"""services.translator.core, sources to positions: dead-band, scaling, mixes, gain, mirror, gaps."""
+"""services.translator.sources (through the core): dead-band, scaling, mixes, gain, mirror, gaps."""
 
 from __future__ import annotations
 

@@ -114,8 +114,6 @@ ClientMessage = (
     | Ping
 )
 _DECODER = msgspec.json.Decoder(ClientMessage)
-#: Messages that move a servo or write a file: they need the token (and the servos' lock).
-MOVES = (Take, Jog, Centre, Neutral, Stop, SetLimit, Rename, Reverse, Save)
 TYPES = ("hello", "take", "release", "jog", "centre", "neutral", "stop", "limit", "rename",
          "reverse", "save", "calibrate", "ping")  # fmt: skip
 

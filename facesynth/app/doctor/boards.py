@@ -20,6 +20,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from facesynth.services.control.drivers.arduino import protocol as fw
+from facesynth.services.control.drivers.arduino import replies
 from facesynth.services.control.drivers.maestro import protocol as mp
 from facesynth.services.control.drivers.ssc32 import protocol as sp
 
@@ -67,10 +68,10 @@ def read_firmware(data: bytes) -> Answer | None:
     decoder = fw.FrameDecoder()
     for frame in decoder.feed(data):
         try:
-            reply = fw.parse_reply(frame)
+            reply = replies.parse_reply(frame)
         except fw.ProtocolError:
             continue
-        if isinstance(reply, fw.Version) and reply.seq == PING_SEQ:
+        if isinstance(reply, replies.Version) and reply.seq == PING_SEQ:
             version = (reply.major, reply.minor, reply.patch)
             return Answer(
                 "firmware",

@@ -96,13 +96,6 @@ def key_rig(key: str) -> str:
     return key.split("/")[1]
 
 
-def with_rig(key: str, rig: str) -> str:
-    """The same key on another rig."""
-    parts = key.split("/")
-    parts[1] = keys.check_name(rig)
-    return "/".join(parts)
-
-
 _JSON_SCHEMAS: dict[type[Any], SchemaSpec] = {}
 
 

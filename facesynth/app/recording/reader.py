@@ -7,7 +7,6 @@ the command that recovers it.
 
 from __future__ import annotations
 
-import collections
 import contextlib
 import os
 import struct
@@ -267,12 +266,3 @@ class Recording:
                 yield item.key, codec.decode(item.payload, cls), item.log_time
             except codec.MessageError:
                 continue
-
-    def describe_counts(self) -> dict[str, int]:
-        """Messages per topic."""
-        totals: collections.Counter[str] = collections.Counter()
-        for channel_id, count in self.counts.items():
-            channel = self.channels.get(channel_id)
-            if channel is not None:
-                totals[channel.topic] += count
-        return dict(totals)

@@ -9,6 +9,7 @@ is how the Image panel pairs annotations with their image.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
 from functools import cache
 from typing import Any
@@ -16,7 +17,7 @@ from typing import Any
 from foxglove import messages as fg
 
 from facesynth.runtime.landmarks import IBUG68, IRIS10, MESH468, MESH478
-from facesynth.schemas.messages import Frame, Points
+from facesynth.schemas.messages import Frame, Points, PointSet
 
 
 @dataclass(frozen=True)
@@ -96,8 +97,23 @@ def image_view(frame: Frame) -> tuple[SchemaSpec, bytes] | None:
     return None
 
 
-def _point(coords: list[float], dims: int, index: int) -> fg.Point2:
-    return fg.Point2(x=coords[index * dims], y=coords[index * dims + 1])
+def _shape(
+    stamp: fg.Timestamp,
+    kind: fg.PointsAnnotationType,
+    point_set: PointSet,
+    indices: Iterable[int],
+    color: fg.Color,
+    thickness: float,
+) -> fg.PointsAnnotation:
+    """The points ``indices`` of ``point_set`` drawn as ``kind``."""
+    coords, dims = point_set.coords, point_set.dims
+    return fg.PointsAnnotation(
+        timestamp=stamp,
+        type=kind,
+        points=[fg.Point2(x=coords[i * dims], y=coords[i * dims + 1]) for i in indices],
+        outline_color=color,
+        thickness=thickness,
+    )
 
 
 def annotations_view(points: Points) -> tuple[SchemaSpec, bytes]:
@@ -110,43 +126,19 @@ def annotations_view(points: Points) -> tuple[SchemaSpec, bytes]:
     shapes: list[fg.PointsAnnotation] = []
     sets = {point_set.scheme: point_set for point_set in points.sets}
     ibug = sets.get(IBUG68)
+    kinds = fg.PointsAnnotationType
     if ibug is not None and len(ibug.coords) >= 68 * ibug.dims:
         for first, last, closed in IBUG68_OUTLINES:
-            shapes.append(
-                fg.PointsAnnotation(
-                    timestamp=stamp,
-                    type=fg.PointsAnnotationType.LineLoop
-                    if closed
-                    else fg.PointsAnnotationType.LineStrip,
-                    points=[_point(ibug.coords, ibug.dims, i) for i in range(first, last + 1)],
-                    outline_color=_GREEN,
-                    thickness=2.0,
-                )
-            )
+            kind = kinds.LineLoop if closed else kinds.LineStrip
+            shapes.append(_shape(stamp, kind, ibug, range(first, last + 1), _GREEN, 2.0))
     elif MESH468 in sets or MESH478 in sets:
         mesh = sets.get(MESH468) or sets[MESH478]
         shapes.append(
-            fg.PointsAnnotation(
-                timestamp=stamp,
-                type=fg.PointsAnnotationType.Points,
-                points=[
-                    _point(mesh.coords, mesh.dims, i) for i in range(len(mesh.coords) // mesh.dims)
-                ],
-                outline_color=_GREY,
-                thickness=2.0,
-            )
+            _shape(stamp, kinds.Points, mesh, range(len(mesh.coords) // mesh.dims), _GREY, 2.0)
         )
     iris = sets.get(IRIS10)
     if iris is not None:
         shapes.append(
-            fg.PointsAnnotation(
-                timestamp=stamp,
-                type=fg.PointsAnnotationType.Points,
-                points=[
-                    _point(iris.coords, iris.dims, i) for i in range(len(iris.coords) // iris.dims)
-                ],
-                outline_color=_CYAN,
-                thickness=4.0,
-            )
+            _shape(stamp, kinds.Points, iris, range(len(iris.coords) // iris.dims), _CYAN, 4.0)
         )
     return annotations_schema(), fg.ImageAnnotations(timestamp=stamp, points=shapes).encode()

@@ -109,6 +109,29 @@ def test_landmarks_are_drawn_over_the_image() -> None:
     assert len(no_face.points) == 0
 
 
+def test_a_stream_with_only_the_mesh_shows_it_as_dots() -> None:
+    mesh = [float(v) for i in range(478) for v in (i, 2 * i, 0.5)]
+    points = Points(
+        seq=1,
+        t_capture_ns=5,
+        t_media_ns=5,
+        face=True,
+        confidence=1.0,
+        image_width=640,
+        image_height=480,
+        sets=[PointSet(scheme="mesh478", dims=3, coords=mesh)],
+    )
+    key = "facesynth/default/points"
+    entry = next(
+        e
+        for e in Layout().entries(key, codec.encode(points), 1, 0)
+        if e.channel.role == ANNOTATIONS
+    )
+    (dots,) = decode_view(entry).points
+    assert len(dots.points) == 478
+    assert (dots.points[3].x, dots.points[3].y) == (3.0, 6.0)
+
+
 def _unknown_field(payload: bytes) -> bytes:
     data = msgspec.msgpack.decode(payload)
     data["added_in_a_newer_version"] = [1, 2]

@@ -23,6 +23,7 @@ import msgspec
 
 from facesynth.runtime.profiles import Profile
 from facesynth.services.control.drivers.arduino import protocol as proto
+from facesynth.services.control.drivers.arduino import replies
 from facesynth.services.control.drivers.base import DriverConfigError, DriverError
 from facesynth.services.control.drivers.registry import DRIVERS
 from facesynth.services.control.drivers.serial_driver import AnswerClock, SerialServoDriver
@@ -111,7 +112,7 @@ class ArduinoDriver(SerialServoDriver):
         super().__init__(config.port, config.baud, servo_map, log)
         self.config = config
         self.limits = firmware_limits(profile, servo_map)
-        self.version: proto.Version | None = None
+        self.version: replies.Version | None = None
         self.channels = proto.MAX_CHANNELS
         self.seq = 0
         self.configured = False
@@ -119,8 +120,8 @@ class ArduinoDriver(SerialServoDriver):
         self.board_resets = 0
         self.clamped = 0
         self.nacks: collections.Counter[str] = collections.Counter()
-        self._decoder = proto.ReplyDecoder()
-        self._waiters: dict[object, asyncio.Future[proto.Reply]] = {}
+        self._decoder = replies.ReplyDecoder()
+        self._waiters: dict[object, asyncio.Future[replies.Reply]] = {}
         self._quiet: asyncio.TimerHandle | None = None
         self._answers = AnswerClock()
         self._repair: asyncio.Task[None] | None = None
@@ -179,7 +180,7 @@ class ArduinoDriver(SerialServoDriver):
 
     async def _identify(self) -> None:
         self.configured = False
-        self._decoder = proto.ReplyDecoder()
+        self._decoder = replies.ReplyDecoder()
         self._fail_waiters()
         self._answers.answered()
         version = await self._ping()
@@ -204,7 +205,7 @@ class ArduinoDriver(SerialServoDriver):
             version.output.name,
         )
 
-    async def _ping(self) -> proto.Version:
+    async def _ping(self) -> replies.Version:
         """PING every 200 ms until VERSION comes back (pyserial drops what came before)."""
         loop = asyncio.get_running_loop()
         deadline = loop.time() + self.config.connect_timeout
@@ -218,12 +219,12 @@ class ArduinoDriver(SerialServoDriver):
                         "(is the facesynth firmware on this board?)"
                     ) from None
                 continue
-            assert isinstance(reply, proto.Version)
+            assert isinstance(reply, replies.Version)
             return reply
 
-    async def _query_status(self) -> proto.Status:
+    async def _query_status(self) -> replies.Status:
         reply = await self._request(proto.status(self.seq), "STATUS", ACK_TIMEOUT_S)
-        assert isinstance(reply, proto.Status)
+        assert isinstance(reply, replies.Status)
         return reply
 
     async def _configure(self) -> None:
@@ -236,22 +237,22 @@ class ArduinoDriver(SerialServoDriver):
             await self._command(functools.partial(limits_frame, limits=chunk), "SET_LIMITS")
         self.configured = True
 
-    async def _command(self, frame: Callable[[int], bytes], name: str) -> proto.Ack:
+    async def _command(self, frame: Callable[[int], bytes], name: str) -> replies.Ack:
         """Send a state-changing command and wait for its ACK (one resync on a stale SEQ)."""
         for attempt in range(2):
             seq = self._next_seq()
             reply = await self._request(frame(seq), ("REPLY", seq), ACK_TIMEOUT_S)
-            if isinstance(reply, proto.Ack):
+            if isinstance(reply, replies.Ack):
                 return reply
-            assert isinstance(reply, proto.Nack)
+            assert isinstance(reply, replies.Nack)
             if reply.error == proto.ErrorCode.STALE_SEQUENCE and attempt == 0:
                 self.seq = (await self._query_status()).last_seq
                 continue
             raise DriverConfigError(f"the firmware refused {name}: {reply.error.name}")
         raise DriverError(f"the firmware keeps refusing {name} as stale")
 
-    async def _request(self, frame: bytes, key: object, timeout: float) -> proto.Reply:
-        future: asyncio.Future[proto.Reply] = asyncio.get_running_loop().create_future()
+    async def _request(self, frame: bytes, key: object, timeout: float) -> replies.Reply:
+        future: asyncio.Future[replies.Reply] = asyncio.get_running_loop().create_future()
         self._waiters[key] = future
         try:
             if not self.link.write(frame):
@@ -300,11 +301,11 @@ class ArduinoDriver(SerialServoDriver):
             self._handle(reply)
         self._arm_quiet_timer()
 
-    def _handle(self, reply: proto.Reply) -> None:
+    def _handle(self, reply: replies.Reply) -> None:
         self._answers.answered()
-        if isinstance(reply, proto.Version):
+        if isinstance(reply, replies.Version):
             key: object = "VERSION"
-        elif isinstance(reply, proto.Status):
+        elif isinstance(reply, replies.Status):
             key = "STATUS"
         else:
             key = ("REPLY", reply.seq)
@@ -312,12 +313,12 @@ class ArduinoDriver(SerialServoDriver):
         if future is not None and not future.done():
             future.set_result(reply)
             return
-        if isinstance(reply, proto.Ack):
+        if isinstance(reply, replies.Ack):
             self._on_ack(reply)
-        elif isinstance(reply, proto.Nack):
+        elif isinstance(reply, replies.Nack):
             self._on_nack(reply)
 
-    def _on_ack(self, ack: proto.Ack) -> None:
+    def _on_ack(self, ack: replies.Ack) -> None:
         if ack.clamped:
             self.clamped += ack.clamped
             self._once(
@@ -341,7 +342,7 @@ class ArduinoDriver(SerialServoDriver):
             log.warning("%s: the board has reset; sending its limits again", self.link.port)
             self._start_repair(self._reconfigure())
 
-    def _on_nack(self, nack: proto.Nack) -> None:
+    def _on_nack(self, nack: replies.Nack) -> None:
         self.nacks[nack.error.name] += 1
         if nack.error == proto.ErrorCode.STALE_SEQUENCE:
             self._once("stale", "stale sequence number: resynchronising from STATUS")

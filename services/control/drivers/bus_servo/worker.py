@@ -12,8 +12,8 @@ backoff; the pose held is written again on reconnect.
 
 A servo reporting a hardware error (overload, overheating, voltage) is held: its goal is no
 longer written, one line is logged, the others go on; it moves again once the error clears.
-A servo that misses :data:`MISSES` read-backs in a row shows as "not answering" and is asked
-again once a second.
+A servo that misses three read-backs in a row shows as "not answering" and is asked again once
+a second (:mod:`facesynth.services.control.drivers.bus_servo.health` keeps this account).
 """
 
 from __future__ import annotations
@@ -35,18 +35,18 @@ from facesynth.services.control.drivers.base import (
 )
 from facesynth.services.control.drivers.bus_servo.budget import read_chunk
 from facesynth.services.control.drivers.bus_servo.bus import Ping, ServoBus, Status
+from facesynth.services.control.drivers.bus_servo.health import (
+    NOT_ANSWERING,
+    SILENT_S,
+    ServoHealth,
+)
 from facesynth.services.control.drivers.bus_servo.models import check_answers
 from facesynth.services.control.drivers.bus_servo.native import Model, NativePose
 from facesynth.services.control.drivers.serial_link import Backoff, LinkState, _reason
 
 #: Errors after which the thread reopens the port (termios: a pty or adapter gone mid-call).
 TRANSIENT = (OSError, serial.SerialException, TimeoutError, DriverError, termios.error)
-SILENT_S = 2.0
-REPROBE_S = 1.0
 PING_TRIES = 3
-#: Read-backs in a row a servo must miss to show as "not answering" (one lost answer is not).
-MISSES = 3
-NOT_ANSWERING = "not answering"
 
 
 class BusWorker:
@@ -92,11 +92,7 @@ class BusWorker:
         self._stop = False
         self._relax = False
         self._calls: list[tuple[Callable[[ServoBus], Any], concurrent.futures.Future[Any]]] = []
-        self._statuses: dict[int, Status] = {}
-        self._faults: dict[int, str] = {}
-        self._last_answer: dict[int, float] = {}
-        self._last_probe: dict[int, float] = {}
-        self._misses: dict[int, int] = {}
+        self.health = ServoHealth()
         self._next_read = 0.0
         self._read_due = False  # a pose was just written and a read-back is due
         self._last_write = 0.0
@@ -169,7 +165,7 @@ class BusWorker:
     def snapshot(self) -> tuple[dict[int, Status], dict[int, str]]:
         """The latest status of each servo read, and the faults (by id)."""
         with self._lock:
-            return dict(self._statuses), dict(self._faults)
+            return dict(self.health.statuses), dict(self.health.faults)
 
     # -- the bus thread ------------------------------------------------------------------------
 
@@ -271,16 +267,15 @@ class BusWorker:
                 self.bus.prepare(servo, speed, accel)
         now = time.monotonic()
         with self._lock:
-            self._faults = {i: p.fault for i, p in answers.items() if p is not None and p.fault}
+            faults = {i: p.fault for i, p in answers.items() if p is not None and p.fault}
+            self.health.connected(faults, self.map.servos, now)
             self.version += 1
-            self._last_answer = dict.fromkeys(self.map.servos, now)
-            self._misses = {}
             self.state.connected = True
             self.state.connects += 1
             self.state.failed_attempts = 0
             self.state.last_error = ""
             self._dirty = not self.query_only
-        for servo_id, fault in self._faults.items():
+        for servo_id, fault in self.health.faults.items():
             self.log.warning("%s: %s; holding it", self.port, self._who(servo_id, fault))
 
     def _serve(self) -> None:
@@ -318,11 +313,11 @@ class BusWorker:
                     # After a write (one a frame at most) or when idle; due 10 % early, so
                     # 30 poses/s and 15 reads/s read at every other frame despite jitter.
                     self._next_read = now + period * 0.9
-                    asked = self._chunk(ids, turn, chunk, now)
+                    asked = self.health.pick(ids, turn, chunk, now)
                     turn += chunk
                     if asked:
                         self._update(self.bus.read(asked), now)
-            if self._last_answer and max(self._last_answer.values()) < now - SILENT_S:
+            if self.health.silent(now):
                 raise TimeoutError(f"no servo answered for {SILENT_S:g} s")
 
     def _take_goals(self) -> dict[int, int]:
@@ -330,7 +325,7 @@ class BusWorker:
             return {}
         self._dirty = False
         goals = {}
-        ids, servos, faults = self.map.ids, self.map.servos, self._faults
+        ids, servos, faults = self.map.ids, self.map.servos, self.health.faults
         for name, us in self._goal_us.items():
             servo_id = ids[name]
             if faults and faults.get(servo_id, NOT_ANSWERING) != NOT_ANSWERING:
@@ -338,42 +333,13 @@ class BusWorker:
             goals[servo_id] = servos[servo_id].native(us)
         return goals
 
-    def _chunk(self, ids: list[int], turn: int, size: int, now: float) -> list[int]:
-        picked: list[int] = []
-        for k in range(len(ids)):
-            servo_id = ids[(turn + k) % len(ids)]
-            if len(picked) >= size:
-                break
-            silent = self._faults.get(servo_id) == NOT_ANSWERING
-            if silent and now - self._last_probe.get(servo_id, 0.0) < REPROBE_S:
-                continue  # asked again once a second
-            picked.append(servo_id)
-        return picked
-
     def _update(self, statuses: Mapping[int, Status | None], now: float) -> None:
-        said: list[tuple[int, str, str]] = []
         with self._lock:
             self.reads += 1
             self.version += 1
-            for servo_id, status in statuses.items():
-                before = self._faults.get(servo_id, "")
-                if status is None:
-                    misses = self._misses[servo_id] = self._misses.get(servo_id, 0) + 1
-                    self._last_probe[servo_id] = now
-                    fault = before or (NOT_ANSWERING if misses >= MISSES else "")
-                else:
-                    self._misses[servo_id] = 0
-                    self._statuses[servo_id] = status
-                    self._last_answer[servo_id] = now
-                    fault = status.fault
-                if fault:
-                    self._faults[servo_id] = fault
-                else:
-                    self._faults.pop(servo_id, None)
-                if fault != before:
-                    said.append((servo_id, before, fault))
-                    if not fault:
-                        self._dirty = True  # write the held servo's goal again
+            said = self.health.update(statuses, now)
+            if any(not fault for _, _, fault in said):
+                self._dirty = True  # write the held servo's goal again
         for servo_id, before, fault in said:
             if fault and fault != NOT_ANSWERING:
                 self.log.warning(
