@@ -1,6 +1,6 @@
 """The closed loop on a simulated head in virtual time: T → C → the head → its camera image →
 the tracker → F → back to T. A learned profile is fitted here from the head's own babbling (in
-process, as tests/app/learn/test_fit_simhead.py babbles); the same performer segment plays
+process, by facesynth.app.bench.robot_babble); the same performer segment plays
 through it with the loop open and closed, on fresh heads."""
 
 from __future__ import annotations
@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from facesynth.app.bench.robot import Performance, RobotLoop, robot_features, track_performer
+from facesynth.app.bench.robot_babble import babble_simhead
 from facesynth.app.bench.robot_closed import CLOSED_SUFFIX, ClosedRobotLoop, bench_closed
 from facesynth.app.bench.robot_compare import FeatureStream, compare, mark_reach, summarize
 from facesynth.app.data import sample_video
@@ -20,8 +21,8 @@ from facesynth.app.learn.fit import FitOptions, fit_learned_profile
 from facesynth.app.simhead import SimHead, load_head
 from facesynth.runtime.clock import FAKE_EPOCH_NS
 from facesynth.runtime.profiles import Profile, load_profile, save_learned_profile
+from facesynth.runtime.profiles.learned import shown_inputs
 from facesynth.services.translator.learned import LearnedTargets
-from tests.app.learn.test_fit_simhead import babble_simhead
 
 pytestmark = [pytest.mark.slow, pytest.mark.timeout(900)]
 
@@ -148,3 +149,29 @@ def test_bench_closed_puts_open_and_closed_side_by_side(
     result = bench_closed(short, [HEAD], ["head16", path], lambda name: SimHead(load_head(name)))
     names = [run.profile for run in result.heads[0].profiles]
     assert names == ["head16", "robot", "robot" + CLOSED_SUFFIX]
+
+
+def test_bench_closed_runs_a_profile_learned_for_each_head_open_and_closed(
+    learned: Profile, performance: Performance
+) -> None:
+    """``bench robot --closed-loop --learn-poses N``: the profile learned for the head runs
+    after the named ones, open and closed, and its babbling is what the head leads with."""
+    short = Performance(
+        performance.video,
+        performance.fps,
+        performance.features[:30],
+        FeatureStream(performance.stream.names, performance.stream.values[:30]),
+        performance.seconds,
+    )
+    mine = msgspec.structs.replace(learned, name="learned")
+    result = bench_closed(
+        short, [HEAD], ["head16"], lambda name: SimHead(load_head(name)), learn=lambda h: [mine]
+    )
+    (head,) = result.heads
+    assert [run.profile for run in head.profiles] == [
+        "head16",
+        "learned",
+        "learned" + CLOSED_SUFFIX,
+    ]
+    assert mine.learned is not None
+    assert head.babbled == frozenset(shown_inputs(mine.learned))

@@ -13,6 +13,7 @@ from facesynth.app.bench.robot_compare import (
     FeatureStream,
     best_lag,
     compare,
+    lead,
     mark_reach,
     moved_threshold,
     span,
@@ -184,3 +185,27 @@ def test_summary_over_moved_and_reachable_features() -> None:
     assert summary.in_band == pytest.approx(2 / 3)
     empty = summarize([])
     assert empty.moved == 0 and math.isnan(empty.mean_rho) and math.isnan(empty.in_band)
+
+
+def test_the_lead_is_over_what_the_performer_moves_and_the_robot_babbled() -> None:
+    def row(name: str, rho: float, ratio: float, moved: bool, reach: bool) -> FeatureRow:
+        return FeatureRow(name, "u", 100, 1.0, ratio, rho, ratio, moved, reach)
+
+    rows = [
+        row("a", 0.9, 1.0, moved=True, reach=True),  # moved, babbled, reached
+        row("b", 0.1, 0.1, moved=True, reach=True),  # moved, reached, never babbled
+        row("c", 0.5, 0.5, moved=True, reach=False),  # moved, babbled, no profile reached it
+        row("d", -1.0, 3.0, moved=False, reach=True),  # babbled, the performer keeps it still
+    ]
+    babbled = {"a", "c", "d"}
+    figures = lead(rows, babbled)
+    assert figures.basis == "babbling" and figures.features == ("a", "c")
+    assert figures.mean_rho == pytest.approx(0.7)
+    assert figures.median_ratio == pytest.approx(0.75)
+    assert figures.in_band == pytest.approx(0.5)
+    reached = lead(rows, None)  # a head not babbled: what some profile reached
+    assert reached.basis == "reach" and reached.features == ("a", "b")
+    assert reached.mean_rho == pytest.approx(0.5)
+    nothing = lead(rows, set())
+    assert nothing.features == () and math.isnan(nothing.mean_rho)
+    assert math.isnan(nothing.median_ratio) and math.isnan(nothing.in_band)

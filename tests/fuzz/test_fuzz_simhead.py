@@ -34,8 +34,9 @@ from hypothesis import given
 from hypothesis import strategies as st
 from mutations import damaged, damaged_text, mutated, to_toml
 
-from facesynth.app.simhead.config import HeadConfig, HeadError, head_names, load_head, parse_head
+from facesynth.app.simhead.config import HeadConfig, HeadError, parse_head
 from facesynth.app.simhead.head import CHANNELS, SimHead
+from facesynth.app.simhead.heads import head_names, load_head
 from facesynth.app.simhead.maestro import (
     GET_ERRORS,
     GET_MOVING_STATE,

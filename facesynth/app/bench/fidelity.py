@@ -1,6 +1,6 @@
 """Fidelity: do synthetic expressions reach the right servos of every profile, with each model?
 
-For ``facesynth bench fidelity``. Each expression of :mod:`.synthetic_faces` (smile, brow
+For ``facesynth bench fidelity``. Each expression of :mod:`facesynth.app.simhead.faces` (smile, brow
 raise, frown, jaw drop, gaze in four directions, vertical gaze with the lids following) is
 rendered on the still face, then goes through the real chain's cores: the tracker (the chosen
 tracker model, LiteRT), then F (no calibration, the profile's neutral window on the still face)
@@ -29,13 +29,12 @@ import numpy as np
 
 from facesynth.app.engine.stepped import RobotCores, SteppedChain, sensor_frame
 from facesynth.app.nodes import FeaturesNode
+from facesynth.app.simhead.faces import BASE_FRAME, Face, base_face, expressions, render
 from facesynth.app.wiring import build_processor
 from facesynth.runtime.profiles import Profile, ServoSpec, load_profile
 from facesynth.schemas.messages import Points
 from facesynth.services.points.backends.tracker import TrackerBackend, TrackerConfig
 from facesynth.services.points.tracker.offline import iter_video_frames
-
-from .synthetic_faces import BASE_FRAME, Face, base_face, expressions, render
 
 __all__ = [
     "CROSS_TALK",

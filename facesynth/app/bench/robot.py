@@ -23,18 +23,24 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
-from typing import Final, Protocol
+from typing import Final
 
 import numpy as np
 
-from facesynth.app.engine.stepped import RobotCores, SteppedChain, sensor_frame
-from facesynth.runtime.calibration import Calibration
+from facesynth.app.engine.robot_loop import (
+    MODEL,
+    NEUTRAL_S,
+    Head,
+    RobotError,
+    RobotLoop,
+    robot_features,
+    tracker,
+)
+from facesynth.app.engine.stepped import SteppedChain, sensor_frame
 from facesynth.runtime.profiles import Profile, load_profile
-from facesynth.schemas.messages import Features, Points
-from facesynth.services.control.core import Move
+from facesynth.runtime.profiles.learned import shown_inputs
+from facesynth.schemas.messages import Features
 from facesynth.services.features.core import FeatureProcessor
-from facesynth.services.points.backends.base import PointsBackend
-from facesynth.services.points.backends.tracker import TrackerBackend, TrackerConfig
 from facesynth.services.sensor.sources.video import VideoConfig, VideoSource
 
 from .robot_compare import (
@@ -64,37 +70,6 @@ __all__ = [
 
 #: The hand-written profiles measured when none is named.
 DEFAULT_PROFILES: Final = ("paper16", "head16", "head16_bs")
-#: Tracker model watching both faces.
-MODEL: Final = "full"
-#: F's neutral window on both faces (seconds with a face).
-NEUTRAL_S: Final = 1.0
-#: Seconds the head is held at neutral before its neutral is measured (the head settles from
-#: its rest, the tracker's crop settles).
-SETTLE_S: Final = 1.0
-#: Seconds after which a head at neutral without a face (or a neutral) is an error.
-NEUTRAL_TIMEOUT_S: Final = 5.0
-
-
-class RobotError(ValueError):
-    """A head, profile or video ``bench robot`` cannot measure; one line."""
-
-
-class Head(Protocol):
-    """What the bench needs of a simulated head (:class:`facesynth.app.simhead.SimHead`)."""
-
-    def command(self, channel: int, pulse_us: float) -> None:
-        """Set a channel's target pulse (µs)."""
-
-    def step(self, t_ns: int) -> None:
-        """Advance the actuators' dynamics to ``t_ns``."""
-
-    def render(self) -> np.ndarray:
-        """The head's camera image now (BGR)."""
-
-
-def tracker(model: str = MODEL) -> TrackerBackend:
-    """The tracker both faces are watched with (LiteRT when installed, blendshapes on)."""
-    return TrackerBackend(TrackerConfig(model=model))
 
 
 @dataclass(frozen=True)
@@ -106,13 +81,6 @@ class Performance:
     features: list[Features]
     stream: FeatureStream
     seconds: float
-
-
-def robot_features(features: Features) -> dict[str, float] | None:
-    """The raw values of one frame (``None`` without a face or before the neutral is known)."""
-    if not features.face or not features.neutral_ready or not features.raw:
-        return None
-    return features.raw
 
 
 def track_performer(
@@ -153,101 +121,6 @@ def track_performer(
     return Performance(video, source.info.fps, out, stream, time.monotonic() - started)
 
 
-class RobotLoop:
-    """One profile driving one head in process: T → C → the head → its camera → tracker → F.
-
-    Time is data: the robot's clock starts at 0 when C starts; :meth:`start` holds the head at
-    neutral until F knows the robot's neutral, and each performer frame then plays at that
-    instant plus its media time (:meth:`step`)."""
-
-    def __init__(
-        self,
-        profile: Profile,
-        head: Head,
-        *,
-        fps: float,
-        backend: PointsBackend | None = None,
-        settle_s: float = SETTLE_S,
-        calibration: Calibration | None = None,
-    ) -> None:
-        if not fps > 0:
-            raise RobotError("the frame rate must be positive")
-        self.profile = profile
-        self.head = head
-        #: T and C as the stepped chain runs them (C on the robot's clock, in real time).
-        self.cores = RobotCores.of_profile("robot", profile, calibration=calibration)
-        self.translator = self.cores.translator
-        self.control = self.cores.control
-        self.channels = {spec.name: spec.channel for spec in profile.servos}
-        self.backend = backend if backend is not None else tracker()
-        self.processor = FeatureProcessor(neutral_seconds=NEUTRAL_S, neutral_held=True)
-        self.period_ns = round(1e9 / fps)
-        self.settle_ns = round(settle_s * 1e9)
-        self.now_ns = 0
-        self.seq = 0
-        #: The points the tracker found on the head's last camera image.
-        self.points: Points | None = None
-        #: The robot's clock at the performer's media time 0 (known after :meth:`start`).
-        self.origin_ns: int | None = None
-
-    def start(self) -> Features:
-        """Hold the head at the profile's neutral until F has learned the robot's neutral;
-        the last frame's features (raise :class:`RobotError` if no face is seen)."""
-        self._send(self.cores.start(0))
-        limit = self.settle_ns + round(NEUTRAL_TIMEOUT_S * 1e9)
-        while self.now_ns <= limit:
-            self.now_ns += self.period_ns
-            self._advance(self.now_ns)
-            self.head.step(self.now_ns)
-            points = self._points(self.head.render())
-            if self.now_ns < self.settle_ns:
-                continue  # the head and the tracker's crop settle; F does not see it yet
-            features = self.processor.process(points)
-            if robot_features(features) is not None:
-                self.origin_ns = self.now_ns + self.period_ns
-                return features
-        raise RobotError(
-            f"the tracker found no face (or no neutral) on the head held at "
-            f"{self.profile.name}'s neutral within {limit / 1e9:.0f} s"
-        )
-
-    def step(self, performer: Features) -> tuple[np.ndarray, Features]:
-        """Play one performer frame: the head's camera image and the robot's features."""
-        if self.origin_ns is None:
-            self.start()
-        assert self.origin_ns is not None
-        t_ns = max(self.now_ns, self.origin_ns + performer.t_media_ns)
-        self._advance(t_ns)
-        _, move = self.cores.command(performer, t_ns)
-        self._send(move)
-        self.now_ns = t_ns
-        self.head.step(t_ns)
-        image = self.head.render()
-        return image, self._look(image)
-
-    def _advance(self, t_ns: int) -> None:
-        """C's own moves (catch-up steps, returns) due up to ``t_ns``, sent as they happen."""
-        for move in self.cores.advance(t_ns):
-            self._send(move)
-
-    def _send(self, move: Move) -> None:
-        self.head.step(move.t_ns)
-        for name, pulse in move.positions.items():
-            try:
-                self.head.command(self.channels[name], pulse)
-            except ValueError as exc:  # e.g. a channel the head does not have
-                raise RobotError(f"profile {self.profile.name}, servo {name}: {exc}") from None
-
-    def _points(self, image: np.ndarray) -> Points:
-        frame = sensor_frame(image, self.seq, self.now_ns, t_capture_ns=self.now_ns)
-        self.seq += 1
-        self.points = self.backend.process(frame)
-        return self.points
-
-    def _look(self, image: np.ndarray) -> Features:
-        return self.processor.process(self._points(image))
-
-
 @dataclass(frozen=True)
 class ProfileRun:
     """One profile on one head: per feature rows (reach marked across the head's profiles),
@@ -264,10 +137,12 @@ class ProfileRun:
 
 @dataclass(frozen=True)
 class HeadRun:
-    """Every profile on one head."""
+    """Every profile on one head, and what the robot moved while babbling when a profile was
+    learned for it in process (``babbled``; None: not babbled here)."""
 
     head: str
     profiles: list[ProfileRun]
+    babbled: frozenset[str] | None = None
 
 
 @dataclass(frozen=True)
@@ -308,14 +183,15 @@ def bench_robot(
     open_head: Callable[[str], Head],
     *,
     progress: Callable[[str], None] | None = None,
+    learn: Callable[[str], list[Profile]] | None = None,
 ) -> RobotBench:
     """Every profile on every simulated head, in process (``open_head(name)`` builds a fresh
-    head per run)."""
+    head per run; ``learn`` as :func:`measure` takes it)."""
 
     def run(head: str, profile: Profile) -> FeatureStream:
         return run_profile(performance, profile, open_head(head))
 
-    return measure(performance, heads, profiles, run, progress=progress)
+    return measure(performance, heads, profiles, run, progress=progress, learn=learn)
 
 
 def measure(
@@ -325,9 +201,13 @@ def measure(
     run: Callable[[str, Profile], FeatureStream],
     *,
     progress: Callable[[str], None] | None = None,
+    learn: Callable[[str], list[Profile]] | None = None,
 ) -> RobotBench:
     """Every profile on every head, each run by ``run(head, profile)`` (the robot's stream),
-    compared with the performer's; reach marked per head (a profile: by name, or loaded)."""
+    compared with the performer's; reach marked per head (a profile: by name, or loaded).
+
+    ``learn(head)``: profiles learned for that head in process, run after the others; the
+    first one's record of what the robot moved while babbling is the head's ``babbled``."""
     loaded = [p if isinstance(p, Profile) else _load(p) for p in profiles]
     result = RobotBench(
         video=performance.video,
@@ -340,7 +220,14 @@ def measure(
         runs: list[list[FeatureRow]] = []
         seconds: list[float] = []
         lags: list[tuple[int, float]] = []
-        for profile in loaded:
+        on_head, babbled = list(loaded), None
+        if learn is not None:
+            if progress is not None:
+                progress(f"{head_name} / babbling and fitting")
+            mine = learn(head_name)
+            on_head += mine
+            babbled = frozenset(shown_inputs(mine[0].learned)) if mine[0].learned else None
+        for profile in on_head:
             if progress is not None:
                 progress(f"{head_name} / {profile.name}")
             started = time.monotonic()
@@ -354,8 +241,9 @@ def measure(
                 head_name,
                 [
                     ProfileRun(profile.name, rows, summarize(rows), round(s, 2), *lag)
-                    for profile, rows, s, lag in zip(loaded, marked, seconds, lags, strict=True)
+                    for profile, rows, s, lag in zip(on_head, marked, seconds, lags, strict=True)
                 ],
+                babbled,
             )
         )
     return result

@@ -16,22 +16,14 @@ from collections.abc import Callable, Iterable, Sequence
 import msgspec
 import numpy as np
 
+from facesynth.app.engine.robot_loop import SETTLE_S, Head, RobotError, RobotLoop, robot_features
 from facesynth.runtime.clock import FAKE_EPOCH_NS
 from facesynth.runtime.profiles import Profile
 from facesynth.schemas.messages import Features
 from facesynth.services.points.backends.base import PointsBackend
 from facesynth.services.translator.closed_loop import LoopOptions, LoopState
 
-from .robot import (
-    SETTLE_S,
-    Head,
-    Performance,
-    RobotBench,
-    RobotError,
-    RobotLoop,
-    measure,
-    robot_features,
-)
+from .robot import Performance, RobotBench, measure
 from .robot_compare import FeatureStream
 
 __all__ = ["CLOSED_SUFFIX", "ClosedRobotLoop", "bench_closed", "run_closed"]
@@ -98,9 +90,11 @@ def bench_closed(
     *,
     options: LoopOptions | None = None,
     progress: Callable[[str], None] | None = None,
+    learn: Callable[[str], list[Profile]] | None = None,
 ) -> RobotBench:
     """Every profile on every head as ``bench robot`` runs it, and each learned one again with
-    the loop closed (named ``NAME (closed loop)``), side by side."""
+    the loop closed (named ``NAME (closed loop)``), side by side; ``learn`` as
+    :func:`~.robot.measure` takes it (each profile it learns runs open and closed too)."""
     from .robot import run_profile
 
     def closed_name(profile: Profile) -> str:
@@ -125,5 +119,11 @@ def bench_closed(
             return [profile]
         return [profile, msgspec.structs.replace(profile, name=closed_name(profile))]
 
+    def learn_both(head: str) -> list[Profile]:
+        assert learn is not None
+        mine = learn(head)
+        return mine + [msgspec.structs.replace(p, name=closed_name(p)) for p in mine]
+
     loaded = [p for name in profiles for p in load(name)]
-    return measure(performance, heads, loaded, run, progress=progress)
+    both = learn_both if learn is not None else None
+    return measure(performance, heads, loaded, run, progress=progress, learn=both)

@@ -11,20 +11,13 @@ from pathlib import Path
 
 import msgspec
 
+from facesynth.app.engine.robot_loop import Head, RobotError
 from facesynth.app.wiring import OptionError
 from facesynth.runtime.atomic import write_atomic
 from facesynth.runtime.outputs import check_output
 from facesynth.runtime.profiles import Profile
 
-from .robot import (
-    DEFAULT_PROFILES,
-    Head,
-    RobotBench,
-    RobotError,
-    bench_robot,
-    measure,
-    track_performer,
-)
+from .robot import DEFAULT_PROFILES, RobotBench, bench_robot, measure, track_performer
 from .robot_compare import FeatureStream
 from .robot_report import format_robot, robot_json
 
@@ -65,7 +58,9 @@ def bench_robot_command(args: argparse.Namespace) -> int:
             raise RobotError(f"--profile {name}: {exc}") from None
     live = any(v is not None for v in (args.driver, args.camera, args.ros2_image_topic))
     if getattr(args, "closed_loop", False):
-        _check_closed_loop(profiles, live)
+        _check_closed_loop(profiles, live, args.learn_poses is not None)
+    if args.learn_poses is not None:
+        _check_learn(args.learn_poses, live)
 
     def progress(what: str) -> None:
         print(f"bench robot: {what}", file=sys.stderr, flush=True)
@@ -76,14 +71,19 @@ def bench_robot_command(args: argparse.Namespace) -> int:
         if args.port is not None:
             raise OptionError("--port goes with --driver (a head outside this process)")
         heads, open_head = simulated_heads(args.head)
+        learn = _learner(args.learn_poses) if args.learn_poses is not None else None
         progress("tracking the performer")
         performance = track_performer(args.video or str(sample_video()), frames=args.frames)
         if getattr(args, "closed_loop", False):
             from .robot_closed import bench_closed
 
-            result = bench_closed(performance, heads, profiles, open_head, progress=progress)
+            result = bench_closed(
+                performance, heads, profiles, open_head, progress=progress, learn=learn
+            )
         else:
-            result = bench_robot(performance, heads, profiles, open_head, progress=progress)
+            result = bench_robot(
+                performance, heads, profiles, open_head, progress=progress, learn=learn
+            )
     text = json.dumps(robot_json(result), indent=2)
     if args.json == "-":
         print(text)
@@ -94,14 +94,44 @@ def bench_robot_command(args: argparse.Namespace) -> int:
     return 0
 
 
-def _check_closed_loop(profiles: list[str], live: bool) -> None:
-    """``--closed-loop``: simulated heads in process, and a learned profile to close it on."""
+def _check_closed_loop(profiles: list[str], live: bool, learning: bool) -> None:
+    """``--closed-loop``: simulated heads in process, and a learned profile to close it on
+    (a ``--profile``, or one ``--learn-poses`` learns)."""
     from facesynth.runtime.profiles import load_profile
 
     if live:
         raise OptionError("--closed-loop drives the simulated heads in process; omit --driver")
-    if not any(load_profile(name).learned is not None for name in profiles):
-        raise OptionError("--closed-loop needs a learned --profile (e.g. runs/head.learned)")
+    if not learning and not any(load_profile(name).learned is not None for name in profiles):
+        raise OptionError(
+            "--closed-loop needs a learned --profile (e.g. runs/head.learned) or --learn-poses"
+        )
+
+
+def _check_learn(poses: int, live: bool) -> None:
+    """``--learn-poses N``: simulated heads in process, enough poses, scikit-learn."""
+    from facesynth.app.learn.models import require_sklearn
+
+    from .robot_babble import MIN_POSES
+
+    if live:
+        raise OptionError(
+            "--learn-poses babbles the simulated heads in process; with --driver, learn with "
+            "facesynth learn and pass the result as --profile"
+        )
+    if poses < MIN_POSES:
+        raise OptionError(f"--learn-poses must be at least {MIN_POSES} (got {poses})")
+    require_sklearn()  # before any tracking
+
+
+def _learner(poses: int) -> Callable[[str], list[Profile]]:
+    """A profile learned for a simulated head (by name) from ``poses`` babbled poses of it,
+    on the hardware profile that has its servos (:func:`~.robot_babble.hardware_for`)."""
+    from .robot_babble import learn_simhead
+
+    def learn(head: str) -> list[Profile]:
+        return [learn_simhead(head, poses)]
+
+    return learn
 
 
 def driver_config(name: str, port: str | None) -> msgspec.Struct:

@@ -21,6 +21,10 @@ Frames are compared as they are aligned (the robot's frame ``i`` is its face aft
 performer's frame ``i``); :func:`best_lag` says how many frames later the robot's face matches
 best (T's smoothing, C's speed limits and the actuators' slew and lag delay it).
 
+What ``bench robot`` leads with (:func:`lead`): mean ρ and the median ratio over the features
+the performer moves *and* the robot moved while babbling (a learned profile's record of its
+babbling); every moved feature follows in the summary.
+
 A profile's summary (:func:`summarize`): mean ρ over the moved features the head can reach
 (and over all moved features), the median ratio over those it can reach, and the share of them
 whose ratio is within :data:`RATIO_BAND`.
@@ -29,7 +33,7 @@ whose ratio is within :data:`RATIO_BAND`.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass, replace
 from typing import Final
 
@@ -45,9 +49,11 @@ __all__ = [
     "REACH_RATIO",
     "FeatureRow",
     "FeatureStream",
+    "Lead",
     "Summary",
     "best_lag",
     "compare",
+    "lead",
     "mark_reach",
     "moved_threshold",
     "span",
@@ -269,4 +275,35 @@ def summarize(rows: Sequence[FeatureRow]) -> Summary:
         mean_rho_all=float(np.mean([row.rho for row in moved])) if moved else math.nan,
         median_ratio=float(np.median(ratios)) if ratios else math.nan,
         in_band=sum(row.in_band for row in reach) / len(reach) if reach else math.nan,
+    )
+
+
+@dataclass(frozen=True)
+class Lead:
+    """The figures ``bench robot`` leads with: mean ρ, median ratio and the share of ratios
+    within :data:`RATIO_BAND` over ``features``, the features the performer moves that the
+    robot moved while babbling (``basis`` ``"babbling"``), or, for a head that was not
+    babbled, that some profile moved on it (``"reach"``, :func:`mark_reach`)."""
+
+    basis: str
+    features: tuple[str, ...]
+    mean_rho: float
+    median_ratio: float
+    in_band: float
+
+
+def lead(rows: Sequence[FeatureRow], babbled: Collection[str] | None) -> Lead:
+    """The lead figures of one run's rows: over the moved features the robot moved while
+    babbling (``babbled``), or over the moved features it can reach when ``babbled`` is None."""
+    if babbled is None:
+        chosen = [row for row in rows if row.moved and row.reachable]
+    else:
+        chosen = [row for row in rows if row.moved and row.name in babbled]
+    ratios = [row.ratio for row in chosen if math.isfinite(row.ratio)]
+    return Lead(
+        basis="reach" if babbled is None else "babbling",
+        features=tuple(sorted(row.name for row in chosen)),
+        mean_rho=float(np.mean([row.rho for row in chosen])) if chosen else math.nan,
+        median_ratio=float(np.median(ratios)) if ratios else math.nan,
+        in_band=sum(row.in_band for row in chosen) / len(chosen) if chosen else math.nan,
     )

@@ -33,6 +33,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from facesynth.app.engine.robot_loop import (
+    NEUTRAL_S,
+    NEUTRAL_TIMEOUT_S,
+    SETTLE_S,
+    RobotError,
+    robot_features,
+    tracker,
+)
 from facesynth.app.engine.stepped import RobotCores, sensor_frame
 from facesynth.runtime.profiles import Profile
 from facesynth.schemas.messages import Features
@@ -42,15 +50,7 @@ from facesynth.services.features.core import FeatureProcessor
 from facesynth.services.points.backends.base import PointsBackend
 from facesynth.services.sensor.sources.base import FrameSource, SourceError, pixels
 
-from .robot import (
-    NEUTRAL_S,
-    NEUTRAL_TIMEOUT_S,
-    SETTLE_S,
-    Performance,
-    RobotError,
-    robot_features,
-    tracker,
-)
+from .robot import Performance
 from .robot_compare import FeatureStream
 
 __all__ = ["CameraFeed", "CameraFrame", "live_profile"]

@@ -14,7 +14,9 @@ from .robot_compare import (
     REACH_FLOOR,
     REACH_RATIO,
     FeatureRow,
+    Lead,
     Summary,
+    lead,
 )
 
 __all__ = ["format_robot", "robot_json"]
@@ -45,8 +47,40 @@ def _legend() -> str:
         f"rho: Pearson per frame; ratio: robot span / performer span (goal "
         f"{RATIO_BAND[0]}-{RATIO_BAND[1]}); reach 'no': under every profile on that head the "
         f"robot's span stays below {REACH_RATIO} of the performer's or {REACH_FLOOR} of the "
-        f"unit's threshold"
+        f"unit's threshold\n"
+        f"lead: mean rho / median ratio over the features the performer moves and the robot "
+        f"moved while babbling (a profile learned for the head: the inputs its fit can show); "
+        f"on a head not babbled here, over those it can reach; 'all': every moved feature"
     )
+
+
+def _lead_label(first: Lead) -> str:
+    which = "babbled" if first.basis == "babbling" else "reached"
+    return f"lead, {len(first.features)} moved & {which}: rho / ratio"
+
+
+def _pair(figures: Lead) -> str:
+    return f"{_number(figures.mean_rho)} / {_number(figures.median_ratio)}"
+
+
+def lead_lines(head: HeadRun) -> list[str]:
+    """The lines a head's table leads with: the lead figures per profile, then the same over
+    every feature the performer moves (and those left out of the lead when it was babbled)."""
+    width = _cell(head)
+    leads = [lead(run.rows, head.babbled) for run in head.profiles]
+    moved = [row.name for row in head.profiles[0].rows if row.moved]
+    every = [lead(run.rows, moved) for run in head.profiles]
+    lines = [
+        f"  {_lead_label(leads[0]):<{NAME_WIDTH + 16}}"
+        + "".join(f"{_pair(figures):<{width}}" for figures in leads),
+        f"  {f'all {len(moved)} moved: rho / ratio':<{NAME_WIDTH + 16}}"
+        + "".join(f"{_pair(figures):<{width}}" for figures in every),
+    ]
+    if head.babbled is not None:
+        left = sorted(set(moved) - set(leads[0].features))
+        if left:
+            lines.append(f"  moved, not babbled (left out of the lead): {', '.join(left)}")
+    return lines
 
 
 def _summary_lines(head: HeadRun) -> list[str]:
@@ -90,6 +124,7 @@ def format_head(head: HeadRun, frames: int) -> str:
         f"  {'':<{NAME_WIDTH}}{'performer':<10}{'':6}"
         + "".join(f"{run.profile:<{width}}" for run in head.profiles)
     )
+    lines.extend(lead_lines(head))
     lines.append(
         f"  {'feature':<{NAME_WIDTH}}{'span':<10}{'reach':6}"
         + "".join(f"{'rho':>5} {'ratio':<{width - 6}}" for _ in head.profiles)
@@ -120,6 +155,14 @@ def format_robot(result: RobotBench) -> str:
         lines.append(format_head(head, result.frames))
         took = ", ".join(f"{run.profile} {run.seconds:.1f} s" for run in head.profiles)
         lines.append(f"  run time: {took}")
+    if len(result.heads) > 1:
+        lines.append("")
+        lines.append("lead per head (mean rho / median ratio over the lead's features):")
+        for head in result.heads:
+            cells = ", ".join(
+                f"{run.profile} {_pair(lead(run.rows, head.babbled))}" for run in head.profiles
+            )
+            lines.append(f"  {head.head}: {cells}")
     return "\n".join(lines)
 
 
@@ -135,6 +178,16 @@ def _summary_json(summary: Summary) -> dict[str, Any]:
         "mean_rho_all_moved": _finite(summary.mean_rho_all),
         "median_ratio": _finite(summary.median_ratio),
         "in_band": _finite(summary.in_band),
+    }
+
+
+def _lead_json(figures: Lead) -> dict[str, Any]:
+    return {
+        "basis": figures.basis,
+        "features": list(figures.features),
+        "mean_rho": _finite(figures.mean_rho),
+        "median_ratio": _finite(figures.median_ratio),
+        "in_band": _finite(figures.in_band),
     }
 
 
@@ -167,12 +220,14 @@ def robot_json(result: RobotBench) -> dict[str, Any]:
         "heads": [
             {
                 "head": head.head,
+                "babbled": None if head.babbled is None else sorted(head.babbled),
                 "profiles": [
                     {
                         "profile": run.profile,
                         "seconds": run.seconds,
                         "best_lag_frames": run.lag_frames,
                         "best_lag_mean_rho": _finite(run.lag_rho),
+                        "lead": _lead_json(lead(run.rows, head.babbled)),
                         "summary": _summary_json(run.summary),
                         "features": [_row_json(row) for row in run.rows],
                     }

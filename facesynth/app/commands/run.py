@@ -22,7 +22,7 @@ from facesynth.app.engine.chain_run import run_embedded_chain
 from facesynth.app.engine.router import RUN_LISTEN, joined_bus
 from facesynth.app.graph import Graph, check_node, graph_help, load_graph
 from facesynth.app.profile_choice import settle
-from facesynth.app.recording.attach import add_attach_arguments
+from facesynth.app.recording.attach import add_attach_arguments, attached
 from facesynth.app.stage_args import add_stage_arguments, apply_arguments
 from facesynth.app.stages.registry import STAGES
 from facesynth.app.stages.setup import Setup
@@ -52,7 +52,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         c.out: earlier_sessions(c.out) for c in configs.values() if isinstance(c, RecordConfig)
     }
     parts = build_chain(graph, configs, setup)
-    result = run_embedded_chain(args, rig, parts)
+    result = run_embedded_chain(args, rig, parts, attached)
     outs = [
         getattr(configs[name], "out", configs[name].__struct_config__.tag)
         for name in graph.of_stages(STAGES.producing("servo_state"))
@@ -73,7 +73,12 @@ def cmd_run(args: argparse.Namespace) -> int:
         from facesynth.app.render import render_run
 
         summary["render"] = render_run(
-            graph, configs, args.render, frames=result.frames, interrupted=result.interrupted
+            graph,
+            configs,
+            args.render,
+            frames=result.frames,
+            interrupted=result.interrupted,
+            setup=setup,
         )
     print(json.dumps(summary))
     return 130 if result.interrupted else 0

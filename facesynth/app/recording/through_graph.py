@@ -17,6 +17,7 @@ from facesynth.app.engine.chain_run import run_embedded_chain
 from facesynth.app.graph import load_graph
 from facesynth.app.nodes import stage_of
 from facesynth.app.profile_choice import settle
+from facesynth.app.recording.attach import attached
 from facesynth.app.recording.replay import Replayer
 from facesynth.app.stage_args import apply_arguments
 from facesynth.app.stages.registry import STAGES
@@ -65,7 +66,7 @@ def replay_through_graph(
     """
     parts, rig, configs = graph_parts(replayer, args)
     replay_part = StageParts("replay", "replay", replayer.serve, replayer)
-    result = run_embedded_chain(args, rig, [replay_part, *parts])
+    result = run_embedded_chain(args, rig, [replay_part, *parts], attached)
     outs = [out for config in configs.values() if (out := getattr(config, "out", None))]
     chain = {
         "commands": result.commands,

@@ -20,7 +20,7 @@ from typing import Any
 
 import msgspec
 
-from facesynth.app.bench.robot import Head
+from facesynth.app.engine.robot_loop import Head
 from facesynth.app.engine.stepped import RobotCores, SteppedChain
 from facesynth.app.graph import Graph, plugin_config
 from facesynth.app.nodes import ControlNode, FeaturesNode, SensorNode, TranslatorNode
@@ -34,11 +34,11 @@ from facesynth.app.render.video import (
     check_render_out,
     render_video,
 )
+from facesynth.app.stages.setup import Setup
 from facesynth.app.wiring import (
     build_backend,
     build_calibration,
     build_processor,
-    build_profile,
     build_source,
 )
 from facesynth.services.sensor.sources.video import VideoConfig
@@ -86,6 +86,7 @@ def render_run(
     *,
     frames: int,
     interrupted: bool,
+    setup: Setup | None = None,
 ) -> dict[str, Any]:
     """``run --render``: the video of the run's input once the run has ended.
 
@@ -94,9 +95,12 @@ def render_run(
     the frames the chain was shown. When nothing was played, or Ctrl-C comes again while
     rendering, the render is skipped with one line saying why (no file is left behind), and the
     summary's ``render`` is ``{"skipped": WHY}``.
+
+    ``setup`` is the run's settled setup: the render takes its profiles from it, as the run's
+    nodes did, never reading a profile file again.
     """
     if not interrupted:
-        return render_graph(graph, configs, out)
+        return render_graph(graph, configs, out, setup=setup)
     if frames <= 0:
         return _skipped(out, "interrupted before the first frame was played")
     try:  # the notice too: a Ctrl-C that lands while it is written is Ctrl-C again
@@ -105,7 +109,7 @@ def render_run(
             frames,
             out,
         )
-        return render_graph(graph, configs, out, max_frames=frames)
+        return render_graph(graph, configs, out, max_frames=frames, setup=setup)
     except KeyboardInterrupt:
         return _skipped(out, "interrupted again while rendering")
 
@@ -126,9 +130,14 @@ def render_graph(
     progress: Progress | None = None,
     robot_head: str | None = None,
     open_head: Callable[[str], Head] = open_simulated_head,
+    setup: Setup | None = None,
 ) -> dict[str, Any]:
     """Render the graph's input video side by side with the virtual face (and bars), or with
-    the camera of the simulated head ``robot_head`` (opened by ``open_head``)."""
+    the camera of the simulated head ``robot_head`` (opened by ``open_head``).
+
+    Profiles come from ``setup`` (``run --render``: the run's settled setup, whose files were
+    read at its start), else from a setup of this render's own: each file is read once."""
+    setup = setup if setup is not None else Setup()
     check_render_out(out)
     sensor, source_config = video_input(graph, configs)
     points_name, points = _one(graph, "points")
@@ -149,7 +158,7 @@ def render_graph(
             (t.profile for t in translators if t.profile not in FACE_PROFILES), None
         )
     # F's neutral window as in a bus run of the graph: the (first) translator profile's.
-    neutral_s = build_profile(base.profile, False).neutral_seconds
+    neutral_s = setup.loaded(base.profile).neutral_seconds
     source = build_source(source_config)
     robot = None
     if robot_head is not None:
@@ -162,7 +171,7 @@ def render_graph(
         try:
             robot = RobotPanel(
                 robot_head,
-                build_profile(base.profile, base.mirror),
+                setup.profile(base.profile, base.mirror),
                 fps=source.info.fps,
                 calibration=calibration,
                 open_head=open_head,
@@ -180,7 +189,7 @@ def render_graph(
                 profile=profile, mirror=base.mirror, calibration=base.calibration
             )
             control = ControlNode(profile=profile, mirror=base.mirror, motion_time="media")
-            robots.append(RobotCores.from_nodes(name, translator, control))
+            robots.append(RobotCores.from_nodes(name, translator, control, setup=setup))
     chain = RenderChain(
         SteppedChain(backend, build_processor(features, neutral_s), robots),
         encoding=sensor.encoding,

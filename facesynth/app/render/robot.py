@@ -16,7 +16,7 @@ from collections.abc import Callable
 import cv2
 import numpy as np
 
-from facesynth.app.bench.robot import Head, RobotLoop
+from facesynth.app.engine.robot_loop import Head, RobotLoop
 from facesynth.app.render.draw import draw_landmarks, draw_title, panel
 from facesynth.runtime.calibration import Calibration
 from facesynth.runtime.profiles import Profile

@@ -1,7 +1,8 @@
 """A simulated robot head: a real face photo moved by messy actuators, for tests and demos.
 
 :mod:`.head` is the pure core (:class:`SimHead`: ``command``, ``step``, ``pulses``,
-``render``), :mod:`.config` reads head files (:func:`load_head`), :mod:`.effects` and
+``render``), :mod:`.config` reads head files and :mod:`.heads` finds them (:func:`load_head`:
+bundled, a file, or generated from a seed by :mod:`.generated`), :mod:`.effects` and
 :mod:`.renderer` move the bundled photo (:mod:`.photo`), :mod:`.maestro` is the Pololu Maestro
 protocol the head speaks and :mod:`.server` the pseudo-terminal and the MJPEG camera of
 ``facesynth simhead`` (:mod:`.command`).
@@ -15,9 +16,10 @@ import importlib
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
-    from .config import Actuator, HeadConfig, HeadError, head_names, load_head, parse_head
+    from .config import Actuator, HeadConfig, HeadError, parse_head
     from .effects import EFFECTS
     from .head import SimHead, response
+    from .heads import head_names, load_head
 
 __all__ = [
     "EFFECTS",
@@ -36,8 +38,8 @@ _WHERE = {
     "Actuator": "config",
     "HeadConfig": "config",
     "HeadError": "config",
-    "head_names": "config",
-    "load_head": "config",
+    "head_names": "heads",
+    "load_head": "heads",
     "parse_head": "config",
     "SimHead": "head",
     "response": "head",

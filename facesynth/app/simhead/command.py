@@ -39,8 +39,10 @@ def _arguments(p: argparse.ArgumentParser) -> None:
         "head",
         nargs="?",
         default="simhead16",
-        help="a bundled head (simhead16, simhead16_reversed, simhead16_stiff) or a head file "
-        "(TOML); default simhead16",
+        help="a bundled head (simhead16, simhead16_reversed, simhead16_stiff, simhead18_lids, "
+        "simhead18_neck), a head file "
+        "(TOML) or seed:N (a head generated from seed N, on head16_hardware's channels); "
+        "default simhead16",
     )
     p.add_argument(
         "--serial-link",
@@ -87,8 +89,8 @@ def _arguments(p: argparse.ArgumentParser) -> None:
 
 def cmd_simhead(args: argparse.Namespace) -> int:
     """Run the simulated head until Ctrl-C."""
-    from .config import head_names, load_head
     from .head import SimHead
+    from .heads import head_names, load_head
     from .maestro import Maestro
     from .server import SimHeadServer, SimHeadServerError
 

@@ -30,8 +30,6 @@ A learner never reads this file: it only sees the serial port and the camera.
 from __future__ import annotations
 
 import tomllib
-from importlib import resources
-from pathlib import Path
 from typing import Annotated, Literal
 
 import msgspec
@@ -40,7 +38,7 @@ from facesynth.runtime.oneline import one_line
 
 from .effects import EFFECTS
 
-__all__ = ["Actuator", "HeadConfig", "HeadError", "head_names", "load_head"]
+__all__ = ["Actuator", "HeadConfig", "HeadError", "parse_head"]
 
 
 class HeadError(ValueError):
@@ -123,30 +121,3 @@ def parse_head(text: str | bytes, where: str = "head") -> HeadConfig:
     except msgspec.ValidationError as exc:  # quotes a key as it is: it may hold a newline
         raise HeadError(f"{where}: {one_line(str(exc))}") from None
     return _check(config, where)
-
-
-def _bundled() -> Path:
-    return Path(str(resources.files("facesynth.app.simhead") / "data" / "heads"))
-
-
-def head_names() -> list[str]:
-    """The bundled heads' names, sorted."""
-    return sorted(p.stem for p in _bundled().glob("*.toml"))
-
-
-def load_head(name_or_path: str | Path) -> HeadConfig:
-    """A bundled head by name (``simhead16``) or a head file by path."""
-    text = str(name_or_path)
-    path = Path(text)
-    if not (text.endswith(".toml") or "/" in text or path.exists()):
-        bundled = _bundled() / f"{text}.toml"
-        if not bundled.is_file():
-            raise HeadError(f"unknown head {text!r} (available: {', '.join(head_names())})")
-        path = bundled
-    if not path.is_file():
-        raise HeadError(f"{path}: head file does not exist")
-    try:
-        data = path.read_bytes()
-    except OSError as exc:
-        raise HeadError(f"{path}: cannot read ({exc.strerror})") from None
-    return parse_head(data, str(path))

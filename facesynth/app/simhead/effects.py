@@ -4,10 +4,11 @@ An effect is a signed activation (0 = rest). Each direction of an effect has its
 ``plus`` for positive activations, ``minus`` for negative ones (None: that direction does
 nothing), each a (478, 2) landmark displacement in the face frame at activation ±1 (x toward
 the performer's left, y up, unit = the inter-ocular distance, IOD; see
-:class:`facesynth.app.bench.synthetic_faces.Face`). Gaze effects move an iris instead (eye
-widths at ±1). Right/left are the performer's own (the face's right is the image's left).
+:class:`facesynth.app.simhead.faces.Face`). Gaze effects move an iris instead (eye
+widths at ±1), a blink's closing is drawn (:mod:`.lids`) and the neck turns the whole head
+(:mod:`.neck`). Right/left are the performer's own (the face's right is the image's left).
 
-The shapes are built from the landmark groups of :mod:`facesynth.app.bench.synthetic_faces`
+The shapes are built from the landmark groups of :mod:`facesynth.app.simhead.faces`
 with a Gaussian falloff around the moving features, so the skin around them follows.
 """
 
@@ -20,7 +21,7 @@ from typing import Final
 
 import numpy as np
 
-from facesynth.app.bench.synthetic_faces import (
+from facesynth.app.simhead.faces import (
     INNER_BROW,
     LEFT_BROW,
     LEFT_EYE,
@@ -208,7 +209,12 @@ def _on_side(
 
 
 def _none(face: Face) -> tuple[None, None]:
-    return None, None  # gaze: the renderer moves the iris, not the skin
+    return None, None  # gaze, neck: the renderer moves the iris, the whole head
+
+
+def _blink(face: Face, side: int) -> tuple[None, np.ndarray]:
+    """Closing: drawn by the renderer (:mod:`.lids`); the other way the eye opens wide."""
+    return None, _lids(face, side)[0]
 
 
 _BUILDERS: Final[dict[str, Callable[[Face], tuple[np.ndarray | None, np.ndarray | None]]]] = {
@@ -222,6 +228,9 @@ _BUILDERS: Final[dict[str, Callable[[Face], tuple[np.ndarray | None, np.ndarray 
     **_sided("lip_corner", _lip_corner),
     **_sided("lower_lip", _lower_lip),
     "lip_pucker": _pucker,
+    **_sided("blink", _blink),
+    "neck_yaw": _none,
+    "neck_pitch": _none,
 }
 
 #: Every primitive effect, in a fixed order.
@@ -247,6 +256,10 @@ MEANING: Final = {
     "lower_lip_right": "right half of the lower lip down / nothing",
     "lower_lip_left": "left half of the lower lip down / nothing",
     "lip_pucker": "mouth narrowed / stretched",
+    "blink_right": "right upper lid closed over the eye (1: shut) / eye opened wide",
+    "blink_left": "left upper lid closed over the eye (1: shut) / eye opened wide",
+    "neck_yaw": "head turned 25 degrees toward the performer's left / right",
+    "neck_pitch": "head tilted 15 degrees chin up / chin down",
 }
 
 

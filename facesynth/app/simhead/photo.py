@@ -10,7 +10,7 @@ from typing import Final
 import cv2
 import numpy as np
 
-from facesynth.app.bench.synthetic_faces import Face
+from facesynth.app.simhead.faces import Face
 
 __all__ = ["PHOTO_SIZE", "PhotoError", "bundled_face", "load_face"]
 

@@ -1,6 +1,6 @@
 """The simulated head's renderer: the bundled photo moved by effect activations, in a few ms.
 
-:mod:`facesynth.app.bench.synthetic_faces` warps a face with a Nadaraya-Watson field computed
+:mod:`facesynth.app.simhead.faces` warps a face with a Nadaraya-Watson field computed
 per pixel per frame (100-600 ms). Here the field is linear in the activations: at start-up each
 direction of each effect (:mod:`.effects`) gets one dense displacement field — the
 Gaussian-weighted mean of the landmarks' moves (weights at their rest places, ``sigma`` =
@@ -11,7 +11,9 @@ is then:
 2. the backward map, inverted with one fixed-point step: source(p) = p - f(p - f(p));
 3. one ``cv2.remap`` of the photo with its irises painted out;
 4. the mouth between the (moved) inner lips painted dark when an effect opens it;
-5. each iris pasted at its new centre (the moved eye plus the gaze), clipped by the moved lids.
+5. closing upper lids drawn over the eyes (:mod:`.lids`);
+6. each iris pasted at its new centre (the moved eye plus the gaze), clipped by the moved lids;
+7. the whole head turned by the neck (:mod:`.neck`), when a head has one.
 """
 
 from __future__ import annotations
@@ -23,7 +25,7 @@ from typing import Final
 import cv2
 import numpy as np
 
-from facesynth.app.bench.synthetic_faces import (
+from facesynth.app.simhead.faces import (
     EYES,
     IRIS_CENTRES,
     LOWER_INNER_LIP,
@@ -34,11 +36,13 @@ from facesynth.app.bench.synthetic_faces import (
 )
 
 from .effects import GAZE, GAZE_RANGE, MOUTH_OPENING, EffectShape, effect_shapes
+from .lids import BLINK, close_lids, closures, draw_lids
+from .neck import NECK_DEGREES, Neck
 from .photo import bundled_face
 
 __all__ = ["Renderer", "default_renderer"]
 
-#: Width of the warp's Gaussian weights, in IOD (as synthetic_faces uses).
+#: Width of the warp's Gaussian weights, in IOD (as faces.py uses).
 SIGMA_IOD: Final = 0.05
 #: Background weight of the field (a point 3 sigma from every landmark).
 BACKGROUND: Final = float(np.exp(-4.5))
@@ -82,6 +86,10 @@ class Renderer:
         self._box_grid = np.stack([xs, ys], axis=2)  # pixel coordinates over the box
         self._gaze = {name: GAZE[name] for name in self.names if name in GAZE}
         self._irises = [self._iris(eye) for eye in range(2)]
+        self._drawn = frozenset(name for name in self.names if name in BLINK)
+        necks = [name for name in self.names if name in NECK_DEGREES]
+        self._neck = Neck(face) if necks else None
+        self._necks = frozenset(necks)
 
     def _dense_fields(self, anchors: np.ndarray, sigma: float) -> np.ndarray:
         """(fields, box pixels x 2) float32: every field over the face's box."""
@@ -115,10 +123,16 @@ class Renderer:
                 weights[k] = value
         return weights
 
+    def _only(self, activations: Mapping[str, float], names: frozenset[str]) -> dict[str, float]:
+        return {name: value for name, value in activations.items() if name in names}
+
     def landmarks(self, activations: Mapping[str, float]) -> np.ndarray:
         """The photo's 478 landmarks moved by ``activations`` (x, y pixels)."""
         weights = self.coefficients(activations)
         moved: np.ndarray = self.face.points[:, :2] + np.tensordot(weights, self._moves, 1)
+        moved = close_lids(moved, self._only(activations, self._drawn))
+        if self._neck is not None:
+            moved = self._neck.landmarks(moved, self._only(activations, self._necks))
         return moved
 
     def render(self, activations: Mapping[str, float]) -> np.ndarray:
@@ -155,8 +169,16 @@ class Renderer:
             upper, lower = moved[list(UPPER_INNER_LIP)], moved[list(LOWER_INNER_LIP)]
             lips = np.concatenate([upper, lower[::-1]])
             cv2.fillPoly(image, [np.round(lips * 16).astype(np.int32)], MOUTH, cv2.LINE_AA, 4)
+        blinks = self._only(activations, self._drawn)
+        shut = closures(blinks)
+        if shut:
+            closed = close_lids(moved, blinks)
+            draw_lids(image, moved, closed, shut)
+            moved = closed
         for eye in range(2):
             self._paste_iris(image, eye, moved, activations)
+        if self._neck is not None:
+            image = self._neck.turn(image, self._only(activations, self._necks))
         return image
 
     def _paste_iris(

@@ -24,15 +24,42 @@ def test_the_bundled_heads_load() -> None:
     for name in head_names():
         head = load_head(name)
         assert head.name == name
-        assert len(head.actuators) == 16
+        assert len(head.actuators) == (18 if name.startswith("simhead18") else 16)
 
 
-@pytest.mark.parametrize("head", ["simhead16", "simhead16_reversed", "simhead16_stiff"])
+@pytest.mark.parametrize(
+    "head",
+    ["simhead16", "simhead16_reversed", "simhead16_stiff", "simhead18_lids", "simhead18_neck"],
+)
 @pytest.mark.parametrize("profile", ["paper16", "head16", "head16_bs"])
 def test_the_heads_are_wired_like_paper16(head: str, profile: str) -> None:
     """Same servo names, channels and pulse limits, so the shipped profiles drive them."""
     actuators = load_head(head).by_channel()
     for spec in load_profile(profile).servos:
+        actuator = actuators[spec.channel]
+        assert actuator.name == spec.name
+        assert spec.min_us <= actuator.rest_us <= spec.max_us
+
+
+@pytest.mark.parametrize(
+    ("head", "profile", "effects"),
+    [
+        ("simhead18_lids", "head18_lids_hardware", {"blink_right", "blink_left"}),
+        ("simhead18_neck", "head18_neck_hardware", {"neck_yaw", "neck_pitch"}),
+    ],
+)
+def test_the_heads_with_lids_and_a_neck_are_simhead16_and_two_actuators(
+    head: str, profile: str, effects: set[str]
+) -> None:
+    """Channels 0-15 as simhead16; 16 and 17 drive the new effects, wired as the head's
+    hardware profile says (same names and channels, rests within its limits)."""
+    actuators = load_head(head).by_channel()
+    base = load_head("simhead16").by_channel()
+    assert all(actuators[channel] == base[channel] for channel in range(16))
+    assert {e for channel in (16, 17) for e in actuators[channel].effects} == effects
+    specs = load_profile(profile).servos
+    assert [s.channel for s in specs] == list(range(18))
+    for spec in specs:
         actuator = actuators[spec.channel]
         assert actuator.name == spec.name
         assert spec.min_us <= actuator.rest_us <= spec.max_us

@@ -57,7 +57,7 @@ def test_each_effect_moves_its_own_side_of_the_face(renderer: Renderer, effect: 
         elif effect.endswith("_left"):
             assert xs.mean() > nose_x
         eyes_y = bundled_face().points[[33, 263], 1].mean()
-        if effect.startswith(("brow", "lids", "gaze")):
+        if effect.startswith(("brow", "lids", "gaze", "blink")):
             assert ys.max() < eyes_y + 20
         if effect.startswith(("jaw", "lip", "lower_lip", "upper_lip")):
             assert ys.min() > eyes_y + 20

@@ -53,6 +53,14 @@ EXPECTED: dict[tuple[str, int], dict[str, int]] = {
     ("lower_lip_left", 1): {"lips_part": 1},
     ("lip_pucker", 1): {"lip_pucker": 1},
     ("lip_pucker", -1): {"lip_pucker": -1},
+    ("blink_right", 1): {"eye_open_right": -1, "eyeBlinkRight": 1},
+    ("blink_right", -1): {"eye_open_right": 1},
+    ("blink_left", 1): {"eye_open_left": -1, "eyeBlinkLeft": 1},
+    ("blink_left", -1): {"eye_open_left": 1},
+    ("neck_yaw", 1): {"head_yaw": 1},
+    ("neck_yaw", -1): {"head_yaw": -1},
+    ("neck_pitch", 1): {"head_pitch": 1},
+    ("neck_pitch", -1): {"head_pitch": -1},
 }
 
 

@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from facesynth.app.bench.fidelity import still_face
-from facesynth.app.bench.synthetic_faces import (
+from facesynth.app.data import sample_video
+from facesynth.app.simhead.faces import (
     EXPRESSIONS,
     IRIS_CENTRES,
     LIP_CORNERS,
@@ -15,7 +16,6 @@ from facesynth.app.bench.synthetic_faces import (
     render,
     warp,
 )
-from facesynth.app.data import sample_video
 from facesynth.services.points.tracker import FaceTracker
 
 
