@@ -428,6 +428,19 @@ CASES = [
         ["bench", "fanout", "--models", "fast,full"],
         "--models: bench fanout takes one value",
     ),
+    ("bench run runs", ["bench", "run", "--runs", "0"], "--runs must be at least 1"),
+    ("bench run frames", ["bench", "run", "--frames", "443"], "so at most 442 after the 30"),
+    ("bench run not a video", ["bench", "run", "{garbage.mp4}"], "not a video of more than 30"),
+    (
+        "bench run mediapipe without task",
+        ["bench", "run", "--mediapipe-python", "python3"],
+        "--mediapipe-python needs --mediapipe-task",
+    ),
+    (
+        "bench run mediapipe python",
+        ["bench", "run", "--mediapipe-python", "{bad.json}", "--mediapipe-task", "{bad.json}"],
+        "not an executable file",
+    ),
     ("robot name", ["translator", "--robot", "a/b"], "invalid robot name 'a/b'"),
     (
         "closed loop on a written profile",
@@ -613,6 +626,22 @@ CASES = [
         ["bench", "robot", "--closed-loop", "--driver", "maestro", "--camera", "0"],
         "--closed-loop drives the simulated heads in process; omit --driver",
     ),
+    (
+        "bench robot malformed seed",
+        ["bench", "robot", "--head", "seed:-1"],
+        "head 'seed:-1': the seed must be a whole number within 0..4294967295 (e.g. seed:7)",
+    ),
+    (
+        "bench robot generated seed too large",
+        ["bench", "robot", "--head", "generated:4294967296"],
+        "head 'generated:4294967296': the seed must be a whole number",
+    ),
+    ("bench robot learn poses", ["bench", "robot", "--learn-poses", "5"], "at least 60 (got 5)"),
+    (
+        "bench robot learn live",
+        ["bench", "robot", "--learn-poses", "100", "--driver", "maestro", "--camera", "0"],
+        "--learn-poses babbles the simulated heads in process",
+    ),
     ("render robot head", ["render", "--robot-head", "robo9", "--out", "x.mp4"], "'robo9'"),
     (
         "render robot bars",
@@ -625,6 +654,16 @@ CASES = [
         "unknown head 'nohead'",
     ),
     ("simhead bad head file", ["simhead", "{bad.toml}", "--serial-link", "tty"], "not valid TOML"),
+    (
+        "simhead malformed seed",
+        ["simhead", "seed:x", "--serial-link", "tty"],
+        "head 'seed:x': the seed must be a whole number",
+    ),
+    (
+        "render robot malformed seed",
+        ["render", "--robot-head", "seed:", "--out", "x.mp4"],
+        "head 'seed:': the seed must be a whole number",
+    ),
     ("simhead address", ["simhead", "--serial-link", "tty", "--http", "8090"], "is not HOST:PORT"),
     (
         "simhead link over a file",

@@ -2,7 +2,10 @@
 
 A command is one module that exports ``COMMANDS``: a :class:`Command` (a few modules export a
 family, such as the five stage commands) giving its name, one-line help, how it declares its
-arguments and what runs it. :data:`COMMAND_MODULES` lists those modules once, in the order
+arguments and what runs it. A family read from another registry is exported as a function
+returning the commands, called each time the parser is built: the stage commands are those of
+the stages registered then (:data:`facesynth.app.stages.registry.STAGES`), a stage registered
+after import included. :data:`COMMAND_MODULES` lists those modules once, in the order
 ``facesynth --help`` shows them; the parser (:mod:`facesynth.app.cli`) and every tool that
 needs the list of commands read it from here.
 """
@@ -17,7 +20,8 @@ from typing import Any
 
 Handler = Callable[[argparse.Namespace], int]
 
-#: The modules that export ``COMMANDS``, in ``--help`` order.
+#: The modules that export ``COMMANDS`` (commands, or a function giving them), in ``--help``
+#: order.
 COMMAND_MODULES = (
     "facesynth.app.commands.run",
     "facesynth.app.commands.stage",
@@ -59,7 +63,8 @@ def commands(modules: tuple[str, ...] = COMMAND_MODULES) -> Iterator[Command]:
     """Every registered command, in ``--help`` order; a name given twice is an error."""
     seen: dict[str, str] = {}
     for module_name in modules:
-        for command in importlib.import_module(module_name).COMMANDS:
+        exported = importlib.import_module(module_name).COMMANDS
+        for command in exported() if callable(exported) else exported:
             if command.name in seen:
                 raise ValueError(
                     f"command {command.name!r} is registered by {seen[command.name]} "

@@ -1,4 +1,5 @@
-"""Arguments several commands share: the Zenoh group, a stage's graph node, the tracker model."""
+"""Arguments several commands share: the Zenoh group, a stage's graph node, the tracker model,
+a performer calibration's steps."""
 
 from __future__ import annotations
 
@@ -23,7 +24,9 @@ def zenoh_arguments(parser: argparse.ArgumentParser) -> None:
     """The Zenoh group every command with a session takes (``--rig``, ``--mode``, ``--connect``,
     ``--listen``, ``--zenoh-config``, the router wait of its kind, stats and logging)."""
     command = parser.prog.rsplit(" ", 1)[-1]
-    kind = router_wait.KINDS[command]  # every command with a Zenoh session has its kind
+    kind = router_wait.kind_of(command)
+    if kind is None:  # every command with a Zenoh session has its kind
+        raise KeyError(command)
     group = parser.add_argument_group("Zenoh", router_wait.group_description(kind))
     group.add_argument(
         "--rig",
@@ -105,4 +108,23 @@ def model_arguments(parser: argparse.ArgumentParser) -> None:
         dest="blendshapes",
         action="store_false",
         help="with --model full: skip the blendshape model (about 0.4 ms a frame)",
+    )
+
+
+def calibration_step_arguments(parser: argparse.ArgumentParser | argparse._ArgumentGroup) -> None:
+    """A performer calibration's steps: ``--schedule`` (a video's), ``--steps`` and
+    ``--seconds`` (a live camera's), for ``calibrate`` and ``console``."""
+    parser.add_argument(
+        "--schedule",
+        metavar="STEP=START-END,…",
+        help="for a video: when each step happens, in seconds, e.g. neutral=0-2,smile=5-7",
+    )
+    parser.add_argument(
+        "--steps",
+        default="neutral,raise_eyebrows,frown,look_left,look_right,look_up,look_down,"
+        "raise_cheeks,open_mouth,smile",
+        help="live camera: the steps to guide through, in order (default: the paper's ten)",
+    )
+    parser.add_argument(
+        "--seconds", type=float, default=4.0, help="live camera: seconds per step (default 4)"
     )

@@ -45,8 +45,13 @@ KINDS: Final = {
 
 
 def kind_of(command: str | None) -> RouterWait | None:
-    """The kind of ``command`` (a sub-command's name), or None for one that opens no session."""
-    return KINDS.get(command) if command else None
+    """The kind of ``command`` (a sub-command's name), or None for one that opens no session;
+    the command of a stage registered after :data:`KINDS` was made is a service too."""
+    if not command:
+        return None
+    if command in KINDS:
+        return KINDS[command]
+    return RouterWait.WAITS if command in STAGES.names() else None
 
 
 def timeout_help(kind: RouterWait, command: str = "") -> str:

@@ -104,9 +104,14 @@ def zenoh_options(
     return options
 
 
-def build_translator(node: TranslatorNode) -> Translator:
-    """The translator of a node: its profile (read now) and calibration."""
-    return Translator(build_profile(node.profile, node.mirror), build_calibration(node.calibration))
+def build_translator(node: TranslatorNode, setup: Setup | None = None) -> Translator:
+    """The translator of a node: its profile (the chain's settled one from ``setup`` if given,
+    else read now) and calibration."""
+    if setup is not None:
+        profile = setup.profile(node.profile, node.mirror)
+    else:
+        profile = build_profile(node.profile, node.mirror)
+    return Translator(profile, build_calibration(node.calibration))
 
 
 def build_control(node: ControlNode, driver: msgspec.Struct, fast: bool = False) -> ControlService:

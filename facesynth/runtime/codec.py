@@ -19,6 +19,7 @@ import msgspec
 import numpy as np
 
 from facesynth.runtime import blendshapes, limits
+from facesynth.runtime.field_types import FieldTypes
 from facesynth.runtime.jpeg import JpegHeaderError, jpeg_size
 from facesynth.runtime.oneline import one_line
 from facesynth.schemas.messages import (
@@ -37,6 +38,8 @@ _DECODERS: dict[type[Any], msgspec.msgpack.Decoder[Any]] = {
     cls: msgspec.msgpack.Decoder(cls)
     for cls in (Frame, Points, Features, ServoCommands, ServiceStats, BabbleSample)
 }
+#: Every field's declared type, checked on objects handed over within a process (:func:`check`).
+_FIELD_TYPES = {cls: FieldTypes(cls) for cls in _DECODERS}
 
 #: Largest frame dimension accepted (pixels); larger values are treated as corrupt.
 MAX_FRAME_SIDE = limits.MAX_FRAME_SIDE
@@ -107,28 +110,19 @@ _PASSED: collections.OrderedDict[int, object] = collections.OrderedDict()
 _PASSED_KEPT = 8
 
 
-#: Message types whose every field :func:`check` also checks for its type, as decoding does:
-#: the control interface's input, where a value of the wrong type must never reach the
-#: controller's freshness and motion rules (2-3 µs a message). For the others a field of the
-#: wrong type is refused where a check trips over it, or by the stage, whose transform's
-#: errors are counted and logged (``serve_transform``).
-TYPE_CHECKED: frozenset[type[Any]] = frozenset({ServoCommands})
-
-
 def check(message: object, cls: type[M]) -> M:
     """Check a message built in this process (never encoded) as :func:`decode` checks a decoded
-    one, or raise :class:`MessageError`: it must be a ``cls``, and pass the same semantic
-    checks (finite numbers, counts, sizes), and for :data:`TYPE_CHECKED` types have every
-    field of its type. The byte limit does not apply (an object has no bytes; the checks bound
-    its counts).
+    one, or raise :class:`MessageError`: it must be a ``cls``, have every field of its declared
+    type as decoding would (:mod:`facesynth.runtime.field_types`, msgspec's error text), and
+    pass the same semantic checks (finite numbers, counts, sizes). The byte limit does not apply
+    (an object has no bytes; the checks bound its counts).
     """
     if not isinstance(message, cls):
         raise MessageError(f"not a valid {cls.__name__} message: a {type(message).__name__} object")
     if _PASSED.get(id(message)) is message:
         return message
     try:
-        if cls in TYPE_CHECKED:
-            msgspec.convert(msgspec.to_builtins(message), cls)
+        _FIELD_TYPES[cls].check(message)
         _VALIDATORS[cls](message)
     except MessageError:
         raise

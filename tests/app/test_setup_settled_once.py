@@ -9,10 +9,11 @@ from collections import Counter
 from pathlib import Path
 from typing import Any
 
+import cv2
 import pytest
 
 from facesynth.app.cli import main
-from facesynth.app.data import sample_openface_csv
+from facesynth.app.data import sample_openface_csv, sample_video
 from facesynth.app.graph import parse_graph
 from facesynth.app.profile_choice import settle
 from facesynth.app.wiring import build_node
@@ -33,16 +34,53 @@ def profile_reads(monkeypatch: pytest.MonkeyPatch) -> Counter[str]:
     return reads
 
 
+def _short_video(folder: Path, frames: int = 3) -> Path:
+    """The sample video's first ``frames`` frames as their own file."""
+    path = folder / "short.avi"
+    capture = cv2.VideoCapture(str(sample_video()))
+    writer = None
+    for _ in range(frames):
+        ok, image = capture.read()
+        assert ok
+        if writer is None:
+            size = (image.shape[1], image.shape[0])
+            writer = cv2.VideoWriter(str(path), cv2.VideoWriter.fourcc(*"MJPG"), 30.0, size)
+        writer.write(image)
+    assert writer is not None
+    writer.release()
+    capture.release()
+    return path
+
+
+@pytest.mark.parametrize(
+    ("run", "reads"),
+    [
+        # T, C, C's driver check and F's neutral window all take paper16 from one read.
+        ("openface", {"paper16.toml": 1}),
+        # The render after the run too (F's window, the bars' T and C): the settled paper16;
+        # its face's profile (the tracker gives blendshapes) is read once for its T and C.
+        ("render", {"paper16.toml": 1, "virtual_bs.toml": 1}),
+    ],
+    ids=["openface csv", "--render"],
+)
 def test_run_reads_the_profile_file_once(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str], profile_reads: Counter[str]
+    run: str,
+    reads: dict[str, int],
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    profile_reads: Counter[str],
 ) -> None:
-    out = tmp_path / "commands.jsonl"
-    argv = ["run", "--fast", "--openface-csv", str(sample_openface_csv()), "--out", str(out)]
-    assert main([*argv, "--max-frames", "5", "--listen", "tcp/127.0.0.1:0"]) == 0
+    argv = ["run", "--fast", "--out", str(tmp_path / "commands.jsonl")]
+    if run == "openface":
+        argv += ["--openface-csv", str(sample_openface_csv()), "--max-frames", "5"]
+    else:
+        argv += ["--video", str(_short_video(tmp_path)), "--render", str(tmp_path / "r.mp4")]
+    assert main([*argv, "--listen", "tcp/127.0.0.1:0"]) == 0
     summary = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     assert summary["commands"] > 0
-    # T, C, C's driver check and F's neutral window all take paper16 from one read.
-    assert profile_reads == {"paper16.toml": 1}
+    if run == "render":
+        assert summary["render"]["frames"] == 3
+    assert profile_reads == reads
 
 
 def _slow_profile(tmp_path: Path) -> Path:

@@ -1,12 +1,14 @@
 """Stages are registered like plugins (issue #28): each exports a descriptor (node struct, build
 function, consumed and produced keys), and the graph, the CLI and the runner read them.
 
-A stage defined in this file alone parses in a graph, gets its flags, is built by ``build_node``
-and runs in ``facesynth run``'s chain, with no edit elsewhere.
+A stage defined in this file alone parses in a graph, gets its flags, is built by ``build_node``,
+runs in ``facesynth run``'s chain and has its own command (``facesynth gauge``), with no edit
+elsewhere.
 """
 
 from __future__ import annotations
 
+import argparse
 import importlib
 import json
 from collections.abc import Iterator
@@ -16,10 +18,10 @@ from typing import Annotated
 import msgspec
 import pytest
 
-from facesynth.app.cli import main
+from facesynth.app.cli import build_parser, main
 from facesynth.app.data import sample_openface_csv
 from facesynth.app.graph import GraphError, parse_graph
-from facesynth.app.stage_args import node_flags
+from facesynth.app.stage_args import apply_arguments, node_flags
 from facesynth.app.stages.descriptor import NodeBuild, StageDescriptor, StageParts
 from facesynth.app.stages.node import StageNode
 from facesynth.app.stages.registry import STAGES, StageRegistry, UnknownStage
@@ -65,8 +67,7 @@ GAUGE = StageDescriptor(
 
 @pytest.fixture
 def gauge() -> Iterator[StageDescriptor]:
-    # The stage commands are those of the stages found at start; a stage registered by a test
-    # later runs in graphs and ``facesynth run`` but adds no command of its own.
+    # Registered after the stage commands' module was imported, as a plugin found late is.
     importlib.import_module("facesynth.app.commands.stage")
     STAGES.register(GAUGE)
     yield GAUGE
@@ -121,6 +122,29 @@ driver = {{ driver = "record", out = "{tmp_path / "out.jsonl"}" }}
     summary = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     assert summary["frames"] == 100 and summary["commands"] > 0
     assert COUNTED["counter"] > 0
+
+
+def _commands(parser: argparse.ArgumentParser) -> dict[str, argparse.ArgumentParser]:
+    action = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    return dict(action.choices)
+
+
+def test_a_stage_of_a_test_file_gets_its_own_command(gauge: StageDescriptor) -> None:
+    from facesynth.app.commands.stage import cmd_stage
+
+    parser = build_parser()
+    commands = _commands(parser)
+    assert list(commands)[1:7] == list(STAGES.names())
+    assert "count the features" in commands["gauge"].format_help()
+    args = parser.parse_args(["gauge", "--every", "5", "--graph", "g.toml", "--node", "g"])
+    assert (args.handler, args.stage, args.graph, args.node) == (cmd_stage, "gauge", "g.toml", "g")
+    node, _ = apply_arguments("g", GaugeNode(), args)
+    assert isinstance(node, GaugeNode) and node.every == 5
+
+
+def test_an_unregistered_stage_has_no_command() -> None:
+    assert "gauge" not in STAGES.names()
+    assert "gauge" not in _commands(build_parser())
 
 
 def test_an_unknown_stage_names_the_registered_ones(gauge: StageDescriptor) -> None:

@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import contextlib
 import math
+import re
+import typing
 from pathlib import Path
 from typing import Any
 
@@ -20,7 +22,14 @@ from facesynth.runtime import codec
 from facesynth.runtime.frames import FrameError, decode_frame
 from facesynth.runtime.jpeg import JpegHeaderError, jpeg_size
 from facesynth.runtime.profiles import Profile, load_profile
-from facesynth.schemas.messages import Features, Frame, Points, ServiceStats, ServoCommands
+from facesynth.schemas.messages import (
+    BabbleSample,
+    Features,
+    Frame,
+    Points,
+    ServiceStats,
+    ServoCommands,
+)
 from facesynth.services.control.core import Arrival, CommandError, ControlCore, Move, StaleCommand
 
 pytestmark = [pytest.mark.fuzz, pytest.mark.timeout(600)]
@@ -250,17 +259,84 @@ def test_servo_commands_decode_and_never_move_a_servo_outside_its_limits() -> No
 
 def _built(payload: bytes, cls: type[Any]) -> Any:
     """The struct a stage of this process could have built from ``payload``'s fields, with
-    whatever values they hold (a struct's constructor checks no types), or ``None``."""
+    whatever values they hold (a struct's constructor checks no types), nested structs built
+    the same way where their table has their required fields, or ``None``."""
     try:
         tree = msgspec.msgpack.decode(payload)
     except (msgspec.DecodeError, UnicodeDecodeError):
         return None
+    return _struct(tree, cls)
+
+
+def _struct(tree: Any, cls: type[Any]) -> Any:
     if not isinstance(tree, dict):
         return None
+    hints = typing.get_type_hints(cls)
+    fields = {}
+    for name, value in tree.items():
+        if name not in cls.__struct_fields__:
+            continue
+        item = _struct_item(hints[name])
+        if item is not None and isinstance(value, list):
+            value = [_struct(v, item) or v for v in value]  # what cannot be built stays a table
+        fields[name] = value
     try:
-        return cls(**{k: v for k, v in tree.items() if k in cls.__struct_fields__})
+        return cls(**fields)
     except TypeError:  # a required field is missing
         return None
+
+
+def _struct_item(hint: Any) -> type[Any] | None:
+    """``S`` for a ``list[S]`` of a struct class ``S``."""
+    args = typing.get_args(hint)
+    if (
+        typing.get_origin(hint) is list
+        and args
+        and isinstance(args[0], type)
+        and issubclass(args[0], msgspec.Struct)
+    ):
+        return args[0]
+    return None
+
+
+def _family(reason: str) -> str:
+    """``reason`` without the name msgspec gives the value it got (a converted None is `null`,
+    a decoded one `None`; a set is an `array` once encoded)."""
+    return re.sub(r"got `[^`]*`", "got `…`", reason)
+
+
+def _as_bytes(message: Any, cls: type[Any]) -> tuple[bool, str | None]:
+    """Whether ``message``'s bytes can be written within their limit, and what decoding them
+    says (``None``: they decode)."""
+    try:
+        payload = codec.encode(message)
+    except (TypeError, ValueError, OverflowError):
+        return False, None
+    if len(payload) > codec.MAX_BYTES[cls]:
+        return False, None
+    try:
+        codec.decode(payload, cls)
+    except codec.MessageError as exc:
+        return True, str(exc)
+    return True, None
+
+
+def check_as_its_bytes(message: Any, cls: type[Any]) -> None:
+    """An object is refused exactly when its own bytes would be, and a field of the wrong type
+    (msgspec's refusal, "not a valid … message: …") in the same words."""
+    written, decoded = _as_bytes(message, cls)
+    try:
+        codec.check(message, cls)
+    except codec.MessageError as exc:
+        checked: str | None = str(exc)
+    else:
+        checked = None
+    if not written:
+        return
+    assert (checked is None) == (decoded is None), (checked, decoded)
+    prefix = f"not a valid {cls.__name__} message: "
+    if decoded is not None and decoded.startswith(prefix):
+        assert checked is not None and _family(checked) == _family(decoded)
 
 
 @pytest.mark.parametrize(
@@ -271,15 +347,17 @@ def _built(payload: bytes, cls: type[Any]) -> Any:
         (Features, ("features",)),
         (ServoCommands, ("servo_commands", "servo_commands_sent", "servo_state_own_move")),
         (ServiceStats, ("service_stats", "service_stats_idle")),
+        (BabbleSample, ("babble_sample",)),
     ],
-    ids=["Frame", "Points", "Features", "ServoCommands", "ServiceStats"],
+    ids=["Frame", "Points", "Features", "ServoCommands", "ServiceStats", "BabbleSample"],
 )
 def test_an_object_is_refused_exactly_when_its_bytes_would_be(
     cls: type[Any], fixtures: tuple[str, ...]
 ) -> None:
     # The in-process path checks the object a stage built (codec.check) instead of decoding
     # bytes: it must refuse what decode refuses (within the byte limit, which objects do not
-    # have), and refuse anything built with values of the wrong types, never crash.
+    # have), and refuse anything built with values of the wrong types as its bytes would be
+    # refused, in the same words, never crash.
     target = f"codec.check {cls.__name__}"
     core = ControlCore(PROFILE)
     now = 10**9
@@ -295,6 +373,7 @@ def test_an_object_is_refused_exactly_when_its_bytes_would_be(
                 arrival = Arrival(wall_ns=10**18 + now, mono_ns=now)
                 with contextlib.suppress(CommandError, StaleCommand):
                     check_within_limits(PROFILE, core.command(checked, arrival)[0])
+            check_as_its_bytes(built, cls)
         try:
             typed = msgspec.msgpack.decode(payload, type=cls)  # types checked, nothing else
         except (msgspec.DecodeError, msgspec.ValidationError, UnicodeDecodeError):

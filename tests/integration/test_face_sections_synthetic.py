@@ -3,7 +3,7 @@ and both tracker models (``facesynth bench fidelity``).
 
 A still frame of the bundled video is warped into a smile, a brow raise, a frown, a jaw drop,
 gaze in four directions (the irises redrawn; vertical gaze also with the lids following) and
-eyes widened or squinted with the irises still (``facesynth.app.bench.synthetic_faces``). Each
+eyes widened or squinted with the irises still (``facesynth.app.simhead.faces``). Each
 runs through the real tracker, F and T of every profile. An expression *passes* a profile when
 its expected servos move at least 15 % of their travel the right way and the servos of the other
 face regions stay within 20 % of theirs (``facesynth.app.bench.fidelity``).
@@ -27,8 +27,8 @@ from facesynth.app.bench.fidelity import (
     bench_fidelity,
     format_fidelity,
 )
-from facesynth.app.bench.synthetic_faces import EXPRESSIONS
 from facesynth.app.data import sample_video
+from facesynth.app.simhead.faces import EXPRESSIONS
 
 MODELS = ("fast", "full")
 #: The measured misses per (profile, model); every other expression must pass.

@@ -60,9 +60,13 @@ def _timed(run: Callable[[], Any], spent: list[float]) -> Callable[[], Any]:
     return timed_run
 
 
-def model_calls_ms(model: str, threads: int, video: Path, frames: int = 150) -> float:
+def model_calls_ms(
+    model: str, threads: int, video: Path, frames: int = 150, *, skip: int = 0
+) -> float:
     """CPU ms per frame of the tracker's raw model calls over the video's first ``frames``
-    frames (decoded beforehand, so decoding is not counted)."""
+    frames (decoded beforehand, so decoding is not counted). With ``skip``, over the
+    ``frames`` frames after the first ``skip``, which are tracked first, untimed, as a
+    chain's warm-up is (``facesynth bench run``: the frames its ``run`` is measured on)."""
     from facesynth.services.points.backends.tracker import TrackerBackend, TrackerConfig
     from facesynth.services.points.tracker.offline import iter_video_frames
 
@@ -72,12 +76,17 @@ def model_calls_ms(model: str, threads: int, video: Path, frames: int = 150) -> 
     for loaded in _models_of(tracker):
         # This instance only: the benchmark's own tracker, counting its inference calls.
         loaded.run = _timed(loaded.run, spent)
-    images = list(iter_video_frames(video, frames))
+    images = list(iter_video_frames(video, skip + frames))
+    warmup, images = images[:skip], images[skip:]
     if not images:
         return float("nan")
-    for image in images[:5]:  # warm-up: first calls allocate
-        tracker.process(image)
-    tracker.reset()
+    if warmup:  # the frames before, tracked in order: the tracker's state on the first one
+        for image in warmup:
+            tracker.process(image)
+    else:
+        for image in images[:5]:  # warm-up: first calls allocate
+            tracker.process(image)
+        tracker.reset()
     spent[0] = 0.0
     for image in images:
         tracker.process(image)

@@ -248,14 +248,8 @@ def chain_figures(
 ) -> ChainFigures:
     """The figures of one run from what the runner measured."""
     lines = result.records["control"]
-    latencies = np.array([(line.t_sent_ns - line.t_capture_ns) / 1e6 for line in lines])  # type: ignore[operator]
-    steady = np.array(
-        [
-            (line.t_sent_ns - line.t_capture_ns) / 1e6  # type: ignore[operator]
-            for line in lines
-            if line.frame is not None and line.frame >= result.steady_from
-        ]
-    )
+    latencies = np.array(result.latencies_ms("control", steady=False))
+    steady = np.array(result.latencies_ms("control"))
     span = (lines[-1].t_sent_ns - lines[0].t_sent_ns) / 1e9 if len(lines) > 1 else 0.0
     figures = ChainFigures(
         variant=variant,

@@ -16,7 +16,6 @@ from facesynth.app.bench.chain import (
     STAGES,
     STEADY_AFTER_S,
     ChainFigures,
-    ChainVariant,
 )
 
 
@@ -87,10 +86,7 @@ def format_run(figures: ChainFigures) -> str:
 
 def format_summary(all_figures: Sequence[ChainFigures]) -> str:
     """The variants side by side: every run's steady p50 and p99, mean CPU, the goals."""
-    chosen: list[ChainVariant] = []
-    for figures in all_figures:
-        if figures.variant not in chosen:
-            chosen.append(figures.variant)
+    chosen = list(dict.fromkeys(figures.variant for figures in all_figures))  # in run order
     width = max(len(v.label()) for v in chosen)
     lines = [
         f"side by side (steady state; each run's figure; goals: p50 ≤ {GOAL_P50_MS:g} ms and "
@@ -128,10 +124,7 @@ def format_budget(
     """Each variant's CPU per frame (the mean of its runs) against the budget of each process,
     the five-process chain and the board process; ``model_ms`` (by model and threads) is what
     the tracker's model calls take, which the points stage may spend on top of its budget."""
-    chosen: list[ChainVariant] = []
-    for figures in all_figures:
-        if figures.variant not in chosen:
-            chosen.append(figures.variant)
+    chosen = list(dict.fromkeys(figures.variant for figures in all_figures))  # in run order
     lines = [
         "CPU budget (ms of CPU per frame, mean of the runs; points: beyond its model calls, "
         "measured in this process on the same video)"

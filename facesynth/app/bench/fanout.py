@@ -188,17 +188,11 @@ def fanout_figures(
         robot = robot_name(index)
         node = graph.nodes[f"control_{robot}"]
         assert isinstance(node, ControlNode)
-        lines = result.records.get(f"control_{robot}", [])
-        steady = np.array(
-            [
-                (line.t_sent_ns - line.t_capture_ns) / 1e6  # type: ignore[operator]
-                for line in lines
-                if line.frame is not None and line.frame >= result.steady_from
-            ]
-        )
+        commands = len(result.records.get(f"control_{robot}", []))
+        steady = np.array(result.latencies_ms(f"control_{robot}"))
         pooled.append(steady)
         figures.per_robot.append(
-            RobotFigures(robot, str(node.profile), len(lines), latency_figures(steady))
+            RobotFigures(robot, str(node.profile), commands, latency_figures(steady))
         )
     figures.overall_ms = latency_figures(np.concatenate(pooled) if pooled else np.array([]))
     return figures

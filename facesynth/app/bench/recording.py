@@ -91,9 +91,16 @@ def synthetic_session(
                 PointSet(scheme="mesh468", dims=3, coords=(mesh_coords + jitter[1]).tolist())
             )
         distances = rng.uniform(0.2, 1.5, 68).tolist()
-        commands = {
-            name: 1500.0 + 200.0 * float(np.sin(seq / 30 + i)) for i, name in enumerate(SERVOS)
-        }
+        commands = ServoCommands(
+            seq=seq,
+            t_capture_ns=t,
+            t_media_ns=media,
+            face=True,
+            profile="paper16",
+            positions={
+                name: 1500.0 + 200.0 * float(np.sin(seq / 30 + i)) for i, name in enumerate(SERVOS)
+            },
+        )
         messages: list[tuple[str, Any]] = [
             (
                 "input",
@@ -137,28 +144,8 @@ def synthetic_session(
                     displacements=rng.normal(0, 0.01, 136).tolist(),
                 ),
             ),
-            (
-                "servo_commands",
-                ServoCommands(
-                    seq=seq,
-                    t_capture_ns=t,
-                    t_media_ns=media,
-                    face=True,
-                    profile="paper16",
-                    positions=commands,
-                ),
-            ),
-            (
-                "servo_state",
-                ServoCommands(
-                    seq=seq,
-                    t_capture_ns=t,
-                    t_media_ns=media,
-                    face=True,
-                    profile="paper16",
-                    positions=commands,
-                ),
-            ),
+            ("servo_commands", commands),
+            ("servo_state", commands),  # the controller applied them as they came
         ]
         for stage, message in messages:
             yield f"facesynth/default/{stage}", codec.encode(message), t + 1_000_000

@@ -49,9 +49,6 @@ class RigRun:
     records: dict[str, list[RecordLine]] = field(default_factory=dict)
     #: CPU milliseconds per frame of each process over the steady window (``router`` included).
     cpu_ms: dict[str, float] = field(default_factory=dict)
-    #: Frames the chain applied inside the CPU window, and the window's length in seconds.
-    window_frames: int = 0
-    window_seconds: float = 0.0
     #: Latest stats of each service instance (its own latency window), by service/instance.
     stats: dict[str, ServiceStats] = field(default_factory=dict)
     #: Peak resident memory of each process still running at the end (MB).
@@ -65,11 +62,19 @@ class RigRun:
     #: Per-hop arrival times when the run watched hops (see RigObserver).
     observer: RigObserver | None = None
     steady_from: int = 0
-    #: Process name → the nodes it ran.
-    processes: dict[str, list[str]] = field(default_factory=dict)
     #: Garbage-collector passes of each process after its start-up, from its log: passes,
     #: generation-2 passes, longest pause (ms).
     gc: dict[str, tuple[int, int, float]] = field(default_factory=dict)
+
+    def latencies_ms(self, node: str, *, steady: bool = True) -> list[float]:
+        """Capture-to-command latencies (ms) of a control node's commands: of the frames from
+        ``steady_from`` on, or (``steady=False``) of every frame."""
+        since = self.steady_from if steady else 0
+        return [
+            (line.t_sent_ns - line.t_capture_ns) / 1e6  # type: ignore[operator]
+            for line in self.records.get(node, [])
+            if line.frame is not None and line.frame >= since
+        ]
 
 
 def process_layout(
@@ -156,7 +161,6 @@ def run_graph(graph: Graph, options: RunOptions) -> RigRun:
             }
         finally:
             group.close()
-    run.processes = layout
     return run
 
 
@@ -256,8 +260,6 @@ async def _watch(
     (seq0, busy0), (seq1, busy1) = marks["start"], marks["stop"]
     run = RigRun(
         cpu_ms={k: v for k, v in cpu.per_frame_ms(seq1 - seq0).items() if k != OBSERVER},
-        window_frames=seq1 - seq0,
-        window_seconds=cpu.seconds,
         stats=observer.stats,
         load_before=load_before,
         load_after=loadavg(),

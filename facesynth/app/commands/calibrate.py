@@ -6,6 +6,7 @@ import argparse
 import logging
 
 from facesynth.app.command_registry import Command
+from facesynth.app.common_arguments import calibration_step_arguments
 from facesynth.app.stage_args import add_stage_arguments
 
 log = logging.getLogger("facesynth")
@@ -25,20 +26,7 @@ HELP = "record a performer's neutral face and expression ranges (guided, or from
 def _arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("name", help="calibration name (then: --calibration NAME)")
     add_stage_arguments(p, ["sensor", "points"])
-    p.add_argument(
-        "--schedule",
-        metavar="STEP=START-END,…",
-        help="for a video: when each step happens, in seconds, e.g. neutral=0-2,smile=5-7",
-    )
-    p.add_argument(
-        "--steps",
-        default="neutral,raise_eyebrows,frown,look_left,look_right,look_up,look_down,"
-        "raise_cheeks,open_mouth,smile",
-        help="live camera: the steps to guide through, in order (default: the paper's ten)",
-    )
-    p.add_argument(
-        "--seconds", type=float, default=4.0, help="live camera: seconds per step (default 4)"
-    )
+    calibration_step_arguments(p)
     p.add_argument("--out", help="output file (default ~/.config/facesynth/calibrations/NAME.json)")
     p.add_argument("--log-level", default="WARNING", choices=("DEBUG", "INFO", "WARNING", "ERROR"))
 

@@ -27,9 +27,6 @@ from facesynth.services.control.drivers.registry import DRIVERS
 
 log = logging.getLogger("facesynth")
 
-#: Each stage's sub-command and its help (from the stage's descriptor).
-STAGE_HELP = {stage.name: stage.help for stage in STAGES}
-
 
 def cmd_stage(args: argparse.Namespace) -> int:
     """``facesynth sensor|points|features|translator|control``: one node as its own service."""
@@ -98,7 +95,14 @@ def _arguments(stage: str) -> Callable[[argparse.ArgumentParser], None]:
     return declare
 
 
-COMMANDS = tuple(
-    Command(stage, text, cmd_stage, _arguments(stage), defaults={"stage": stage})
-    for stage, text in STAGE_HELP.items()
-)
+def stage_commands() -> tuple[Command, ...]:
+    """One command per stage registered when the parser is built, its help the descriptor's: a
+    stage registered after import (a plugin's, a test file's) gets its command too."""
+    return tuple(
+        Command(stage.name, stage.help, cmd_stage, _arguments(stage.name), {"stage": stage.name})
+        for stage in STAGES
+    )
+
+
+#: Read by :mod:`facesynth.app.command_registry` each time the parser is built.
+COMMANDS = stage_commands

@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 
 from facesynth.app.command_registry import Command
-from facesynth.app.common_arguments import zenoh_arguments
+from facesynth.app.common_arguments import calibration_step_arguments, zenoh_arguments
 from facesynth.app.stage_args import add_stage_arguments
 
 HELP = (
@@ -48,20 +48,7 @@ def _arguments(p: argparse.ArgumentParser) -> None:
         help="show this MJPEG camera beside the performer (e.g. facesynth simhead's camera: URL)",
     )
     group = p.add_argument_group("performer calibration (with --camera N or --video FILE)")
-    group.add_argument(
-        "--schedule",
-        metavar="STEP=START-END,…",
-        help="for a video: when each step happens, in seconds, e.g. neutral=0-2,smile=5-7",
-    )
-    group.add_argument(
-        "--steps",
-        default="neutral,raise_eyebrows,frown,look_left,look_right,look_up,look_down,"
-        "raise_cheeks,open_mouth,smile",
-        help="live camera: the steps to guide through, in order (default: the paper's ten)",
-    )
-    group.add_argument(
-        "--seconds", type=float, default=4.0, help="live camera: seconds per step (default 4)"
-    )
+    calibration_step_arguments(group)
     group.add_argument(
         "--calibrations",
         metavar="DIR",

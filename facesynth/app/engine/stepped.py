@@ -150,12 +150,16 @@ class RobotCores:
         *,
         driver: msgspec.Struct | None = None,
         fast: bool = False,
+        setup: Setup | None = None,
     ) -> RobotCores:
         """T and C of a translator node and its control node (default: one with the
-        translator's profile and mirroring), built as their services are."""
+        translator's profile and mirroring), built as their services are; their profiles from
+        the chain's ``setup`` if given (each file read once), else read now."""
         if control is None:
             control = ControlNode(profile=translator.profile, mirror=translator.mirror)
-        return cls(name, build_translator(translator), control_core(control, driver, fast))
+        return cls(
+            name, build_translator(translator, setup), control_core(control, driver, fast, setup)
+        )
 
     @property
     def profile(self) -> Profile:

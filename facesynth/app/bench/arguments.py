@@ -1,0 +1,213 @@
+"""``facesynth bench``'s options; each help says which benchmarks read it."""
+
+from __future__ import annotations
+
+import argparse
+
+
+def add_bench_arguments(p: argparse.ArgumentParser) -> None:
+    """The options of ``facesynth bench``; each help says which benchmarks read it."""
+    p.add_argument(
+        "what",
+        choices=(
+            "chain",
+            "fanout",
+            "tracker",
+            "smoothing",
+            "recording",
+            "face",
+            "fidelity",
+            "drivers",
+            "robot",
+            "run",
+        ),
+    )
+    p.add_argument("video", nargs="?", help="video (default: the bundled performer video)")
+    p.add_argument(
+        "--seconds",
+        type=float,
+        default=None,
+        help="chain: seconds of real-time input (default 15); fanout: per run (default 10); "
+        "face: seconds per row (default 3)",
+    )
+    p.add_argument(
+        "--rate", type=float, default=100.0, help="face: commands per second (default 100)"
+    )
+    p.add_argument(
+        "--fps", type=float, default=30.0, help="chain, recording: frame rate (default 30)"
+    )
+    p.add_argument(
+        "--openface-csv", metavar="PATH", help="chain: replay these landmarks instead of tracking"
+    )
+    p.add_argument(
+        "--frames",
+        type=int,
+        help="tracker: frames to measure; robot: the video's first N frames (default: all); "
+        "drivers --emulated: frames per driver (default 150); run: frames measured after a "
+        "30-frame warm-up (default 300)",
+    )
+    p.add_argument(
+        "--emulated",
+        action="store_true",
+        help="drivers: also run each driver against its device emulator (a source checkout's "
+        "tests/control/fake_devices) at --fps and print C's CPU per frame and the bus bytes "
+        "the emulators counted",
+    )
+    p.add_argument(
+        "--encoding",
+        default="jpeg",
+        metavar="A,B",
+        help="chain: frame encodings to compare, jpeg and/or raw (default jpeg; raw frames go "
+        "through Zenoh's shared memory between processes on one host)",
+    )
+    p.add_argument(
+        "--threads", default="1", metavar="N,M", help="chain: tracker inference threads to compare"
+    )
+    p.add_argument(
+        "--robots",
+        default="1,4,8,16,32",
+        metavar="N,M",
+        help="fanout: robot counts to sweep (default 1,4,8,16,32)",
+    )
+    p.add_argument(
+        "--layout",
+        default=None,
+        metavar="A,B",
+        help="chain: processes (one per service) and/or board (features, translator and "
+        "control in one process), default processes,board; fanout: how robots' nodes share "
+        "processes, compared side by side: processes (one per translator and per control "
+        "interface), robot (one per robot), shared (one for all robots), shared:K (K "
+        "processes); default processes,shared",
+    )
+    p.add_argument(
+        "--sched",
+        default="normal",
+        metavar="A,B",
+        help="chain, fanout: scheduling of every process to compare: normal and/or realtime "
+        "(SCHED_FIFO priority 10; needs CAP_SYS_NICE)",
+    )
+    p.add_argument(
+        "--baseline",
+        metavar="DIR",
+        help="chain: also run each variant (without realtime) from this facesynth source tree, "
+        "e.g. an older version: git archive v1 | tar -x -C DIR",
+    )
+    p.add_argument(
+        "--runs",
+        type=int,
+        default=1,
+        metavar="N",
+        help="chain: N interleaved runs of every variant (default 1; the goals ask for 3); "
+        "run: N interleaved rounds of facesynth run and the plain MediaPipe script",
+    )
+    p.add_argument(
+        "--hops",
+        action="store_true",
+        help="chain: also time each hop and show which hops grow in the slowest frames "
+        "(the observer then receives every stage's messages, which costs some CPU)",
+    )
+    p.add_argument(
+        "--profile",
+        action="append",
+        metavar="NAME|PATH",
+        help="smoothing, drivers: profile to measure (default paper16); robot: a profile to "
+        "drive the heads with, repeatable, a name or a file (e.g. X.learned; default paper16, "
+        "head16, head16_bs)",
+    )
+    p.add_argument(
+        "--head",
+        action="append",
+        metavar="NAME|PATH",
+        help="robot: a simulated head to drive, repeatable, a bundled name, a head file or "
+        "seed:N (a head generated from seed N) (default: every bundled head)",
+    )
+    p.add_argument(
+        "--json",
+        nargs="?",
+        const="-",
+        metavar="FILE",
+        help="robot: print the result as JSON instead of the table, or write it to FILE as "
+        "well as printing the table",
+    )
+    p.add_argument(
+        "--driver",
+        metavar="NAME",
+        help="robot: drive a head outside this process in real time through this servo "
+        "driver (maestro, arduino, ssc32; e.g. facesynth simhead's serial port) instead of "
+        "the simulated heads in process; needs --camera or --ros2-image-topic",
+    )
+    p.add_argument("--port", metavar="PORT", help="robot: the --driver's serial port")
+    p.add_argument(
+        "--camera",
+        metavar="CAMERA",
+        help="robot: the camera watching the --driver's head: a device index, a /dev/video* "
+        "path or a stream URL (e.g. http://127.0.0.1:8080/camera.mjpg)",
+    )
+    p.add_argument(
+        "--ros2-image-topic",
+        metavar="TOPIC",
+        help="robot: instead of --camera, the robot's camera on ROS 2 (sensor_msgs "
+        "CompressedImage JPEG on a topic ending in /compressed, else Image rgb8, bgr8 or "
+        "mono8; the [ros2] extra)",
+    )
+    p.add_argument(
+        "--closed-loop",
+        action="store_true",
+        help="robot: also drive each learned --profile with T's loop closed through the "
+        "head's camera, beside its open loop (simulated heads in process)",
+    )
+    p.add_argument(
+        "--learn-poses",
+        type=int,
+        metavar="N",
+        help="robot: also learn a profile for each simulated head in process from N babbled "
+        "poses (on the hardware profile with the head's servos, e.g. head16_hardware; the "
+        "[learn] extra), drive the head with it as 'learned', and "
+        "lead with the features the performer moves that the head moved while babbling",
+    )
+    p.add_argument(
+        "--track", help="smoothing: a facesynth track file to measure tracking noise from"
+    )
+    p.add_argument(
+        "--mode",
+        default="client",
+        metavar="A,B",
+        help="chain: Zenoh modes of the services to compare, client and/or peer (default client)",
+    )
+    p.add_argument(
+        "--backends", default="litert,opencv", help="tracker: inference backends to compare"
+    )
+    p.add_argument(
+        "--models",
+        metavar="A,B",
+        help="tracker models to compare (tracker, fidelity: default fast,full; chain, fanout: "
+        "default full)",
+    )
+    p.add_argument(
+        "--profiles",
+        metavar="A,B",
+        help="fidelity: profiles to measure (default: every shipped one)",
+    )
+    p.add_argument(
+        "--repeat",
+        type=int,
+        default=1,
+        metavar="N",
+        help="tracker, drivers --emulated: N interleaved runs, medians reported (default 1; "
+        "shared machines: 5)",
+    )
+    p.add_argument(
+        "--mediapipe-python",
+        metavar="PATH",
+        help="tracker: also time MediaPipe's own trackers with this Python (a venv with "
+        "mediapipe==0.10.21; see facesynth/app/bench/mediapipe_helper.py); run: run the "
+        "plain MediaPipe script (facesynth/app/bench/plain_mediapipe.py) with it",
+    )
+    p.add_argument(
+        "--mediapipe-task",
+        metavar="PATH",
+        help="tracker, run: the face_landmarker.task bundle for --mediapipe-python",
+    )
+    p.add_argument(
+        "--minutes", type=float, default=10.0, help="recording: session length (default 10)"
+    )
