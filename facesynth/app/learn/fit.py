@@ -27,6 +27,9 @@ hardware profile it was babbled with and returns that profile with its
    poses of a seeded split by pose (a pose visited twice, e.g. the neutral, is on one side only)
    and compared by their command error on the held-out poses: the mean absolute error in µs, as
    a fraction of each servo's range (``max_us - min_us``). The best is refitted on every pose.
+   The face's regions and symmetric pairs, found from the sweeps, go into the report; with
+   ``recombined`` > 0 and a session that babbled the regions, faces recombined from them are
+   added to the training poses (never to the held-out ones: :mod:`facesynth.app.learn.augment`).
 4. **Forward model** on the live servos (the same ridge) is kept in the file as the robot's
    self-model: ``u`` → standardized inputs.
 5. **Responsive ranges.** Each live servo's ``[command_low, command_high]``, the part of its
@@ -57,6 +60,7 @@ from datetime import UTC, datetime
 import msgspec
 import numpy as np
 
+from facesynth.app.learn.augment import Recombination, face_regions
 from facesynth.app.learn.coverage import UnsweptError, coverage
 from facesynth.app.learn.dataset import BabbleSet
 from facesynth.app.learn.models import (
@@ -241,13 +245,17 @@ def _fit(babble: BabbleSet, profile: Profile, options: FitOptions) -> Profile:
     raw_y = data.u[:, ~dead_mask]
     y = clip_commands(raw_y, u_low, u_high)  # commands that give the same face, as one
     train, test = _split(data.groups, options)
+    regions = face_regions(data.t, data.u, data.kinds, servos, data.inputs)
+    more = Recombination(data.t, data.u, x, y, (mean, scale), (u_low, u_high), ~dead_mask)
+    use, verdict = more.helps(regions, train, data.kinds, options)
+    x_train, y_train = more.rows(regions, train, options) if use else (x[train], y[train])
     errors: dict[str, np.ndarray] = {}
     raw_errors: dict[str, np.ndarray] = {}
     seconds: dict[str, float] = {}
     variants = candidate_variants(options)
     for label, (name, variant) in variants.items():
         begun = time.perf_counter()
-        fitted, _ = fit_model(name, x[train], y[train], variant)
+        fitted, _ = fit_model(name, x_train, y_train, variant)
         predicted = sklearn_predict(fitted, x[test])
         raw_errors[label] = command_error(profile, live, predicted, raw_y[test])
         predicted = clip_commands(predicted, u_low, u_high)
@@ -258,11 +266,14 @@ def _fit(babble: BabbleSet, profile: Profile, options: FitOptions) -> Profile:
         x, y, data.groups, lambda a, b, c: sklearn_predict(poly_ridge(a, b, options)[0], c)
     )
     family, variant = variants[best]
-    _, inverse = fit_model(family, x, y, variant)
+    everything = np.ones(len(x), dtype=bool)
+    x_all, y_all = more.rows(regions, everything, options) if use else (x, y)
+    _, inverse = fit_model(family, x_all, y_all, variant)
     _, forward = poly_ridge(y, x, options)
     low = np.minimum(np.percentile(data.t, 1, axis=0), 0.0)
     high = np.maximum(np.percentile(data.t, 99, axis=0), 0.0)
     notes = data.notes + [f"{name} fitted in {seconds[name]:.1f} s" for name in seconds]
+    notes += regions.notes() + ([verdict] if verdict else [])
     if cover.unswept:
         notes.insert(0, f"partial fit: {UnsweptError(cover)} (kept at neutral)")
     report = Report(

@@ -47,6 +47,10 @@ class FitOptions:
     plan_prior: float = 1.0
     #: Fit even when some servos were not moved both ways (they stay at neutral).
     partial: bool = False
+    #: Training faces recombined from poses that moved one region each
+    #: (:mod:`facesynth.app.learn.augment`; 0: none), added to the inverse model's poses.
+    #: Off by default: on the three simulated heads it did not lower the held-out error.
+    recombined: int = 0
 
 
 def require_sklearn() -> Any:

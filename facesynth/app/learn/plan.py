@@ -133,6 +133,12 @@ class Plan:
         u = 2.0 * ((point + self._shift) % 1.0) - 1.0
         return self._limited(index, "random", u)
 
+    def limit(self, index: int, kind: str, u: np.ndarray) -> Pose:
+        """Pose ``index`` of ``kind`` at ``u``, clipped and with no extreme held too long: for
+        a plan that chooses its own poses after this one's sweeps (they must be asked for in
+        order, after :meth:`pose` of every index before)."""
+        return self._limited(index, kind, np.asarray(u, dtype=np.float64))
+
     def _limited(self, index: int, kind: str, u: np.ndarray) -> Pose:
         """``u`` clipped to [-1, 1], with no extreme held longer than allowed."""
         u = np.clip(u, -1.0, 1.0)

@@ -20,9 +20,12 @@ the repeated **neutral** samples (their spread is the noise):
   (movement >= ``CLEAR``). A servo both of whose sides look still is weak, not slack: the
   sweeps cannot tell, its range stays [-1, 1] (truly dead servos are the fit's business).
 * **Saturation.** On a side that clearly moves (its farthest step >= ``CLEAR``), walking in
-  from the end: while at least two steps remain and the face at the last step equals the face
-  a step before (the change <= 1 threshold *and* <= ``SATURATED_SHARE`` of the side's farthest
-  movement), the range ends at the step before.
+  from the end: while at least two steps remain and the face at the last step (the full
+  travel) equals the face a step further in (the change <= 1 threshold *and* <=
+  ``SATURATED_SHARE`` of the side's farthest movement), the range ends at that step. Always
+  against the full travel's face, not the neighbouring step's: with fine sweeps (six steps)
+  a steady response changes the face by less than a threshold from one step to the next.
+* A level swept more than once (repeated sweeps) counts as the mean of its faces.
 * A side without sweep steps, or without neutral samples to measure the noise, keeps its full
   travel (1).
 
@@ -75,8 +78,8 @@ def _side(
     if farthest < CLEAR:
         return 1.0, False
     end = len(levels) - 1
-    while end >= 1:
-        step = float(np.max(np.abs(faces[end] - faces[end - 1]) / threshold))
+    while end >= 1:  # the face at the full travel against the face a step further in
+        step = float(np.max(np.abs(faces[-1] - faces[end - 1]) / threshold))
         if step > 1.0 or step > SATURATED_SHARE * farthest:
             break
         end -= 1
@@ -109,9 +112,12 @@ def responsive_range(
             if not mine.any():
                 sides[sign] = (1.0, False)
                 continue
-            levels = np.abs(u[mine, servo])
-            order = np.argsort(levels, kind="stable")
-            sides[sign] = _side(levels[order], t[mine][order], rest, threshold)
+            # a level swept more than once: the mean of its faces (less noise)
+            levels, at = np.unique(np.abs(u[mine, servo]), return_inverse=True)
+            faces = np.array(
+                [t[mine][at.reshape(-1) == k].mean(axis=0) for k in range(len(levels))]
+            )
+            sides[sign] = _side(levels, faces, rest, threshold)
         (below, below_clear), (above, above_clear) = sides[-1.0], sides[1.0]
         if below == 0.0 and not above_clear:
             below = 1.0  # both sides still or faint: weak, not slack

@@ -1,0 +1,138 @@
+"""Babble a simulated head in process, faster than real time, and measure a learned profile.
+
+The head (:mod:`facesynth.app.simhead`) is commanded a pose, left to settle (its slew and lag
+are over well within :data:`SETTLE_NS`), rendered, tracked with the ``full`` model for a few
+frames and read by F with the head at rest as its neutral: what ``facesynth learn`` sees
+through the Maestro pty and the MJPEG camera, without the real-time pacing. Used to compare
+babbling plans and fits on the same pose budget (``python -m facesynth.app.learn.compare``)
+and by the tests of the fit on a simulated head.
+
+:func:`held_out_error` measures a learned profile's inverse model on poses it was not fitted
+on (a separate babbling, e.g. uniform random poses): the command error, raw and effective, as
+the fit's report gives it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable
+
+import numpy as np
+
+from facesynth.app.learn.dataset import BabbleSet
+from facesynth.runtime.feature_names import NAMES
+from facesynth.runtime.frames import encode_frame
+from facesynth.runtime.profiles import Profile
+from facesynth.runtime.profiles.learned import command_range, unpack
+from facesynth.runtime.profiles.learned_predict import predictor
+
+#: The head's slew and settle lag are over well within this.
+SETTLE_NS = 1_500_000_000
+FRAME_NS = 33_333_333
+
+
+class SimBabbler:
+    """A simulated head with its camera, tracker and F: :meth:`look` at a pose's face."""
+
+    def __init__(self, profile: Profile, head: str = "simhead16", frames: int = 2) -> None:
+        from facesynth.app.simhead import SimHead, load_head
+        from facesynth.services.features.core import FeatureProcessor
+        from facesynth.services.points.backends.tracker import TrackerBackend, TrackerConfig
+
+        self.profile = profile
+        self.frames = frames
+        self._sim = SimHead(load_head(head))
+        self._backend = TrackerBackend(TrackerConfig(model="full"))
+        self._processor = FeatureProcessor(neutral_seconds=0.1)
+        specs = profile.servos
+        self._neutral = np.array([s.neutral_us for s in specs])
+        self._up = np.array([s.max_us - s.neutral_us for s in specs])
+        self._down = np.array([s.neutral_us - s.min_us for s in specs])
+        self._seq = 0
+        self.look(np.zeros(len(specs)), 6)  # F's neutral: the head at rest
+
+    def pulses(self, u: np.ndarray) -> np.ndarray:
+        """Normalized commands as pulse widths (within each servo's limits)."""
+        u = np.clip(u, -1.0, 1.0)
+        out: np.ndarray = self._neutral + np.where(u >= 0, u * self._up, u * self._down)
+        return out
+
+    def look(self, u: np.ndarray, frames: int | None = None) -> np.ndarray:
+        """The face (``Features.raw`` over :data:`NAMES`, NaN where absent) at pose ``u``."""
+        sim = self._sim
+        for spec, pulse in zip(self.profile.servos, self.pulses(u), strict=True):
+            sim.command(spec.channel, float(pulse))
+        sim.step(sim.t_ns + SETTLE_NS)
+        image = sim.render()
+        features = None
+        for _ in range(frames or self.frames):
+            sim.step(sim.t_ns + FRAME_NS)
+            frame = encode_frame(
+                image, seq=self._seq, t_capture_ns=sim.t_ns, t_media_ns=sim.t_ns, encoding="raw"
+            )
+            features = self._processor.process(self._backend.process(frame))
+            self._seq += 1
+        raw = features.raw if features and features.face and features.neutral_ready else {}
+        return np.array([raw.get(name, np.nan) for name in NAMES], dtype=np.float64)
+
+
+def babble(
+    babbler: SimBabbler,
+    poses: Iterable[tuple[str, np.ndarray]],
+    on_sample: Callable[[str, np.ndarray, np.ndarray], None] | None = None,
+) -> BabbleSet:
+    """Each ``(kind, u)`` of ``poses`` looked at, in order, as a :class:`BabbleSet`;
+    ``on_sample(kind, u, face)`` after each (a plan that adapts to what it has seen)."""
+    commands, faces, kinds = [], [], []
+    for kind, u in poses:
+        face = babbler.look(np.asarray(u, dtype=np.float64))
+        commands.append(babbler.pulses(np.asarray(u, dtype=np.float64)))
+        faces.append(face)
+        kinds.append(kind)
+        if on_sample is not None:
+            on_sample(kind, np.asarray(u, dtype=np.float64), face)
+    return BabbleSet(
+        servos=tuple(s.name for s in babbler.profile.servos),
+        commands=np.array(commands).reshape(len(kinds), len(babbler.profile.servos)),
+        inputs=NAMES,
+        faces=np.array(faces, dtype=np.float64).reshape(len(kinds), len(NAMES)),
+        kinds=tuple(kinds),
+    )
+
+
+def uniform_poses(
+    servos: int, count: int, seed: int, neutral_every: int = 20
+) -> list[tuple[str, np.ndarray]]:
+    """``count`` uniform random poses in [-1, 1]^servos, a neutral every ``neutral_every``."""
+    rng = np.random.default_rng(seed)
+    return [
+        ("neutral", np.zeros(servos))
+        if index % neutral_every == 0
+        else ("random", rng.uniform(-1.0, 1.0, servos))
+        for index in range(count)
+    ]
+
+
+def held_out_error(profile: Profile, test: BabbleSet) -> tuple[float, float]:
+    """``(raw, effective)``: the mean command error (fraction of range, over the fitted
+    servos) of ``profile``'s inverse model on the non-neutral poses of ``test``, each face taken
+    relative to ``test``'s own neutral (the median of its neutral poses)."""
+    from facesynth.app.learn.fit import command_error
+
+    learned = profile.learned
+    if learned is None:
+        raise ValueError(f"profile {profile.name} is not learned")
+    columns = [test.inputs.index(name) for name in learned.inputs]
+    faces = test.faces[:, columns]
+    kinds = np.asarray(test.kinds)
+    offset = np.nan_to_num(np.nanmedian(faces[kinds == "neutral"], axis=0))
+    u = test.normalized(profile)[:, [test.servos.index(n) for n in learned.outputs]]
+    keep = (kinds != "neutral") & np.all(np.isfinite(faces), axis=1)
+    x = (faces[keep] - offset - unpack(learned.input_mean)) / unpack(learned.input_scale)
+    predicted = predictor(learned.inverse)(x)
+    wanted = u[keep]
+    raw = command_error(profile, learned.outputs, predicted, wanted)
+    low, high = command_range(learned)
+    effective = command_error(
+        profile, learned.outputs, np.clip(predicted, low, high), np.clip(wanted, low, high)
+    )
+    return float(raw.mean()), float(effective.mean())
