@@ -563,6 +563,14 @@ CASES = [
         ],
         "a neutral pose at most every other pose",
     ),
+    (
+        "learn unknown plan",
+        [
+            *("learn", "--profile", "paper16", "--out", "s.mcap", "--video", "x"),
+            *("--plan", "clever"),
+        ],
+        "--plan must be one of fixed, adaptive, not 'clever'",
+    ),
     ("learn without a profile", ["learn", "--out", "s.mcap"], "--profile"),
     ("learn fit a missing session", ["learn", "--fit-only", "nope.mcap"], "does not exist"),
     (

@@ -22,6 +22,7 @@ session's samples computes the same plan.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -82,6 +83,25 @@ class AdaptivePlan:
         self._kinds.append(kind)
         self._u.append(np.asarray(u, dtype=np.float64))
         self._faces.append(np.asarray(face, dtype=np.float64))
+
+    @property
+    def observed(self) -> int:
+        """How many poses' faces the plan has been told."""
+        return len(self._kinds)
+
+    def seen(self, pose: Pose, features: Mapping[str, float]) -> None:
+        """:meth:`observe` pose ``pose`` (the next to be told) with its raw features over the
+        plan's inputs (empty: a pose skipped, its face not seen)."""
+        if pose.index != self.observed:
+            raise PlanError(f"pose {pose.index} told while pose {self.observed} is the next")
+        face = np.array([features.get(name, np.nan) for name in self.inputs], dtype=np.float64)
+        self.observe(pose.kind, np.array(pose.u), face)
+
+    def replay(self, faces: Mapping[int, Mapping[str, float]], upto: int) -> None:
+        """A resumed session's poses ``0 … upto - 1`` and their faces (by pose index; a pose
+        with none was skipped) told in order, so that the plan continues as it would have."""
+        for index in range(self.observed, upto):
+            self.seen(self.pose(index), faces.get(index, {}))
 
     def pose(self, index: int) -> Pose:
         """Pose ``index`` (from 0); every pose before it must have been asked for."""

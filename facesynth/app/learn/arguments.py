@@ -53,7 +53,16 @@ def _arguments(p: argparse.ArgumentParser) -> None:
         "--neutral-every", type=int, default=25, help="a neutral pose every K poses (25)"
     )
     group.add_argument(
-        "--sweep-steps", type=int, default=3, help="steps of each servo's sweep each way (3)"
+        "--plan",
+        metavar="PLAN",
+        help="the babbling plan: fixed (sweeps, then poses that fill the space) or adaptive "
+        "(finer sweeps, then poses chosen from the faces seen so far; docs/learning.md); "
+        "default fixed, a resume keeps its own",
+    )
+    group.add_argument(
+        "--sweep-steps",
+        type=int,
+        help="steps of each servo's sweep each way (3; 6 with --plan adaptive)",
     )
     group.add_argument(
         "--pace",

@@ -27,13 +27,15 @@ import msgspec
 from facesynth.app.chain import freeze_startup_objects
 from facesynth.app.engine.router import embedded_bus
 from facesynth.app.graph import Graph
+from facesynth.app.learn.adaptive import AdaptiveOptions, AdaptivePlan
 from facesynth.app.learn.core import BabbleOptions, Babbler, Budget
 from facesynth.app.learn.coverage import UnsweptError
 from facesynth.app.learn.dataset import BabbleSet
 from facesynth.app.learn.fit import FitOptions, fit_learned_profile, format_report
-from facesynth.app.learn.plan import Plan, PlanOptions
+from facesynth.app.learn.plan import BabblePlan, Plan, PlanOptions
 from facesynth.app.learn.progress import Progress
 from facesynth.app.learn.session import (
+    PLANS,
     Session,
     SessionFile,
     babble_set,
@@ -49,6 +51,7 @@ from facesynth.app.stage_args import PLUGIN_FLAGS
 from facesynth.app.wiring import StageParts, build_node, zenoh_options
 from facesynth.runtime import keys
 from facesynth.runtime.bus.zenoh_bus import endpoints
+from facesynth.runtime.feature_names import NAMES
 from facesynth.runtime.outputs import check_output
 from facesynth.runtime.profiles import Profile, load_profile, save_learned_profile
 from facesynth.runtime.service import run_async
@@ -73,7 +76,8 @@ def cmd_learn(args: argparse.Namespace) -> int:
         profile = load_profile(args.profile or session.profile)
         check_profile(session, profile)
         out = _profile_out(args, Path(args.fit_only))
-        print(fit_session(session, profile, out, partial=args.partial, plan=_plan_options(args)))
+        used = _plan_options(args, session.seed, session.plan)
+        print(fit_session(session, profile, out, partial=args.partial, plan=used))
         return 0
     if not args.session:
         raise LearnError("give the session file with --out SESSION.mcap")
@@ -92,7 +96,8 @@ def cmd_learn(args: argparse.Namespace) -> int:
     resume = _resume(out, profile, args.seed)
     profile_out = None if args.no_fit else _profile_out(args, out)
     seed = resume.seed if resume is not None else (args.seed or 0)
-    plan = Plan(len(profile.servos), _plan_options(args, seed))
+    kind = plan_kind(args, resume)
+    plan = make_plan(kind, profile, _plan_options(args, seed, kind), resume)
     options = BabbleOptions(
         settle=SettleOptions(
             frames=args.settle_frames,
@@ -112,7 +117,9 @@ def cmd_learn(args: argparse.Namespace) -> int:
         if DRIVERS.build(configs["control"], profile).moves_hardware:
             run_async(_preflight(configs["control"], profile))
         parts = _build_parts(args, rig, profile, configs)
-        result = _babble(args, rig, profile, plan, options, first, poses, seed, parts, resume)
+        result = _babble(
+            args, rig, profile, (kind, plan), options, first, poses, seed, parts, resume
+        )
         rate = result.taken / (result.seconds / 60) if result.seconds > 0 else 0.0
         summary: dict[str, Any] = {
             "session": str(out),
@@ -132,12 +139,52 @@ def cmd_learn(args: argparse.Namespace) -> int:
     if profile_out is None:
         return 0
     session = read_session(out)
-    print(fit_session(session, profile, profile_out, partial=args.partial, plan=plan.options))
+    options_used = _plan_options(args, seed, kind)
+    print(fit_session(session, profile, profile_out, partial=args.partial, plan=options_used))
     return 0
 
 
-def _plan_options(args: argparse.Namespace, seed: int = 0) -> PlanOptions:
-    return PlanOptions(seed=seed, sweep_steps=args.sweep_steps, neutral_every=args.neutral_every)
+def _plan_options(args: argparse.Namespace, seed: int = 0, kind: str = PLANS[0]) -> PlanOptions:
+    steps = args.sweep_steps
+    if steps is None:
+        steps = AdaptiveOptions.sweep_steps if kind == "adaptive" else PlanOptions.sweep_steps
+    return PlanOptions(seed=seed, sweep_steps=steps, neutral_every=args.neutral_every)
+
+
+def plan_kind(args: argparse.Namespace, resume: Session | None) -> str:
+    """``--plan``, checked; a resumed session keeps the plan it was babbled with."""
+    kind = getattr(args, "plan", None)
+    if kind is not None and kind not in PLANS:
+        raise LearnError(f"--plan must be one of {', '.join(PLANS)}, not {kind!r}")
+    if resume is None:
+        return kind or PLANS[0]
+    if kind is not None and kind != resume.plan:
+        raise LearnError(
+            f"{resume.path} was babbled with --plan {resume.plan}: resume it with that plan "
+            f"(or babble into a new file)"
+        )
+    return resume.plan
+
+
+def make_plan(
+    kind: str,
+    profile: Profile,
+    options: PlanOptions,
+    resume: Session | None,
+    inputs: tuple[str, ...] = NAMES,
+) -> BabblePlan:
+    """The plan ``kind``; an adaptive one (which reads the faces' raw ``inputs``) resuming a
+    session is told its poses' faces first."""
+    if kind != "adaptive":
+        return Plan(len(profile.servos), options)
+    adaptive = AdaptiveOptions(
+        seed=options.seed, sweep_steps=options.sweep_steps, neutral_every=options.neutral_every
+    )
+    plan = AdaptivePlan(tuple(s.name for s in profile.servos), list(inputs), adaptive)
+    if resume is not None:
+        plan.replay({s.seq: s.features for s in resume.samples}, resume.next_pose)
+        log.info("the adaptive plan was told the %d poses of %s", plan.observed, resume.path)
+    return plan
 
 
 def _sweeps(out: Path, profile: Profile) -> dict[str, Any]:
@@ -278,7 +325,7 @@ def _babble(
     args: argparse.Namespace,
     rig: str,
     profile: Profile,
-    plan: Plan,
+    plan: tuple[str, BabblePlan],
     options: BabbleOptions,
     first: int,
     poses: int,
@@ -297,10 +344,10 @@ def _babble(
         now = time.monotonic()
         until = now + args.minutes * 60 if args.minutes is not None else None
         budget = Budget(poses=poses, until_ns=round(until * 1e9) if until is not None else None)
-        babbler = Babbler(profile, plan, start=first, budget=budget, options=options)
+        babbler = Babbler(profile, plan[1], start=first, budget=budget, options=options)
         progress = Progress(sys.stderr, first=first, total=poses, started_s=now, until_s=until)
         shell = BabbleShell(babbler, seed=seed, progress=progress, on_neutral=lambda: None)
-        meta = metadata(rig, profile, seed, record)
+        meta = metadata(rig, profile, seed, record, plan[0])
         meta["frame_every"] = str(args.frame_every)
         session = SessionFile(out, meta, resume)
         async with embedded_bus(listen, zenoh, rig=rig) as (bus, _):

@@ -10,8 +10,10 @@ publish. Phases:
 * ``homing``: to neutral, held ``hold_s`` once there; then ``neutral``: the features node
   learns the robot's neutral face (the shell starts it when :attr:`Babbler.at_neutral` turns
   true) until its features say ``neutral_ready``;
-* ``babbling``: pose after pose of the :class:`~facesynth.app.learn.plan.Plan` from
-  ``start`` (a resumed session continues its plan);
+* ``babbling``: pose after pose of the plan (:class:`~facesynth.app.learn.plan.BabblePlan`)
+  from ``start`` (a resumed session continues its plan); each pose's settled face is told to
+  the plan (:meth:`~facesynth.app.learn.plan.BabblePlan.seen`; an adaptive plan chooses its
+  next poses from them) before the next pose is asked for, a skipped pose with no face;
 * ``paused``: no face for ``face_lost_s``: back to neutral, the pose in progress dropped,
   until a face is seen for ``face_back_s``; then the same pose again (after
   ``max_face_retries`` losses on one pose it is skipped);
@@ -24,7 +26,7 @@ import collections
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
-from facesynth.app.learn.plan import Plan, Pose, to_pulses
+from facesynth.app.learn.plan import BabblePlan, Pose, to_pulses
 from facesynth.app.learn.settle import Settle, Settled, SettleOptions, StalledError
 from facesynth.runtime.profiles import Profile
 
@@ -91,15 +93,16 @@ class Babbler:
     def __init__(
         self,
         profile: Profile,
-        plan: Plan,
+        plan: BabblePlan,
         *,
         start: int = 0,
         budget: Budget | None = None,
         options: BabbleOptions | None = None,
     ) -> None:
-        if plan.servos != len(profile.servos):
+        servos = len(plan.pose(0).u)
+        if servos != len(profile.servos):
             raise BabbleError(
-                f"a plan for {plan.servos} servos cannot drive profile {profile.name!r} "
+                f"a plan for {servos} servos cannot drive profile {profile.name!r} "
                 f"({len(profile.servos)} servos)"
             )
         self.profile = profile
@@ -240,6 +243,7 @@ class Babbler:
             pose, dict(settle.target), dict(self.reported or {}), face, now_ns, dict(self.measured)
         )
         self.reached[face.reached] += 1
+        self.plan.seen(pose, face.features)
         self.taken += 1
         self.index += 1
         self._retries = 0
@@ -263,6 +267,7 @@ class Babbler:
         self._face_since_ns = None
         self._retries += 1
         if self._retries > self.options.max_face_retries:
+            self.plan.seen(self.plan.pose(self.index), {})
             self.skipped += 1
             self.index += 1
             self._retries = 0

@@ -18,7 +18,9 @@ resumed run computes the same plan and continues at its index.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 
@@ -64,6 +66,20 @@ class Pose:
     index: int
     kind: str
     u: tuple[float, ...]
+
+
+class BabblePlan(Protocol):
+    """What the babbler asks of a plan: :class:`Plan`, or one that adapts to the faces it is
+    told (:class:`~facesynth.app.learn.adaptive.AdaptivePlan`)."""
+
+    def pose(self, index: int) -> Pose:
+        """Pose ``index`` (from 0), asked for in order."""
+        ...
+
+    def seen(self, pose: Pose, features: Mapping[str, float]) -> None:
+        """The settled face (raw features; empty: skipped, not seen) of ``pose``, the last
+        pose asked for, before the next one is asked for."""
+        ...
 
 
 def halton(index: int, base: int) -> float:
@@ -132,6 +148,9 @@ class Plan:
         point = np.array([halton(self._random, PRIMES[d]) for d in range(self.servos)])
         u = 2.0 * ((point + self._shift) % 1.0) - 1.0
         return self._limited(index, "random", u)
+
+    def seen(self, pose: Pose, features: Mapping[str, float]) -> None:
+        """This plan's poses do not depend on the faces: nothing to learn from them."""
 
     def limit(self, index: int, kind: str, u: np.ndarray) -> Pose:
         """Pose ``index`` of ``kind`` at ``u``, clipped and with no extreme held too long: for

@@ -1,7 +1,7 @@
 """A babbling session file: an MCAP recording with the ``…/babble`` samples, read and resumed.
 
 A session is a facesynth recording (:mod:`facesynth.app.recording`) whose metadata says it is a
-babbling session (``learn`` and the profile, its servos and the plan's seed), holding the
+babbling session (``learn`` and the profile, its servos, the plan and its seed), holding the
 ``…/babble`` samples and, beside them, the features, servo commands and states (and a frame now
 and then) of the run. :func:`read_session` reads one back; :func:`babble_set` turns its samples
 into the :class:`~facesynth.app.learn.dataset.BabbleSet` the fitting takes.
@@ -33,6 +33,9 @@ log = logging.getLogger("facesynth.learn")
 #: Metadata field marking a babbling session (its value: the session format's version).
 LEARN_FIELD = "learn"
 LEARN_VERSION = "1"
+#: The babbling plans (``facesynth learn --plan``); a session that names none was babbled with
+#: the first, the fixed plan.
+PLANS = ("fixed", "adaptive")
 
 
 class SessionError(ValueError):
@@ -49,6 +52,8 @@ class Session:
     servos: tuple[str, ...]
     seed: int
     samples: list[BabbleSample]
+    #: The babbling plan (one of :data:`PLANS`).
+    plan: str = PLANS[0]
 
     @property
     def next_pose(self) -> int:
@@ -56,7 +61,9 @@ class Session:
         return max((s.seq for s in self.samples), default=-1) + 1
 
 
-def metadata(rig: str, profile: Profile, seed: int, record: list[str]) -> dict[str, str]:
+def metadata(
+    rig: str, profile: Profile, seed: int, record: list[str], plan: str = PLANS[0]
+) -> dict[str, str]:
     """The session metadata of a babbling run (a recording's, plus what ``learn`` needs)."""
     return {
         "rig": rig,
@@ -68,6 +75,7 @@ def metadata(rig: str, profile: Profile, seed: int, record: list[str]) -> dict[s
         "learn_profile": profile.name,
         "learn_servos": ",".join(spec.name for spec in profile.servos),
         "learn_seed": str(seed),
+        "learn_plan": plan,
     }
 
 
@@ -88,6 +96,9 @@ def read_session(path: str | Path) -> Session:
                 raise SessionError(f"{path}: the session names no plan seed") from None
             servos = tuple(name for name in meta.get("learn_servos", "").split(",") if name)
             profile = meta.get("learn_profile", "")
+            plan = meta.get("learn_plan", PLANS[0])
+            if plan not in PLANS:
+                raise SessionError(f"{path}: the session's plan {plan!r} is not one of {PLANS}")
             if not servos or not profile:
                 raise SessionError(f"{path}: the session names no profile or servos")
             rig = recording.rig
@@ -99,7 +110,7 @@ def read_session(path: str | Path) -> Session:
             ]
     except RecordingError as exc:
         raise SessionError(f"not a babbling session: {exc}") from None
-    return Session(path, rig, profile, servos, seed, samples)
+    return Session(path, rig, profile, servos, seed, samples, plan)
 
 
 def check_profile(session: Session, profile: Profile) -> None:

@@ -80,3 +80,29 @@ def test_learn_babbles_the_simulated_head_resumes_and_stops_at_neutral(
     assert positions.keys() == expected.keys()
     for name, value in expected.items():
         assert positions[name] == pytest.approx(value, abs=1.0)
+
+
+def test_learn_with_the_adaptive_plan_babbles_the_simulated_head_and_resumes_it(
+    processes: Processes, tmp_path: Path
+) -> None:
+    link, camera = _start_head(processes, tmp_path)
+    session = tmp_path / "s.mcap"
+    learn = ["learn", "--profile", "paper16", "--driver", "maestro", "--port", link]
+    learn += ["--camera", camera, "--out", str(session), "--no-fit", "--neutral-every", "5"]
+    first = run_facesynth(*learn, "--plan", "adaptive", "--poses", "6", timeout=120)
+    assert first.returncode == 0, first.stderr[-3000:]
+    assert json.loads(first.stdout.strip().splitlines()[-1])["taken"] == 6
+    read = read_session(session)
+    assert read.plan == "adaptive"
+    # the adaptive plan's finer sweeps: a sixth of the travel first
+    assert [s.kind for s in read.samples] == ["neutral", *["sweep"] * 4, "neutral"]
+    servo = load_profile("paper16").servos[0]
+    step = (servo.max_us - servo.neutral_us) / 6
+    assert read.samples[1].commanded[servo.name] == pytest.approx(servo.neutral_us + step, abs=1)
+    # a resume keeps the session's plan and tells it the poses taken so far first
+    again = run_facesynth(*learn, "--poses", "8", "--log-level", "INFO", timeout=120)
+    assert again.returncode == 0, again.stderr[-3000:]
+    assert f"the adaptive plan was told the 6 poses of {session}" in again.stderr
+    samples = read_session(session).samples
+    assert [s.seq for s in samples] == list(range(8))
+    assert all(s.features for s in samples)
