@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from facesynth.app.learn.ensemble import least_sure
-from facesynth.app.learn.plan import Plan, PlanError, PlanOptions, Pose
+from facesynth.app.learn.plan import Plan, PlanError, PlanOptions, Pose, PoseSequence
 from facesynth.app.learn.regions import Regions, find_regions, sweep_effects, whole_face
 
 
@@ -52,12 +52,13 @@ class AdaptiveOptions:
             raise PlanError("an ensemble needs at least two members")
 
 
-class AdaptivePlan:
+class AdaptivePlan(PoseSequence):
     """The poses of an adaptive babbling session for ``servos`` (see the module)."""
 
     def __init__(
         self, servos: tuple[str, ...], inputs: list[str], options: AdaptiveOptions | None = None
     ) -> None:
+        super().__init__()
         self.options = options or AdaptiveOptions()
         o = self.options
         self.servos = servos
@@ -65,7 +66,6 @@ class AdaptivePlan:
         self.base = Plan(
             len(servos), PlanOptions(o.seed, o.sweep_steps, o.neutral_every, o.max_extreme_run)
         )
-        self._poses: list[Pose] = []
         self._u: list[np.ndarray] = []
         self._faces: list[np.ndarray] = []
         self._kinds: list[str] = []
@@ -102,14 +102,6 @@ class AdaptivePlan:
         with none was skipped) told in order, so that the plan continues as it would have."""
         for index in range(self.observed, upto):
             self.seen(self.pose(index), faces.get(index, {}))
-
-    def pose(self, index: int) -> Pose:
-        """Pose ``index`` (from 0); every pose before it must have been asked for."""
-        if index < 0:
-            raise PlanError(f"pose index {index} < 0")
-        while len(self._poses) <= index:
-            self._poses.append(self._next(len(self._poses)))
-        return self._poses[index]
 
     def _next(self, index: int) -> Pose:
         base = self.base

@@ -82,6 +82,26 @@ class BabblePlan(Protocol):
         ...
 
 
+class PoseSequence:
+    """Poses made one at a time, in order, and kept: pose ``i`` is made once, by ``_next(i)``,
+    after every pose before it (:class:`Plan`, and the adaptive plan, whose next pose depends
+    on the faces of the earlier ones)."""
+
+    def __init__(self) -> None:
+        self._poses: list[Pose] = []
+
+    def pose(self, index: int) -> Pose:
+        """Pose ``index`` (from 0); every pose before it is made first."""
+        if index < 0:
+            raise PlanError(f"pose index {index} < 0")
+        while len(self._poses) <= index:
+            self._poses.append(self._next(len(self._poses)))
+        return self._poses[index]
+
+    def _next(self, index: int) -> Pose:
+        raise NotImplementedError
+
+
 def halton(index: int, base: int) -> float:
     """The ``index``-th element (from 1) of the van der Corput sequence in ``base``."""
     result, fraction = 0.0, 1.0
@@ -92,10 +112,11 @@ def halton(index: int, base: int) -> float:
     return result
 
 
-class Plan:
+class Plan(PoseSequence):
     """The poses of a babbling session for ``servos`` (their count); see the module docstring."""
 
     def __init__(self, servos: int, options: PlanOptions | None = None) -> None:
+        super().__init__()
         if not 1 <= servos <= len(PRIMES):
             raise PlanError(f"babbling plans cover 1 to {len(PRIMES)} servos, not {servos}")
         self.servos = servos
@@ -110,7 +131,6 @@ class Plan:
             for sign in (1.0, -1.0)
             for level in levels
         ]
-        self._poses: list[Pose] = []
         self._runs = [0] * servos
         self._random = 0
 
@@ -126,14 +146,6 @@ class Plan:
 
     def _is_neutral_slot(self, index: int) -> bool:
         return index % self.options.neutral_every == 0
-
-    def pose(self, index: int) -> Pose:
-        """Pose ``index`` (from 0) of the plan."""
-        if index < 0:
-            raise PlanError(f"pose index {index} < 0")
-        while len(self._poses) <= index:
-            self._poses.append(self._next(len(self._poses)))
-        return self._poses[index]
 
     def _next(self, index: int) -> Pose:
         if self._is_neutral_slot(index):
