@@ -44,6 +44,8 @@ from facesynth.app.bench.run_compare_report import (
     parse_plain,
 )
 from facesynth.app.wiring import OptionError
+from facesynth.services.sensor.sources.base import SourceError
+from facesynth.services.sensor.sources.video import VideoConfig, VideoSource
 
 #: Frames both sides take before the measured ones.
 WARMUP = 30
@@ -63,14 +65,16 @@ class Options:
 
 
 def video_frames(video: Path) -> int:
-    """The frame count the video's container announces (0 when it cannot be opened)."""
-    import cv2
-
-    cap = cv2.VideoCapture(str(video))
+    """The frame count the video's container announces, as the sensor's video source reads
+    it (0 when it cannot be opened)."""
     try:
-        return int(cap.get(cv2.CAP_PROP_FRAME_COUNT)) if cap.isOpened() else 0
+        source = VideoSource(VideoConfig(path=str(video)))
+    except SourceError:
+        return 0
+    try:
+        return source.info.frames or 0
     finally:
-        cap.release()
+        source.close()
 
 
 def check_options(
