@@ -54,10 +54,10 @@ def run(command: Callable[[], object] = main) -> NoReturn:
 def leave(code: object) -> NoReturn:
     """End the process with ``code`` (as ``SystemExit`` reads it) without finalization.
 
-    Threads that are not daemons get :data:`THREADS_GRACE_S` to end, as at Python's own exit;
-    logging and the standard streams are flushed; then ``os._exit``. Daemon threads, and
-    threads still inside native code, end with the process instead of being unwound by a
-    finalizing interpreter (see the module's docstring).
+    Threading's exit hooks run and threads that are not daemons get :data:`THREADS_GRACE_S` to
+    end, as at Python's own exit; logging and the standard streams are flushed; then
+    ``os._exit``. Daemon threads, and threads still inside native code, end with the process
+    instead of being unwound by a finalizing interpreter (see the module's docstring).
     """
     if code is None:
         status = 0
@@ -68,6 +68,10 @@ def leave(code: object) -> NoReturn:
         status = 1
     deadline = time.monotonic() + THREADS_GRACE_S
     try:
+        # As Python's own exit does first: threading's exit hooks (an executor's idle workers,
+        # which are not daemons, are told to end), then the wait for threads.
+        for hook in reversed(getattr(threading, "_threading_atexits", [])):
+            hook()
         for thread in threading.enumerate():
             if thread is not threading.current_thread() and not thread.daemon:
                 thread.join(max(0.0, deadline - time.monotonic()))

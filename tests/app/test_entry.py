@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from facesynth.app.data import sample_openface_csv
-from facesynth.app.entry import INTERRUPTED, main
+from facesynth.app.entry import INTERRUPTED, THREADS_GRACE_S, main
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -108,3 +108,16 @@ def test_the_module_entry_keeps_status_and_every_line_written(
     assert ended.returncode == status, ended.stderr
     assert out in ended.stdout
     assert err in ended.stderr
+
+
+def test_an_executor_left_open_does_not_hold_the_exit() -> None:
+    """Its idle workers are not daemons: threading's exit hooks tell them to end, as Python's
+    own exit does, instead of :func:`leave` waiting out its grace for them."""
+    child = (
+        "import concurrent.futures, time; from facesynth.app.entry import leave; "
+        "concurrent.futures.ThreadPoolExecutor(2).submit(time.sleep, 0.01).result(); leave(3)"
+    )
+    started = time.monotonic()
+    ended = subprocess.run([sys.executable, "-c", child], cwd=ROOT, timeout=60)
+    assert ended.returncode == 3
+    assert time.monotonic() - started < THREADS_GRACE_S
