@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import collections
 import contextlib
+import functools
 import math
 from typing import Any, TypeVar
 
@@ -38,8 +39,14 @@ _DECODERS: dict[type[Any], msgspec.msgpack.Decoder[Any]] = {
     cls: msgspec.msgpack.Decoder(cls)
     for cls in (Frame, Points, Features, ServoCommands, ServiceStats, BabbleSample)
 }
-#: Every field's declared type, checked on objects handed over within a process (:func:`check`).
-_FIELD_TYPES = {cls: FieldTypes(cls) for cls in _DECODERS}
+
+
+@functools.cache
+def _field_types(cls: type[Any]) -> FieldTypes:
+    """Every field's declared type of ``cls``, checked on objects handed over within a process
+    (:func:`check`); built on first use (a process that only decodes bytes never needs it)."""
+    return FieldTypes(cls)
+
 
 #: Largest frame dimension accepted (pixels); larger values are treated as corrupt.
 MAX_FRAME_SIDE = limits.MAX_FRAME_SIDE
@@ -122,7 +129,7 @@ def check(message: object, cls: type[M]) -> M:
     if _PASSED.get(id(message)) is message:
         return message
     try:
-        _FIELD_TYPES[cls].check(message)
+        _field_types(cls).check(message)
         _VALIDATORS[cls](message)
     except MessageError:
         raise
