@@ -97,7 +97,8 @@ def cmd_learn(args: argparse.Namespace) -> int:
     profile_out = None if args.no_fit else _profile_out(args, out)
     seed = resume.seed if resume is not None else (args.seed or 0)
     kind = plan_kind(args, resume)
-    plan = make_plan(kind, profile, _plan_options(args, seed, kind), resume)
+    plan_options = _plan_options(args, seed, kind)
+    plan = make_plan(kind, profile, plan_options, resume)
     options = BabbleOptions(
         settle=SettleOptions(
             frames=args.settle_frames,
@@ -139,8 +140,7 @@ def cmd_learn(args: argparse.Namespace) -> int:
     if profile_out is None:
         return 0
     session = read_session(out)
-    options_used = _plan_options(args, seed, kind)
-    print(fit_session(session, profile, profile_out, partial=args.partial, plan=options_used))
+    print(fit_session(session, profile, profile_out, partial=args.partial, plan=plan_options))
     return 0
 
 
