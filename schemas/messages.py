@@ -15,8 +15,10 @@ tables inside are shared too and are never changed in place).
 Every message derived from a frame carries that frame's ``seq``, ``t_capture_ns`` (wall clock,
 ``time.time_ns()`` at capture) and ``t_media_ns`` (position in the recording, or time since the
 live stream started), so latency can be measured at any stage and replays are deterministic.
-``capture_host`` (added with the stale-motion rules; empty from older senders) names the host
-whose wall clock ``t_capture_ns`` is, for a live capture only: every stage and the control
+``capture_host`` (added with the stale-motion rules; empty from older senders) names the clock
+``t_capture_ns`` was read on (a kernel's, which every container of one machine shares,
+``facesynth.runtime.clock_host``; a ROS 2 camera's, ``ros2:<topic>``; a host name from older
+senders), for a live capture only: every stage and the control
 interface drop a message captured longer ago than their limit, measured against that host's
 clock offset as they see it (``facesynth.runtime.capture_age``). Replays of recordings and
 ``--fast`` sensors leave it empty: their capture stamps are not a live clock, and not aged.

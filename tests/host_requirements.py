@@ -39,7 +39,7 @@ HOST_NEEDS: dict[str, tuple[tuple[str, str], ...]] = {
     "faults": (),
     "ros2": (("unshare", "util-linux"), ("ip", "iproute2")),
     "board": (("systemd-analyze", "systemd"),),
-    "netns": (("ip", "iproute2"), ("iptables", "iptables")),
+    "netns": (("ip", "iproute2"), ("iptables", "iptables"), ("unshare", "util-linux")),
     "containers": (
         ("podman", "podman"),
         ("runc", "runc"),

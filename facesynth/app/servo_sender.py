@@ -5,13 +5,14 @@ The rig console (a page jogging the servos) and ``facesynth learn`` (the babbler
 interface's clamping, speed and acceleration limits, freshness checks and watchdog all hold for
 them. :class:`ServoSender` numbers a tool's commands from 1 (``seq`` and ``sender_seq``),
 stamps each with the wall clock when it is sent (``t_capture_ns`` and ``sent_ns``), the
-sender's name and this host's, and ``t_media_ns`` with the time since the tool started.
+sender's name and the name of this host's clock
+(:func:`~facesynth.runtime.clock_host.clock_host`), and ``t_media_ns`` with the time since
+the tool started.
 """
 
 from __future__ import annotations
 
-import socket
-
+from facesynth.runtime.clock_host import clock_host
 from facesynth.runtime.service import ServiceContext
 from facesynth.schemas.messages import ServoCommands
 
@@ -21,7 +22,7 @@ class ServoSender:
 
     def __init__(self, sender: str = "") -> None:
         self.sender = sender
-        self.host = socket.gethostname()
+        self.host = clock_host()
         self.sent = 0
 
     def send(

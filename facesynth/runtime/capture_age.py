@@ -5,7 +5,8 @@ Every message derived from a frame carries the frame's ``t_capture_ns`` (wall cl
 named by ``capture_host``). A receiver ages it by its own wall clock, and what it can vouch for
 depends on whose clock stamped it. **The rule:**
 
-* **This host's own clock** (``capture_host`` is the receiver's host name): the age is exact,
+* **This host's own clock** (``capture_host`` is the receiver's clock name, which every
+  process on its kernel shares: :mod:`facesynth.runtime.clock_host`): the age is exact,
   ``now - t_capture_ns``, from the very first message, and nothing is learnt: a restart of the
   receiver, of an upstream stage or of the sensor changes nothing, and no load, however long,
   can make an old message look young (a baseline learnt from a loaded chain would). A message

@@ -27,6 +27,7 @@ from facesynth.runtime import codec, keys, limits
 from facesynth.runtime.bus.base import Bus, Subscription, Token
 from facesynth.runtime.capture_age import CaptureAge
 from facesynth.runtime.clock import Clock, SystemClock
+from facesynth.runtime.clock_host import clock_host
 from facesynth.runtime.stats import StageStats
 
 M = TypeVar("M")
@@ -187,7 +188,7 @@ async def serve_transform(
     (:class:`~facesynth.runtime.capture_age.CaptureAge`, logged once per run of them): after a
     stall upstream the stage goes on with fresh frames, never with the backlog."""
     subscription = ctx.subscribe(in_stage, maxsize, in_type)
-    ages = None if max_age_s is None else CaptureAge(max_age_s, socket.gethostname())
+    ages = None if max_age_s is None else CaptureAge(max_age_s, clock_host())
     ctx.ready()
     if listening:
         ctx.log.info("%s", listening)

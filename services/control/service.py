@@ -21,12 +21,12 @@ import dataclasses
 import itertools
 import logging
 import math
-import socket
 from collections.abc import Awaitable, Mapping
 
 from facesynth.runtime import codec
 from facesynth.runtime.bus.base import SubscriptionClosed
 from facesynth.runtime.clock import Clock
+from facesynth.runtime.clock_host import clock_host
 from facesynth.runtime.profiles import Profile
 from facesynth.runtime.rig_view import RigView
 from facesynth.runtime.service import ServiceContext
@@ -52,7 +52,7 @@ class ControlService:
         queue: int = 8,
         motion_time: MotionTime = "real",
     ) -> None:
-        self.host = socket.gethostname()
+        self.host = clock_host()
         self.core = ControlCore(
             profile, watchdog_s=watchdog_s, motion_time=motion_time, own_host=self.host
         )

@@ -5,23 +5,26 @@ takes them, keeping at most ``window`` frames ahead of the last servo command se
 loses no frame and gives the same commands every time. Pacing, the credit window's
 ``ack_timeout`` and the wait for other services run on the context's clock (``ctx.clock``).
 
-Real-time frames name this host as their ``capture_host``, so the stages downstream drop them
-once they are too old (after a stall); ``fast`` frames wait for credit by design and name none
-(they are never aged from capture), nor do a measuring camera's (``capture_age`` off: learn's
-robot camera, whose frames are measured, never acted on).
+Real-time frames name this host's clock as their ``capture_host``
+(:func:`~facesynth.runtime.clock_host.clock_host`), or the clock a source says it read
+(:meth:`~facesynth.services.sensor.sources.base.FrameSource.capture_clock`: a ROS 2 camera's
+stamps), so the stages downstream drop them once they are too old (after a stall); ``fast``
+frames wait for credit by design and name none (they are never aged from capture), nor do a
+measuring camera's (``capture_age`` off: learn's robot camera, whose frames are measured, never
+acted on).
 """
 
 from __future__ import annotations
 
 import asyncio
 import contextlib
-import socket
 from collections.abc import AsyncIterator, Iterator
 from dataclasses import dataclass, field
 
 import msgspec
 
 from facesynth.runtime import keys
+from facesynth.runtime.clock_host import clock_host
 from facesynth.runtime.frames import FrameError, tick_frame
 from facesynth.runtime.service import ServiceContext
 from facesynth.schemas.messages import Frame
@@ -100,7 +103,7 @@ class SensorService:
         self.credit = CreditGate(options.window, options.ack_timeout, "frame")
         #: Whose wall clock stamps the frames (none for ``fast``: see the module doc).
         aged = options.capture_age and not options.fast
-        self.capture_host = socket.gethostname() if aged else ""
+        self.capture_host = clock_host() if aged else ""
 
     @property
     def stalls(self) -> int:
@@ -196,7 +199,8 @@ class SensorService:
                     now = captured if captured is not None else ctx.clock.time_ns()
                     frame = self._frame(image, seq, t_media_ns, now)
                     if self.capture_host:
-                        frame = msgspec.structs.replace(frame, capture_host=self.capture_host)
+                        host = self.source.capture_clock() or self.capture_host
+                        frame = msgspec.structs.replace(frame, capture_host=host)
                 except FrameError as exc:  # e.g. a camera's JPEG that does not decode (raw)
                     ctx.reject(f"frame {seq}: {exc}")
                     continue

@@ -9,9 +9,9 @@ from __future__ import annotations
 
 import asyncio
 import secrets
-import socket
 
 from facesynth.runtime import codec, limits
+from facesynth.runtime.clock_host import clock_host
 from facesynth.runtime.service import ServiceContext, serve_transform
 from facesynth.schemas.messages import Features, ServoCommands
 from facesynth.services.translator.core import Translator
@@ -38,7 +38,7 @@ async def serve_translator(
     """Translate every Features message until cancelled; with ``robot``, the loop closed
     through the robot's own face (:mod:`facesynth.services.translator.robot_face`)."""
     core = ResumingTranslator(
-        translator, sender=f"{ctx.instance}/{secrets.token_hex(3)}", host=socket.gethostname()
+        translator, sender=f"{ctx.instance}/{secrets.token_hex(3)}", host=clock_host()
     )
     # Read just before each command, not as they come: a report costs no event-loop wake-up
     # (handing a message to the event loop costs 0.1-0.25 ms of CPU at 30 messages/s, measured

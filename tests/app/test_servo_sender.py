@@ -2,9 +2,8 @@
 
 from __future__ import annotations
 
-import socket
-
 from facesynth.app.servo_sender import ServoSender
+from facesynth.runtime.clock_host import clock_host
 from facesynth.runtime.service import ServiceContext
 from facesynth.runtime.testing import StageRun
 
@@ -33,5 +32,5 @@ async def test_commands_are_numbered_from_one_and_stamped_when_sent() -> None:
         assert command.t_media_ns == round(t_media * 1e9)
         assert command.t_capture_ns == command.sent_ns == wall_offset + publication.t_ns
         assert (command.face, command.profile, command.sender) == (face, "head", "console/abc")
-        assert command.sender_host == socket.gethostname()
+        assert command.sender_host == clock_host()
     assert [p.message.positions for p in published] == [{"jaw": 1500.0}, {"jaw": 1600.0}]

@@ -7,7 +7,6 @@ time; the frames name this host as their capture host, so their age is exact fro
 
 from __future__ import annotations
 
-import socket
 from pathlib import Path
 
 import msgspec
@@ -23,11 +22,12 @@ from facesynth.app.stages.points import PointsNode
 from facesynth.app.stages.registry import STAGES
 from facesynth.app.wiring import build_node
 from facesynth.runtime.capture_age import DEFAULT_MAX_AGE_S
+from facesynth.runtime.clock_host import clock_host
 from facesynth.runtime.testing import StageRun
 from facesynth.schemas.messages import Frame, Points
 
 MS = 1_000_000
-HOST = socket.gethostname()
+HOST = clock_host()
 
 
 def frame(seq: int, t_capture_ns: int) -> Frame:

@@ -10,13 +10,13 @@ time between two of its own lines (a loaded machine descheduling it, a GC pause)
 from __future__ import annotations
 
 import logging
-import socket
 from collections.abc import Mapping
 
 import msgspec
 import pytest
 
 from facesynth.runtime.clock import FakeClock
+from facesynth.runtime.clock_host import clock_host
 from facesynth.runtime.profiles import Profile, ServoSpec
 from facesynth.runtime.testing import StageRun
 from facesynth.schemas.messages import ServoCommands
@@ -181,7 +181,7 @@ class SlowDriver(ServoDriver):
 
 
 def on_this_host(seq: int, captured_ns: int, **positions: float) -> ServoCommands:
-    here = socket.gethostname()
+    here = clock_host()
     commands = command(seq, captured_ns, **positions)
     return msgspec.structs.replace(commands, sender_host=here, capture_host=here)
 

@@ -7,13 +7,13 @@ Every time below is exact: the shell runs on a FakeClock (facesynth.runtime.test
 from __future__ import annotations
 
 import itertools
-import socket
 from collections.abc import Mapping
 
 import msgspec
 import pytest
 
 from facesynth.runtime.clock import FakeClock
+from facesynth.runtime.clock_host import clock_host
 from facesynth.runtime.profiles import Profile, ServoSpec, load_profile
 from facesynth.runtime.testing import StageRun
 from facesynth.schemas.messages import ServoCommands
@@ -211,7 +211,7 @@ async def test_commands_captured_too_long_ago_hold_then_return_to_neutral_said_o
     # Points stalled 3 s, then its backlog came through: the controller's own host captured
     # the frames (so they are aged from the first), the commands carry no send stamps.
     run, driver = control_run(watchdog_s=0.5)
-    host = socket.gethostname()
+    host = clock_host()
 
     def captured(seq: int, t_capture_ns: int, **positions: float) -> ServoCommands:
         command = commands(seq, **positions)

@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import json
 import signal
-import socket
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -30,6 +29,7 @@ import zenoh
 from facesynth_processes import Processes, free_port
 
 from facesynth.runtime import codec, keys
+from facesynth.runtime.clock_host import clock_host
 from facesynth.runtime.profiles import load_profile
 from facesynth.schemas.messages import ServoCommands
 from facesynth.services.control.drivers.record import RecordLine, read_record
@@ -38,7 +38,7 @@ pytestmark = pytest.mark.faults
 
 PAPER16 = load_profile("paper16")
 LIMIT_NS = round(PAPER16.max_command_age_s * 1e9)
-HOST = socket.gethostname()
+HOST = clock_host()
 CAMERA = "camera-elsewhere"
 #: The camera host's clock is an hour ahead of this one.
 AHEAD_NS = 3_600 * 1_000_000_000

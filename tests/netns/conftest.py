@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 from facesynth_processes import Processes
-from netns_hosts import Hosts, require_root_and_tools
+from netns_hosts import Hosts, as_host, require_root_and_tools
 
 
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
@@ -19,10 +19,11 @@ def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
 
 
 class NsSpawner(Processes):
-    """Starts ``python -m facesynth ARGS`` inside a namespace, logging to ``<name>.log``."""
+    """Starts ``python -m facesynth ARGS`` inside a namespace, under the host name ``name`` (as a
+    container of that name), logging to ``<name>.log``."""
 
     def __call__(self, ns: str, *args: str, name: str) -> subprocess.Popen[bytes]:  # type: ignore[override]
-        return self.start(*args, name=name, prefix=("ip", "netns", "exec", ns))
+        return self.start(*args, name=name, prefix=as_host(ns, name))
 
     stop_all = Processes.stop
 

@@ -7,11 +7,20 @@
 Addresses exist only inside the namespaces made here; nothing is sent anywhere else. The link
 between the IP router and the board can be taken down (``ip link set down``) or made to drop
 every packet silently (``iptables -j DROP`` in the router's FORWARD chain).
+
+What separates these "hosts" is the network, and their names: each process started here runs
+with a host name of its own (:func:`as_host`, a UTS namespace), as each container of a compose
+file does. What they share is this machine's kernel, so its one wall clock: the services name
+it alike (:func:`facesynth.runtime.clock_host.clock_host`, the kernel's boot id), and C ages the
+tracker's capture stamps exactly, as its own clock's, with no probation, as on one machine.
+Clocks that do differ (another machine's, a camera's) are the pure tests' of
+``facesynth.runtime.capture_age`` and ``tests/faults/test_stale_commands.py``'s.
 """
 
 from __future__ import annotations
 
 import subprocess
+import sys
 import uuid
 from dataclasses import dataclass, field
 
@@ -19,6 +28,19 @@ from host_requirements import require_root_and_tools as require
 
 TRACKER_IP = "10.233.1.2"
 BOARD_IP = "10.233.2.2"
+
+
+#: Sets the host name of the UTS namespace ``unshare --uts`` made, then runs the rest (same pid).
+_AS_HOST = (
+    "import os, socket, sys; socket.sethostname(sys.argv[1]); os.execv(sys.argv[2], sys.argv[2:])"
+)
+
+
+def as_host(ns: str, hostname: str) -> tuple[str, ...]:
+    """The prefix running a command in network namespace ``ns`` under a host name of its own,
+    ``hostname`` (its own UTS namespace), as a container on this machine runs: another host by
+    name and network, on this machine's kernel and clock."""
+    return ("ip", "netns", "exec", ns, "unshare", "--uts", sys.executable, "-c", _AS_HOST, hostname)
 
 
 def require_root_and_tools() -> None:

@@ -97,7 +97,14 @@ def _subscriber(topics: dict[str, str], out: str, ready: Any, stop: Any) -> None
 
 
 def _publisher(
-    topic: str, kind: str, encoding: str, fps: float, stamped: bool, ready: Any, stop: Any
+    topic: str,
+    kind: str,
+    encoding: str,
+    fps: float,
+    stamped: bool,
+    behind_ns: int,
+    ready: Any,
+    stop: Any,
 ) -> None:
     import cv2
     import rclpy
@@ -143,7 +150,7 @@ def _publisher(
             msg.encoding = encoding
             msg.step = msg.width * (1 if encoding == "mono8" else 3)
             msg.data = pixels.tobytes()
-        stamp = time.time_ns() // 1000 * 1000 + STAMP_MARK  # marked: the tests find it again
+        stamp = (time.time_ns() - behind_ns) // 1000 * 1000 + STAMP_MARK  # marked: found again
         stamp = stamp if stamped else 0
         msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(stamp, 1_000_000_000)
         publisher.publish(msg)
@@ -213,12 +220,19 @@ def subscriber(topics: dict[str, str], out: Path) -> Peer:
 
 
 def camera(
-    topic: str, kind: str, encoding: str = "bgr8", fps: float = 30.0, *, stamped: bool = True
+    topic: str,
+    kind: str,
+    encoding: str = "bgr8",
+    fps: float = 30.0,
+    *,
+    stamped: bool = True,
+    behind_s: float = 0.0,
 ) -> Peer:
     """A publisher of the performer video's frames (looped) as ``compressed`` (JPEG) or
     ``raw`` (``encoding``) images, stamped when sent (marked with :data:`STAMP_MARK`; zero
-    without ``stamped``), best effort as cameras do."""
-    return Peer(_publisher, topic, kind, encoding, fps, stamped)
+    without ``stamped``) by a clock ``behind_s`` behind this host's (a camera driver on another
+    machine), best effort as cameras do."""
+    return Peer(_publisher, topic, kind, encoding, fps, stamped, round(behind_s * 1e9))
 
 
 def relay(url: str, topic: str) -> Peer:

@@ -10,7 +10,6 @@ frames name this host as their capture host (so their age is exact from the firs
 
 from __future__ import annotations
 
-import socket
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -21,6 +20,7 @@ import pytest
 from facesynth.app.data import sample_openface_csv
 from facesynth.runtime import keys
 from facesynth.runtime.capture_age import DEFAULT_MAX_AGE_S
+from facesynth.runtime.clock_host import clock_host
 from facesynth.runtime.profiles import Profile, ServoSpec
 from facesynth.runtime.service import ServiceContext
 from facesynth.runtime.testing import StageRun
@@ -33,7 +33,7 @@ from facesynth.services.translator.core import Translator
 from facesynth.services.translator.service import serve_translator
 
 MS = 1_000_000
-HOST = socket.gethostname()
+HOST = clock_host()
 #: A profile whose commands may be a second old: T's limit is its profile's.
 SLOW = Profile(
     name="slow",

@@ -16,8 +16,10 @@ from facesynth.services.sensor.sources.base import JpegImage, SourceError
 from facesynth.services.sensor.sources.ros2_images import (
     BadImage,
     UnsupportedImage,
+    capture_time,
     compressed_image,
     raw_image,
+    stamp_clock,
     trusted_stamp,
 )
 
@@ -107,3 +109,21 @@ def test_only_a_stamp_on_this_hosts_clock_is_a_capture_time() -> None:
     assert not trusted_stamp(0, now)  # not set
     assert not trusted_stamp(123_000_000_000, now)  # simulated time: 123 s
     assert not trusted_stamp(now - 6_000_000_000, now)
+
+
+def test_a_cameras_stamp_is_read_on_the_cameras_clock_never_this_hosts() -> None:
+    # The camera driver stamps on its machine's clock: even a stamp that agrees with this
+    # host's to the nanosecond proves nothing, so the frame names the topic's clock and the
+    # stages downstream learn its offset (a camera 3 s behind must not keep the face still).
+    now = 1_790_000_000_000_000_000
+    topic = "/robot/camera/image_raw"
+    for stamp in (now - 3_000_000_000, now - 40_000_000, now, now + 4_000_000_000):
+        assert capture_time(stamp, now, topic) == (stamp, "ros2:/robot/camera/image_raw")
+    assert stamp_clock(topic) == "ros2:/robot/camera/image_raw" != stamp_clock("/camera/b")
+
+
+@pytest.mark.parametrize("stamp", [0, 123_000_000_000, 1_790_000_000_000_000_000 - 6 * 10**9])
+def test_an_image_stamped_when_taken_here_is_on_this_hosts_clock(stamp: int) -> None:
+    # Not set, simulated time, a clock far off: the time taken here, which is this host's.
+    now = 1_790_000_000_000_000_000
+    assert capture_time(stamp, now, "/camera/image_raw") == (now, "")

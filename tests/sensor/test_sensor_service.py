@@ -4,7 +4,6 @@ ack timeout, waiting for the other services. Every time below is exact (a FakeCl
 from __future__ import annotations
 
 import logging
-import socket
 from collections.abc import Iterator
 
 import numpy as np
@@ -12,6 +11,7 @@ import pytest
 
 from facesynth.runtime import keys
 from facesynth.runtime.clock import FAKE_EPOCH_NS
+from facesynth.runtime.clock_host import clock_host
 from facesynth.runtime.testing import StageRun
 from facesynth.schemas.messages import ServoCommands
 from facesynth.services.sensor.service import SensorOptions, SensorService
@@ -61,7 +61,7 @@ async def test_real_time_frames_name_this_host_as_their_capture_host_fast_ones_n
     run, _ = sensor_run(ticks(2, 10.0))
     async with run:
         await run.finish(timeout=10.0)
-        assert {f.capture_host for f in run.messages("input")} == {socket.gethostname()}
+        assert {f.capture_host for f in run.messages("input")} == {clock_host()}
     run, _ = sensor_run(ticks(2, 10.0), fast=True, window=2)
     async with run:
         await run.finish(timeout=0.0)
@@ -69,6 +69,47 @@ async def test_real_time_frames_name_this_host_as_their_capture_host_fast_ones_n
     run, _ = sensor_run(ticks(2, 10.0), capture_age=False)  # a camera that only measures
     async with run:
         await run.finish(timeout=10.0)
+        assert {f.capture_host for f in run.messages("input")} == {""}
+
+
+class Stamped(FrameSource):
+    """A live source that knows when each frame was captured, and on whose clock (``""``: this
+    host's), as the ROS 2 source does."""
+
+    def __init__(self, stamps: list[tuple[int | None, str]]) -> None:
+        self.stamps = stamps
+        self.info = SourceInfo("stamped", 10.0, None, live=True)
+        self._last: tuple[int | None, str] = (None, "")
+
+    def frames(self) -> Iterator[tuple[np.ndarray | None, int]]:
+        for i, stamp in enumerate(self.stamps):
+            self._last = stamp
+            yield None, i * 100 * MS
+
+    def capture_time_ns(self) -> int | None:
+        return self._last[0]
+
+    def capture_clock(self) -> str:
+        return self._last[1]
+
+
+async def test_a_frame_names_the_clock_its_source_read_its_capture_time_on() -> None:
+    # A camera's stamp 3 s behind, on its own clock: named so, the stages downstream learn its
+    # offset; a time the sensor read itself is this host's clock.
+    behind = FAKE_EPOCH_NS - 3_000_000_000
+    stamps = [(behind, "ros2:/camera"), (None, ""), (behind + 100 * MS, "ros2:/camera")]
+    run, _ = sensor_run(Stamped(stamps))
+    async with run:
+        await run.finish(timeout=10.0)
+        frames = [(f.t_capture_ns, f.capture_host) for f in run.messages("input")]
+        assert frames == [
+            (behind, "ros2:/camera"),
+            (FAKE_EPOCH_NS, clock_host()),
+            (behind + 100 * MS, "ros2:/camera"),
+        ]
+    run, _ = sensor_run(Stamped(stamps), fast=True, window=5)  # never aged: no clock named
+    async with run:
+        await run.finish(timeout=0.0)
         assert {f.capture_host for f in run.messages("input")} == {""}
 
 

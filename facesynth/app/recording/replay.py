@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-import socket
 import time
 from dataclasses import dataclass, field
 
@@ -35,6 +34,7 @@ from facesynth.app.recording.layout import key_kind, message_type
 from facesynth.app.recording.reader import Recording
 from facesynth.runtime import codec, keys
 from facesynth.runtime.bus.link import LinkFigures
+from facesynth.runtime.clock_host import clock_host
 from facesynth.runtime.service import ServiceContext
 from facesynth.schemas.messages import ServoCommands
 from facesynth.services.sensor.core import Pacer
@@ -197,7 +197,7 @@ class Replayer:
             message = msgspec.msgpack.decode(payload, type=cls)
         except (msgspec.DecodeError, msgspec.ValidationError):
             return payload
-        host = "" if self.options.fast else socket.gethostname()
+        host = "" if self.options.fast else clock_host()
         return codec.encode(
             msgspec.structs.replace(message, t_capture_ns=time.time_ns(), capture_host=host)
         )
@@ -230,7 +230,7 @@ class Replayer:
                 sender=f"{ctx.instance}/replay",
                 sender_seq=self._sent,
                 sent_ns=time.time_ns(),
-                sender_host=socket.gethostname(),
+                sender_host=clock_host(),
             )
         )
 

@@ -69,6 +69,14 @@ class FrameSource(abc.ABC):
         source knows it (a ROS 2 image's stamp); None: the sensor stamps it on taking it."""
         return None
 
+    def capture_clock(self) -> str:
+        """Whose clock :meth:`capture_time_ns` read for the frame yielded last, when it is not
+        provably this host's (a ROS 2 camera's stamps: ``"ros2:<topic>"``), so the stages
+        downstream learn its offset instead of taking it for their own clock; ``""`` (the
+        default): this host's clock
+        (:func:`~facesynth.runtime.clock_host.clock_host`)."""
+        return ""
+
     def close(self) -> None:  # noqa: B027 - an optional hook: most sources hold nothing
         """Release the device or file (nothing to release by default)."""
 

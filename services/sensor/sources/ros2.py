@@ -4,9 +4,13 @@
 in ``/compressed``, or ``--ros2-image-type compressed``) or ``sensor_msgs/msg/Image``
 (``raw``). JPEGs pass through as the MJPEG camera's do; Image in rgb8, bgr8 or mono8 becomes
 pixels (:mod:`.ros2_images`); another encoding or format stops the source with one line
-naming those it takes. Each image's header stamp is its capture time; a stamp that is not this
-host's wall clock (zero, simulated time, more than 5 s away: :func:`.ros2_images.trusted_stamp`)
-is replaced by the time the image was taken here, said once in the log.
+naming those it takes. Each image's header stamp is its capture time, read on the camera
+driver's clock, which may be another machine's: the frames name it ``ros2:<topic>`` as their
+capture host (:func:`.ros2_images.capture_time`), so the stages downstream and the control
+interface learn its offset as another host's (C on probation, 1 s) rather than age it as their
+own (a camera 0.3 s behind would keep the face still). A stamp that is no wall clock at all
+(zero, simulated time, more than 5 s away: :func:`.ros2_images.trusted_stamp`) is replaced by
+the time the image was taken here, said once in the log: that one is this host's clock.
 
 It keeps the latest image only, with the QoS camera drivers publish with (best effort, keep
 last 1): while the chain handles one frame, newer images replace each other, and the next frame
@@ -31,9 +35,9 @@ from facesynth.services.sensor.sources.base import FrameSource, Image, SourceErr
 from facesynth.services.sensor.sources.registry import SOURCES
 from facesynth.services.sensor.sources.ros2_images import (
     BadImage,
+    capture_time,
     compressed_image,
     raw_image,
-    trusted_stamp,
 )
 
 log = logging.getLogger(__name__)
@@ -111,6 +115,7 @@ class Ros2Source(FrameSource):
         self.dropped = 0
         self._latest: Any = None
         self._captured: int | None = None
+        self._clock = ""
         self._untrusted = False
         self._closing = threading.Event()
         self._busy = threading.Lock()
@@ -121,6 +126,8 @@ class Ros2Source(FrameSource):
             self._subscription = self._ros.node.create_subscription(
                 getattr(msgs, kind), config.topic, self._take, qos_profile("best_effort", 1)
             )
+            #: The topic as resolved in the node's namespace: its stamps' clock is named so.
+            self.resolved_topic: str = self._subscription.topic_name
             self._executor = SingleThreadedExecutor(context=self._ros.context)
             self._executor.add_node(self._ros.node)
         except Exception:
@@ -146,12 +153,11 @@ class Ros2Source(FrameSource):
             yield image, max(0, self._captured - first)
 
     def _capture_time(self, stamp: int) -> int:
-        """The stamp, unless it is not this host's wall clock (:func:`trusted_stamp`): then
-        the time the image was taken here (said once)."""
+        """The stamp, on the camera's clock, unless it is no wall clock: then the time the image
+        was taken here, on this host's (said once; :func:`capture_time`)."""
         now = time.time_ns()
-        if trusted_stamp(stamp, now):
-            return stamp
-        if not self._untrusted:
+        captured, self._clock = capture_time(stamp, now, self.resolved_topic)
+        if not self._clock and not self._untrusted:
             self._untrusted = True
             log.warning(
                 "%s: image stamps are %.1f s from this host's clock (not set, simulated time, "
@@ -159,7 +165,7 @@ class Ros2Source(FrameSource):
                 self.info.name,
                 (now - stamp) / 1e9,
             )
-        return now
+        return captured
 
     def _next_message(self) -> Any:
         """The newest message once one came (None once the source is closed)."""
@@ -189,6 +195,9 @@ class Ros2Source(FrameSource):
 
     def capture_time_ns(self) -> int | None:
         return self._captured
+
+    def capture_clock(self) -> str:
+        return self._clock
 
     def close(self) -> None:
         """Stop waiting for images, then destroy the node (after a wait under way ends)."""

@@ -37,6 +37,24 @@ def trusted_stamp(stamp_ns: int, now_ns: int) -> bool:
     return abs(now_ns - stamp_ns) <= STAMP_TRUSTED_S * 1e9
 
 
+def stamp_clock(topic: str) -> str:
+    """The name of the clock the header stamps of ``topic`` are read on (``ros2:<topic>``), as
+    a frame's ``capture_host``: the camera driver's, on a machine and clock the source cannot
+    know (another host's, a few seconds off, or this one's), so never this host's name."""
+    return f"ros2:{topic}"
+
+
+def capture_time(stamp_ns: int, now_ns: int, topic: str) -> tuple[int, str]:
+    """When an image of ``topic`` stamped ``stamp_ns`` and taken here at ``now_ns`` was
+    captured, and on whose clock: its stamp on the camera's clock (:func:`stamp_clock`) when
+    it reads as a wall clock (:func:`trusted_stamp`), so a receiver learns that clock's offset
+    (on probation) instead of taking a camera seconds behind for its own; else ``now_ns``, the
+    one time provably of this host's clock (``""``: the sensor names its own)."""
+    if trusted_stamp(stamp_ns, now_ns):
+        return stamp_ns, stamp_clock(topic)
+    return now_ns, ""
+
+
 class UnsupportedImage(SourceError):
     """An image the source does not take (an encoding or a compressed format); one line."""
 

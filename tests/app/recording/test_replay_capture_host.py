@@ -5,7 +5,6 @@ name none (older recordings, ``--fast`` runs) are published byte for byte."""
 from __future__ import annotations
 
 import asyncio
-import socket
 from pathlib import Path
 
 import msgspec
@@ -16,6 +15,7 @@ from facesynth.app.recording.replay import Replayer, ReplayOptions
 from facesynth.app.recording.writer import SessionWriter
 from facesynth.runtime import codec, keys
 from facesynth.runtime.bus.memory import MemoryNetwork
+from facesynth.runtime.clock_host import clock_host
 from facesynth.runtime.service import ServiceContext
 from facesynth.schemas.messages import Frame
 
@@ -88,5 +88,5 @@ async def test_a_restamped_replay_is_a_live_capture_of_this_host(tmp_path: Path)
     session = tmp_path / "session.mcap"
     write(session, [codec.encode(frame(0, "camera")), without_capture_host(frame(1, ""))])
     published = [codec.decode(p, Frame) for p in await replay(session, restamp=True)]
-    assert {f.capture_host for f in published} == {socket.gethostname()}
+    assert {f.capture_host for f in published} == {clock_host()}
     assert all(f.t_capture_ns > T0 for f in published)  # stamped now, not at the recording
