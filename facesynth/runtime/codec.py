@@ -21,6 +21,7 @@ import numpy as np
 
 from facesynth.runtime import blendshapes, limits
 from facesynth.runtime.field_types import FieldTypes
+from facesynth.runtime.float_lists import float64_array
 from facesynth.runtime.jpeg import JpegHeaderError, jpeg_size
 from facesynth.runtime.oneline import one_line
 from facesynth.schemas.messages import (
@@ -153,7 +154,7 @@ def _all_finite(values: list[float], what: str, limit: float) -> None:
     """Check a list of numbers at once (vectorised: a mesh has 1,404 of them)."""
     if not values:
         return
-    array = np.asarray(values, dtype=np.float64)
+    array = float64_array(values)
     bad = ~np.isfinite(array) | (np.abs(array) > limit)
     if bad.any():
         _finite(float(array[int(np.argmax(bad))]), what, limit)

@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from facesynth.runtime import blendshapes
+from facesynth.runtime.float_lists import float64_array
 from facesynth.runtime.landmarks import IBUG68, MESH468, MESH478, N_IBUG
 from facesynth.schemas.messages import Points
 from facesynth.services.features.frame import FeatureError
@@ -25,7 +26,7 @@ def ibug_points(points: Points) -> np.ndarray:
         if point_set.scheme == IBUG68:
             if point_set.dims not in (2, 3) or len(point_set.coords) != N_IBUG * point_set.dims:
                 raise FeatureError(f"ibug68 set has {len(point_set.coords)} values")
-            array = np.asarray(point_set.coords, dtype=np.float64)
+            array = float64_array(point_set.coords)
             return array.reshape(N_IBUG, point_set.dims)[:, :2]
     schemes = ", ".join(s.scheme for s in points.sets) or "none"
     raise FeatureError(f"no ibug68 point set in the message (has: {schemes})")
@@ -43,7 +44,7 @@ def optional_points(points: Points, scheme: str, count: int, dims: int) -> np.nd
                 return None
             if len(point_set.coords) != count * point_set.dims:
                 raise FeatureError(f"{scheme} set has {len(point_set.coords)} values")
-            array = np.asarray(point_set.coords, dtype=np.float64)
+            array = float64_array(point_set.coords)
             if not np.all(np.isfinite(array)):
                 raise FeatureError(f"{scheme} set has a value that is not a finite number")
             return array.reshape(count, point_set.dims)[:, :dims]
@@ -71,7 +72,7 @@ def blendshape_scores(points: Points) -> np.ndarray | None:
     """
     for score_set in points.scores:
         if score_set.scheme == blendshapes.BLENDSHAPES52:
-            values = np.asarray(score_set.values, dtype=np.float64)
+            values = float64_array(score_set.values)
             if values.shape != (blendshapes.COUNT,):
                 raise FeatureError(f"blendshapes52 set has {values.size} values")
             if not (np.all(np.isfinite(values)) and values.min() >= 0.0 and values.max() <= 1.0):

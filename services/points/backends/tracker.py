@@ -17,9 +17,9 @@ from __future__ import annotations
 from typing import Annotated, Literal
 
 import msgspec
+import numpy as np
 
 from facesynth.runtime.blendshapes import BLENDSHAPES52
-from facesynth.runtime.frames import decode_frame
 from facesynth.runtime.landmarks import IBUG68, IRIS10, MESH468, MESH478
 from facesynth.schemas.messages import Frame, Points, ScoreSet
 from facesynth.services.points.backends.base import (
@@ -107,6 +107,9 @@ class TrackerBackend(PointsBackend):
         from facesynth.services.points.tracker import (
             FaceTracker,  # OpenCV and the models: tracker hosts
         )
+        from facesynth.services.points.tracker.jpeg_rgba import decode_rgba
+
+        self._decode_rgba = decode_rgba
 
         config = config or TrackerConfig()
         # OpenCV's own thread pool (crops, colour conversion) gets the tracker's thread count:
@@ -120,6 +123,7 @@ class TrackerBackend(PointsBackend):
             num_threads=config.threads,
             model=config.model_config(),
         )
+        self._rgba: np.ndarray | None = None
 
     def needs_pixels(self) -> bool:
         return True
@@ -130,7 +134,8 @@ class TrackerBackend(PointsBackend):
     def process(self, frame: Frame) -> Points:
         if frame.encoding == "none":
             raise BackendError(f"frame {frame.seq} has no pixels: the tracker needs images")
-        result = self.tracker.process(decode_frame(frame))
+        self._rgba = self._decode_rgba(frame, self._rgba)  # one frame's buffer, reused
+        result = self.tracker.process_rgba(self._rgba)
         if not result.face or result.ibug68 is None or result.mesh is None:
             return no_face(frame, self.name, result.presence)
         sets = [point_set(IBUG68, result.ibug68)]

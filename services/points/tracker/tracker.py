@@ -216,9 +216,23 @@ class FaceTracker:
             ValueError: not a uint8 image.
         """
         t0 = time.perf_counter()
+        self._rgba = frame_to_rgba(image_bgr, self._rgba)
+        return self.process_rgba(self._rgba, t0)
+
+    def process_rgba(self, frame: np.ndarray, t0: float | None = None) -> TrackResult:
+        """Track the face in one uint8 RGBA frame (H, W, 4), as decoded straight from a JPEG
+        (:mod:`.jpeg_rgba`): :meth:`process` without its colour conversion. The frame is only
+        read, and not kept past the call. ``t0``: when the frame's work began
+        (``time.perf_counter``; default now), for ``timings["total"]``.
+
+        Raises:
+            ValueError: not a uint8 (H, W, 4) image.
+        """
+        if t0 is None:
+            t0 = time.perf_counter()
+        if frame.dtype != np.uint8 or frame.ndim != 3 or frame.shape[2] != 4 or not frame.size:
+            raise ValueError(f"expected a uint8 (H, W, 4) RGBA image, got {frame.shape}")
         timings = {"detect": 0.0, "mesh": 0.0, "iris": 0.0, "blendshapes": 0.0, "total": 0.0}
-        frame = frame_to_rgba(image_bgr, self._rgba)
-        self._rgba = frame
 
         detected = False
         rect = self._rect
