@@ -16,7 +16,7 @@ import argparse
 import functools
 import re
 from collections.abc import Iterable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import msgspec
@@ -208,17 +208,8 @@ class PluginFlags:
                     if any(f.flag == flag.flag for f in self._plugin_flags(p))
                 ]
                 prefix = f"{'/'.join(owners)}: "
-                text = flag.help.removeprefix(prefix) if flag.help else None  # not said twice
-                flag_help = prefix + text if text else None
-                seen.add(flag.flag)
-                group.add_argument(
-                    flag.flag,
-                    dest=flag.dest,
-                    default=argparse.SUPPRESS,
-                    action=argparse.BooleanOptionalAction if flag.boolean else "store",
-                    metavar=None if flag.boolean else flag.field.upper(),
-                    help=flag_help,
-                )
+                text = flag.help.removeprefix(prefix) if flag.help else ""  # not said twice
+                add_flags(group, [replace(flag, help=prefix + text if text else "")], seen)
 
     def config(self, args: argparse.Namespace, base: Mapping[str, Any] | None) -> msgspec.Struct:
         """The plugin config: ``base`` (from a graph) with the command line applied, validated."""

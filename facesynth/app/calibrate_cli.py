@@ -33,7 +33,8 @@ from facesynth.services.features.calibrate import (
     step_at,
 )
 from facesynth.services.features.expressions import raw_features
-from facesynth.services.sensor.sources.base import pixels
+from facesynth.services.points.backends.base import PointsBackend
+from facesynth.services.sensor.sources.base import FrameSource, pixels
 
 #: Seconds skipped at the start of each live step: the performer is still changing expression.
 LIVE_SETTLE_S = 0.7
@@ -61,6 +62,29 @@ def guided_schedule(args: argparse.Namespace, live: bool) -> list[tuple[str, flo
     return [(step, i * args.seconds, (i + 1) * args.seconds) for i, step in enumerate(steps)]
 
 
+def calibration_inputs(
+    name: str, args: argparse.Namespace
+) -> tuple[PointsBackend, FrameSource, list[tuple[str, float, float]], CalibrationRecorder]:
+    """The tracker, the frame source (the caller closes it), the schedule and the recorder of
+    a calibration called ``name``, from the command line's points and sensor options."""
+    _, backend_config = apply_arguments("points", PointsNode(), args)
+    _, source_config = apply_arguments("sensor", SensorNode(), args)
+    backend = build_backend(backend_config)
+    source = build_source(source_config, backend.frame_count())
+    if backend.needs_pixels() and source.info.name == "ticks":
+        raise CalibrationStepError("the tracker needs images: give --camera or --video")
+    schedule = guided_schedule(args, source.info.live)
+    # A schedule marks exactly when each expression is held; live prompts need reaction time.
+    settle_s = 0.0 if args.schedule else LIVE_SETTLE_S
+    return backend, source, schedule, CalibrationRecorder(name, raw_features, settle_s=settle_s)
+
+
+def save_recorded(recorder: CalibrationRecorder, path: Path) -> None:
+    """Write the calibration ``recorder`` holds to ``path``, dated now."""
+    created = datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds")
+    save_calibration(recorder.build(created=created), path)
+
+
 def run_calibration(args: argparse.Namespace, out: TextIO | None = None) -> Path:
     """Record and save a calibration; return its path. Progress goes to ``out`` (stdout)."""
     out = out if out is not None else sys.stdout
@@ -69,18 +93,8 @@ def run_calibration(args: argparse.Namespace, out: TextIO | None = None) -> Path
         check_output(args.out, "calibration")
     else:  # the default place (~/.config/facesynth/calibrations) is made whole
         check_output(default_path(args.name), "calibration", make_parents=True)
-    _, backend_config = apply_arguments("points", PointsNode(), args)
-    _, source_config = apply_arguments("sensor", SensorNode(), args)
-    backend = build_backend(backend_config)
+    backend, source, schedule, recorder = calibration_inputs(args.name, args)
     chain = SteppedChain(backend)  # P alone: the recorder takes the points
-    source = build_source(source_config, backend.frame_count())
-    if backend.needs_pixels() and source.info.name == "ticks":
-        raise CalibrationStepError("the tracker needs images: give --camera or --video")
-    schedule = guided_schedule(args, source.info.live)
-    # A schedule marks exactly when each expression is held; live prompts need reaction time.
-    recorder = CalibrationRecorder(
-        args.name, raw_features, settle_s=0.0 if args.schedule else LIVE_SETTLE_S
-    )
     end_s = max(end for _, _, end in schedule)
     current = None
     try:
@@ -103,10 +117,8 @@ def run_calibration(args: argparse.Namespace, out: TextIO | None = None) -> Path
             recorder.add(step, t_in_step, points)
     finally:
         source.close()
-    created = datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds")
-    calibration = recorder.build(created=created)
     path = Path(args.out) if args.out else default_path(args.name)
-    save_calibration(calibration, path)
+    save_recorded(recorder, path)
     for step, (used, seen) in recorder.summary().items():
         print(f"{step:<15} {used:>4} of {seen:>4} frames used", file=out)
     print(f"calibration {args.name!r} written to {path}", file=out)

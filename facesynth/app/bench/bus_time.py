@@ -14,11 +14,10 @@ The frames measured on the emulated buses, and C's CPU per frame: ``--emulated``
 from __future__ import annotations
 
 import importlib
-import statistics
-import time
 from dataclasses import dataclass
 from typing import Any
 
+from facesynth.app.bench.drivers import median_us
 from facesynth.runtime.profiles import Profile
 from facesynth.services.control.drivers.bus_servo.budget import read_chunk, wire_s
 from facesynth.services.control.drivers.bus_servo.bus import ServoBus
@@ -76,13 +75,12 @@ def _frame(
     if hasattr(bus, "series"):  # feetech: each servo's byte order
         bus.series = dict.fromkeys(range(1, count + 1), model.protocol)
     goals = {i: model.centre + 7 * i for i in range(1, count + 1)}
-    times = []
-    for _ in range(7):
-        start = time.perf_counter_ns()
-        for _ in range(200):
-            port.written.clear()
-            bus.write_goals(goals)
-        times.append((time.perf_counter_ns() - start) / 200 / 1000)
+
+    def write_goals() -> None:
+        port.written.clear()
+        bus.write_goals(goals)
+
+    encode_us = median_us(write_goals, repeat=200, rounds=7)
     write = len(port.written)
     chunk = read_chunk(bus.read_bytes, count, baud, READ_BUDGET_S)
     port.written.clear()
@@ -99,7 +97,7 @@ def _frame(
             port.is_using = False  # (the SDK frees the port once the answer is read)
             ph.readTx(port, i, 36 if driver == "dynamixel" else 56, status)
         request, answers = len(port.written), chunk * (6 + status)
-    return BusFrame(driver, how, baud, write, request, answers, chunk, statistics.median(times))
+    return BusFrame(driver, how, baud, write, request, answers, chunk, encode_us)
 
 
 def bus_frames(profile: Profile) -> list[BusFrame]:

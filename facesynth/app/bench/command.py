@@ -75,15 +75,11 @@ def cmd_bench(args: argparse.Namespace) -> int:
     return 0
 
 
-def _models(args: argparse.Namespace) -> tuple[str, ...]:
-    """``--models`` of ``tracker`` and ``fidelity`` (default fast,full), each one checked."""
+def _models(args: argparse.Namespace, default: str = "fast,full") -> list[str]:
+    """``--models`` (tracker, fidelity: default fast,full; chain, fanout: full), each checked."""
     from facesynth.services.points.tracker.landmarkers import model_names
 
-    models = tuple(m for m in (args.models or "fast,full").split(",") if m)
-    unknown = [m for m in models if m not in model_names()]
-    if unknown or not models:
-        raise OptionError(f"--models: unknown {unknown}; choose from {', '.join(model_names())}")
-    return models
+    return _choices(args.models or default, "--models", tuple(model_names()))
 
 
 def _one_profile(args: argparse.Namespace) -> str:
@@ -109,14 +105,13 @@ def _bench_chain(args: argparse.Namespace) -> int:
     from facesynth.app.bench.chain import LAYOUTS, SCHEDULES, bench_chain, variants
     from facesynth.app.bench.chain_report import format_chain_bench
     from facesynth.app.data import sample_video
-    from facesynth.services.points.tracker.landmarkers import model_names
 
     if args.runs < 1:
         raise OptionError("--runs must be at least 1")
     threads = [int(t) for t in _choices(args.threads, "--threads", tuple(map(str, range(1, 9))))]
     chosen = variants(
         encodings=_choices(args.encoding, "--encoding", ("jpeg", "raw")),
-        models=_choices(args.models or "full", "--models", tuple(model_names())),
+        models=_models(args, "full"),
         threads=threads,
         modes=_choices(args.mode, "--mode", ("client", "peer")),
         scheds=_choices(args.sched, "--sched", SCHEDULES),

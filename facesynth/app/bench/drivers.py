@@ -16,10 +16,9 @@ from dataclasses import dataclass
 from facesynth.runtime.profiles import Profile, load_profile
 from facesynth.services.control.drivers.arduino import protocol as arduino
 from facesynth.services.control.drivers.arduino.driver import pose_frame
+from facesynth.services.control.drivers.bus_servo.budget import wire_s
 from facesynth.services.control.drivers.maestro import protocol as maestro
 from facesynth.services.control.drivers.ssc32 import protocol as ssc32
-
-BITS_PER_BYTE = 10
 
 
 @dataclass(frozen=True)
@@ -36,17 +35,18 @@ class WireCost:
     @property
     def wire_ms(self) -> float:
         """Milliseconds the pose takes on the wire (to the board)."""
-        return self.frame_bytes * BITS_PER_BYTE / self.baud * 1000
+        return wire_s(self.frame_bytes, self.baud) * 1000
 
     @property
     def poses_per_s(self) -> float:
         """Poses per second the line carries (the longer direction counts)."""
-        return self.baud / BITS_PER_BYTE / max(self.frame_bytes, self.reply_bytes)
+        return 1 / wire_s(max(self.frame_bytes, self.reply_bytes), self.baud)
 
 
-def _encode_us(encode: Callable[[], bytes], repeat: int = 2000) -> float:
+def median_us(encode: Callable[[], object], repeat: int = 2000, rounds: int = 9) -> float:
+    """Microseconds one call of ``encode`` takes: the median of ``rounds`` rounds of ``repeat``."""
     times = []
-    for _ in range(9):
+    for _ in range(rounds):
         start = time.perf_counter_ns()
         for _ in range(repeat):
             encode()
@@ -91,7 +91,7 @@ def wire_costs(profile: Profile) -> list[WireCost]:
         ("ssc32", "group move, S, factory 9600", 9600, 0, lambda: ssc32.group_move(us, speeds)),
     ]
     return [
-        WireCost(driver, how, baud, len(encode()), reply, _encode_us(encode))
+        WireCost(driver, how, baud, len(encode()), reply, median_us(encode))
         for driver, how, baud, reply, encode in cases
     ]
 

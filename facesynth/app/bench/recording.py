@@ -30,6 +30,7 @@ from facesynth.app.recording.writer import SessionWriter
 from facesynth.app.stages.registry import STAGES
 from facesynth.runtime import codec
 from facesynth.runtime.feature_names import NAMES
+from facesynth.runtime.stats import memory_mb
 from facesynth.schemas.messages import (
     Features,
     Frame,
@@ -168,14 +169,6 @@ def synthetic_session(
                 yield f"facesynth/default/stats/{service}/bench-1", codec.encode(stats), t
 
 
-def _rss_mb() -> float:
-    with open("/proc/self/status") as status:
-        for line in status:
-            if line.startswith("VmRSS:"):
-                return int(line.split()[1]) / 1024
-    return 0.0
-
-
 class _SessionClock:
     """The chunk timer follows session time, as it follows wall time when recording live."""
 
@@ -206,6 +199,13 @@ def record_session(
         path, metadata={"rig": "default", "bench": "1"}, clock=clock, overwrite=True
     )
     per_minute: list[dict[str, float]] = []
+
+    def minute_ended() -> None:
+        traced = tracemalloc.get_traced_memory()[0] / 2**20 if trace else 0.0
+        per_minute.append(
+            {"minute": len(per_minute) + 1, "traced_mb": traced, "rss_mb": memory_mb()[0]}
+        )
+
     messages = 0
     next_minute = 60.0
     for key, payload, t in synthetic_session(minutes, fps, jpegs, size, mesh=mesh):
@@ -216,17 +216,11 @@ def record_session(
         messages += 1
         if clock.now >= next_minute:
             next_minute += 60.0
-            current = tracemalloc.get_traced_memory()[0] / 2**20 if trace else 0.0
-            per_minute.append(
-                {"minute": len(per_minute) + 1, "traced_mb": current, "rss_mb": _rss_mb()}
-            )
+            minute_ended()
     writer.close()
     seconds = time.perf_counter() - started
     if clock.now + 1.0 >= next_minute:  # the last minute ends with the last frame
-        current = tracemalloc.get_traced_memory()[0] / 2**20 if trace else 0.0
-        per_minute.append(
-            {"minute": len(per_minute) + 1, "traced_mb": current, "rss_mb": _rss_mb()}
-        )
+        minute_ended()
     peak = tracemalloc.get_traced_memory()[1] / 2**20 if trace else 0.0
     if trace:
         tracemalloc.stop()

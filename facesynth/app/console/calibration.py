@@ -12,24 +12,15 @@ that the countdown is the one the performer saw. It runs in a thread (the tracke
 from __future__ import annotations
 
 import argparse
-import datetime
 import threading
 import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from facesynth.app.calibrate_cli import LIVE_SETTLE_S, default_path, guided_schedule
-from facesynth.app.nodes import PointsNode, SensorNode
-from facesynth.app.stage_args import apply_arguments
-from facesynth.runtime.calibration import save_calibration
+from facesynth.app.calibrate_cli import calibration_inputs, default_path, save_recorded
 from facesynth.runtime.keys import check_name
-from facesynth.services.features.calibrate import (
-    PROMPTS,
-    CalibrationRecorder,
-    CalibrationStepError,
-    step_at,
-)
+from facesynth.services.features.calibrate import PROMPTS, CalibrationStepError, step_at
 
 #: Frames sent to the page per second at most (the tracker sees every frame).
 PAGE_FPS = 15.0
@@ -56,22 +47,11 @@ class CalibrationRun:
         """Record and save the calibration; ``report(kind, payload)`` is called from this
         thread with ``frame`` (a Frame), ``points`` (Points) and ``calibration`` (a dict: the
         step, its prompt, the seconds left in it)."""
-        from facesynth.app.wiring import build_backend, build_source
         from facesynth.runtime.frames import encode_frame
-        from facesynth.services.features.expressions import raw_features
         from facesynth.services.sensor.sources.base import pixels
 
-        _, backend_config = apply_arguments("points", PointsNode(), self.args)
-        _, source_config = apply_arguments("sensor", SensorNode(), self.args)
-        backend = build_backend(backend_config)
-        source = build_source(source_config, backend.frame_count())
-        if backend.needs_pixels() and source.info.name == "ticks":
-            raise CalibrationStepError("the tracker needs images: give --camera or --video")
+        backend, source, schedule, recorder = calibration_inputs(self.name, self.args)
         live = source.info.live
-        schedule = guided_schedule(self.args, live)
-        recorder = CalibrationRecorder(
-            self.name, raw_features, settle_s=0.0 if self.args.schedule else LIVE_SETTLE_S
-        )
         end_s = max(end for _, _, end in schedule)
         started = time.monotonic()
         shown = 0.0
@@ -107,8 +87,6 @@ class CalibrationRun:
                     report("calibration", {"state": "running", "name": self.name, **status})
         finally:
             source.close()
-        created = datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds")
-        calibration = recorder.build(created=created)
-        save_calibration(calibration, self.path)
+        save_recorded(recorder, self.path)
         self.frames_used = {step: used for step, (used, _) in recorder.summary().items()}
         return self.path

@@ -38,6 +38,7 @@ from facesynth.runtime.outputs import check_output
 from facesynth.runtime.profiles import load_profile, resolve_profile
 from facesynth.runtime.service import run_async, until_signalled
 from facesynth.services.control.drivers.registry import DRIVERS
+from facesynth.services.control.drivers.virtual import AddressError, parse_address
 from facesynth.services.features.calibrate import parse_schedule
 
 log = logging.getLogger("facesynth.console")
@@ -45,10 +46,10 @@ log = logging.getLogger("facesynth.console")
 
 def parse_page(text: str) -> tuple[str, int]:
     """``--page HOST:PORT`` as (host, port); ``OptionError`` when it is not one."""
-    host, sep, port = text.rpartition(":")
-    if not sep or not host or not (port.isascii() and port.isdigit()) or int(port) > 65535:
-        raise OptionError(f"--page {text!r} is not HOST:PORT (e.g. 127.0.0.1:8095)")
-    return host.strip("[]"), int(port)
+    try:
+        return parse_address(text)
+    except AddressError:
+        raise OptionError(f"--page {text!r} is not HOST:PORT (e.g. 127.0.0.1:8095)") from None
 
 
 def lock_path(rig: str) -> Path:

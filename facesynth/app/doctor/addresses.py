@@ -8,17 +8,9 @@ import socket
 from collections.abc import Sequence
 
 from facesynth.app.doctor.report import Finding
+from facesynth.services.control.drivers.virtual import AddressError, parse_address
 
 FAMILY = "address"
-
-
-def split_address(text: str) -> tuple[str, int] | None:
-    """``(host, port)`` of ``HOST:PORT`` (``[::1]:8080`` for IPv6), None when malformed."""
-    host, sep, port = text.rpartition(":")
-    host = host.strip("[]")
-    if not sep or not host or not (port.isascii() and port.isdigit()) or int(port) > 65535:
-        return None
-    return host, int(port)
 
 
 def bind_problem(host: str, port: int) -> str | None:
@@ -44,11 +36,14 @@ def address_findings(addresses: Sequence[tuple[str, str, str]]) -> list[Finding]
     """One line per ``(who, address, flag)`` the graph serves on."""
     findings = []
     for who, text, flag in addresses:
-        parsed = split_address(text)
         subject = f"{text} ({who})"
-        problem = "expected HOST:PORT" if parsed is None else bind_problem(*parsed)
+        try:
+            host, port = parse_address(text)
+        except AddressError:
+            host, port = "", -1
+        problem = "expected HOST:PORT" if port < 0 else bind_problem(host, port)
         if problem is None:
-            free = "any free port" if parsed is not None and parsed[1] == 0 else "free"
+            free = "any free port" if port == 0 else "free"
             findings.append(Finding(FAMILY, subject, free))
             continue
         findings.append(

@@ -12,7 +12,6 @@ import argparse
 import asyncio
 import contextlib
 import logging
-import time
 from collections.abc import AsyncIterator
 from typing import Any
 
@@ -52,7 +51,6 @@ async def attached(bus: Any, rig: str, args: argparse.Namespace) -> AsyncIterato
     from facesynth.app.recording.extra import need_record_extra
 
     need_record_extra()
-    from facesynth.app.recording.layout import LAYOUT_VERSION
     from facesynth.app.recording.live import Address, FoxgloveBridge
     from facesynth.app.recording.recorder import Recorder, RecordOptions
     from facesynth.app.recording.writer import SessionWriter
@@ -70,16 +68,8 @@ async def attached(bus: Any, rig: str, args: argparse.Namespace) -> AsyncIterato
             ctx = ServiceContext(bus, rig, "inspect", stats_interval=stats_interval)
             tasks.append(asyncio.create_task(run_service(ctx, bridge.serve), name="inspect"))
         if record:
-            metadata = {
-                "rig": rig,
-                "keys": ",".join(RECORDABLE),
-                "frame_every": "1",
-                "started_ns": str(time.time_ns()),
-                "layout": LAYOUT_VERSION,
-            }
-            recorder = Recorder(
-                SessionWriter(record, metadata=metadata), RecordOptions(list(RECORDABLE))
-            )
+            options = RecordOptions(list(RECORDABLE))
+            recorder = Recorder(SessionWriter(record, metadata=options.metadata(rig)), options)
             ctx = ServiceContext(bus, rig, "record", stats_interval=stats_interval)
             tasks.append(asyncio.create_task(run_service(ctx, recorder.serve), name="record"))
             await asyncio.wait_for(recorder.listening.wait(), 10.0)

@@ -36,7 +36,6 @@ def cmd_record(args: argparse.Namespace) -> int:
     if args.check:
         return _check(args)
     from facesynth.app.chain import run_single
-    from facesynth.app.recording.layout import LAYOUT_VERSION
     from facesynth.app.recording.recorder import (
         Recorder,
         RecordOptionError,
@@ -55,18 +54,11 @@ def cmd_record(args: argparse.Namespace) -> int:
         keys=parse_keys(args.keys), frame_every=args.frame_every, duration=args.duration
     )
     zenoh = _zenoh(args)
-    metadata = {
-        "rig": rig,
-        "keys": ",".join(options.keys),
-        "frame_every": str(options.frame_every),
-        "started_ns": str(time.time_ns()),
-        "layout": LAYOUT_VERSION,
-    }
     if not args.chunk_mb > 0:
         raise RecordOptionError("--chunk-mb must be positive")
     writer = SessionWriter(
         args.out,
-        metadata=metadata,
+        metadata=options.metadata(rig),
         chunk_bytes=max(1024, int(args.chunk_mb * 2**20)),
         chunk_seconds=args.chunk_seconds,
         compression=args.compression,

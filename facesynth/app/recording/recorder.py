@@ -10,10 +10,11 @@ from __future__ import annotations
 
 import asyncio
 import collections
+import time
 from dataclasses import dataclass
 
 from facesynth.app.recording import RECORDABLE
-from facesynth.app.recording.layout import Layout
+from facesynth.app.recording.layout import LAYOUT_VERSION, Layout
 from facesynth.app.recording.writer import SessionWriter, WriterThread
 from facesynth.runtime import keys
 from facesynth.runtime.bus.base import Subscription
@@ -53,6 +54,16 @@ class RecordOptions:
             raise RecordOptionError("--frame-every must be >= 0 (0 = no frames)")
         if self.duration is not None and not self.duration > 0:
             raise RecordOptionError("--duration must be positive")
+
+    def metadata(self, rig: str) -> dict[str, str]:
+        """The session's metadata record: the rig, what is recorded, when, in which layout."""
+        return {
+            "rig": rig,
+            "keys": ",".join(self.keys),
+            "frame_every": str(self.frame_every),
+            "started_ns": str(time.time_ns()),
+            "layout": LAYOUT_VERSION,
+        }
 
 
 class Recorder:

@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 from facesynth.app.cli import main
-from facesynth.app.doctor.addresses import address_findings, split_address
+from facesynth.app.doctor.addresses import address_findings
 
 
 @pytest.fixture
@@ -38,8 +38,9 @@ def test_free_taken_and_malformed_addresses(taken: socket.socket) -> None:
         ("fix", "cannot resolve 'no.such.host.invalid'"),
     ]
     assert findings[0].fix == "choose another with --http HOST:PORT (port 0 picks a free one)"
-    assert split_address("[::1]:8080") == ("::1", 8080)
-    assert split_address("host:99999") is None
+    assert [f.text for f in address_findings([("page", "host:99999", "--http")])] == [
+        "expected HOST:PORT"
+    ]
 
 
 def test_a_taken_page_address_keeps_the_face_graph_from_running(
