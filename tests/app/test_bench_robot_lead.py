@@ -9,10 +9,10 @@ from pathlib import Path
 
 import pytest
 
-from facesynth.app.bench import robot_babble
 from facesynth.app.bench.robot import HeadRun, ProfileRun, RobotBench
 from facesynth.app.bench.robot_compare import FeatureRow, summarize
 from facesynth.app.bench.robot_report import format_robot, robot_json
+from facesynth.app.learn import inprocess
 from facesynth.runtime.profiles import Profile
 from facesynth.runtime.profiles.learned import shown_inputs
 
@@ -65,14 +65,14 @@ def test_bench_robot_learns_a_generated_head_and_leads_with_what_it_babbled(
     from facesynth.app.cli import main
 
     learned: list[Profile] = []
-    original = robot_babble.learn_simhead
+    original = inprocess.learn_simhead
 
     def keep(*args: object, **kwargs: object) -> Profile:
         profile = original(*args, **kwargs)  # type: ignore[arg-type]
         learned.append(profile)
         return profile
 
-    monkeypatch.setattr(robot_babble, "learn_simhead", keep)
+    monkeypatch.setattr(inprocess, "learn_simhead", keep)
     out = tmp_path / "robot.json"
     argv = ["bench", "robot", "--frames", "72", "--head", "seed:2", "--profile", "head16"]
     assert main([*argv, "--learn-poses", "60", "--json", str(out)]) == 0

@@ -109,9 +109,8 @@ def _check_closed_loop(profiles: list[str], live: bool, learning: bool) -> None:
 
 def _check_learn(poses: int, live: bool) -> None:
     """``--learn-poses N``: simulated heads in process, enough poses, scikit-learn."""
+    from facesynth.app.learn.inprocess import MIN_POSES
     from facesynth.app.learn.models import require_sklearn
-
-    from .robot_babble import MIN_POSES
 
     if live:
         raise OptionError(
@@ -125,8 +124,9 @@ def _check_learn(poses: int, live: bool) -> None:
 
 def _learner(poses: int) -> Callable[[str], list[Profile]]:
     """A profile learned for a simulated head (by name) from ``poses`` babbled poses of it,
-    on the hardware profile that has its servos (:func:`~.robot_babble.hardware_for`)."""
-    from .robot_babble import learn_simhead
+    on the hardware profile that has its servos
+    (:func:`~facesynth.app.learn.inprocess.hardware_for`)."""
+    from facesynth.app.learn.inprocess import learn_simhead
 
     def learn(head: str) -> list[Profile]:
         return [learn_simhead(head, poses)]

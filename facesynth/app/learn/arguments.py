@@ -13,6 +13,14 @@ from facesynth.app.command_registry import Command
 from facesynth.app.common_arguments import zenoh_arguments
 from facesynth.app.stage_args import PLUGIN_FLAGS
 
+#: The adaptive plan's own options (docs/learning.md); a resume keeps the session's.
+ADAPTIVE_FLAGS = (
+    ("--region-poses", "poses that move one region of the face after the sweeps (250)"),
+    ("--batch", "least-sure poses chosen at a time (25)"),
+    ("--candidates", "random poses each batch is chosen from (400)"),
+    ("--members", "self-models in the ensemble that judges them (5)"),
+)
+
 
 def _cmd_learn(args: argparse.Namespace) -> int:
     from facesynth.app.learn.cli import cmd_learn
@@ -50,7 +58,9 @@ def _arguments(p: argparse.ArgumentParser) -> None:
     )
     group = p.add_argument_group("babbling")
     group.add_argument(
-        "--neutral-every", type=int, default=25, help="a neutral pose every K poses (25)"
+        "--neutral-every",
+        type=int,
+        help="a neutral pose every K poses (25; a resume keeps the session's)",
     )
     group.add_argument(
         "--plan",
@@ -62,8 +72,11 @@ def _arguments(p: argparse.ArgumentParser) -> None:
     group.add_argument(
         "--sweep-steps",
         type=int,
-        help="steps of each servo's sweep each way (3; 6 with --plan adaptive)",
+        help="steps of each servo's sweep each way (3; 6 with --plan adaptive; a resume keeps "
+        "the session's)",
     )
+    for flag, what in ADAPTIVE_FLAGS:
+        group.add_argument(flag, type=int, help=f"--plan adaptive: {what}")
     group.add_argument(
         "--pace",
         type=float,

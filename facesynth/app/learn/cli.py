@@ -24,6 +24,7 @@ from typing import Any
 
 import msgspec
 
+from facesynth.app.arguments import flag_dest
 from facesynth.app.chain import freeze_startup_objects
 from facesynth.app.engine.router import embedded_bus
 from facesynth.app.graph import Graph
@@ -33,6 +34,7 @@ from facesynth.app.learn.coverage import UnsweptError
 from facesynth.app.learn.dataset import BabbleSet
 from facesynth.app.learn.fit import FitOptions, fit_learned_profile, format_report
 from facesynth.app.learn.plan import BabblePlan, Plan, PlanOptions
+from facesynth.app.learn.plan_options import PlanChoice, choose
 from facesynth.app.learn.progress import Progress
 from facesynth.app.learn.session import (
     PLANS,
@@ -56,11 +58,14 @@ from facesynth.runtime.outputs import check_output
 from facesynth.runtime.profiles import Profile, load_profile, save_learned_profile
 from facesynth.runtime.service import run_async
 from facesynth.services.control.drivers.registry import DRIVERS
+from facesynth.services.sensor.sources.camera import CameraConfig
 
 log = logging.getLogger("facesynth.learn")
 
 #: The robot's own rig, apart from any performer's.
 DEFAULT_RIG = "self"
+#: Where argparse keeps ``--newest-frame``/``--no-newest-frame`` (learn's default: on).
+NEWEST_FRAME = flag_dest("--newest-frame")
 
 
 class LearnError(ValueError):
@@ -76,8 +81,8 @@ def cmd_learn(args: argparse.Namespace) -> int:
         profile = load_profile(args.profile or session.profile)
         check_profile(session, profile)
         out = _profile_out(args, Path(args.fit_only))
-        used = _plan_options(args, session.seed, session.plan)
-        print(fit_session(session, profile, out, partial=args.partial, plan=used))
+        used = choose(args, session.plan, session.seed, session.options, session.path)
+        print(fit_session(session, profile, out, partial=args.partial, plan=used.base()))
         return 0
     if not args.session:
         raise LearnError("give the session file with --out SESSION.mcap")
@@ -97,8 +102,11 @@ def cmd_learn(args: argparse.Namespace) -> int:
     profile_out = None if args.no_fit else _profile_out(args, out)
     seed = resume.seed if resume is not None else (args.seed or 0)
     kind = plan_kind(args, resume)
-    plan_options = _plan_options(args, seed, kind)
-    plan = make_plan(kind, profile, plan_options, resume)
+    choice = choose(args, kind, seed, resume.options if resume is not None else None, out)
+    plan_options = choice.base()
+    plan = make_plan(
+        kind, profile, choice.adaptive() if kind == "adaptive" else plan_options, resume
+    )
     options = BabbleOptions(
         settle=SettleOptions(
             frames=args.settle_frames,
@@ -119,7 +127,7 @@ def cmd_learn(args: argparse.Namespace) -> int:
             run_async(_preflight(configs["control"], profile))
         parts = _build_parts(args, rig, profile, configs)
         result = _babble(
-            args, rig, profile, (kind, plan), options, first, poses, seed, parts, resume
+            args, rig, profile, (choice, plan), options, first, poses, seed, parts, resume
         )
         rate = result.taken / (result.seconds / 60) if result.seconds > 0 else 0.0
         summary: dict[str, Any] = {
@@ -144,13 +152,6 @@ def cmd_learn(args: argparse.Namespace) -> int:
     return 0
 
 
-def _plan_options(args: argparse.Namespace, seed: int = 0, kind: str = PLANS[0]) -> PlanOptions:
-    steps = args.sweep_steps
-    if steps is None:
-        steps = AdaptiveOptions.sweep_steps if kind == "adaptive" else PlanOptions.sweep_steps
-    return PlanOptions(seed=seed, sweep_steps=steps, neutral_every=args.neutral_every)
-
-
 def plan_kind(args: argparse.Namespace, resume: Session | None) -> str:
     """``--plan``, checked; a resumed session keeps the plan it was babbled with."""
     kind = getattr(args, "plan", None)
@@ -169,16 +170,24 @@ def plan_kind(args: argparse.Namespace, resume: Session | None) -> str:
 def make_plan(
     kind: str,
     profile: Profile,
-    options: PlanOptions,
+    options: PlanOptions | AdaptiveOptions,
     resume: Session | None,
     inputs: tuple[str, ...] = NAMES,
 ) -> BabblePlan:
-    """The plan ``kind``; an adaptive one (which reads the faces' raw ``inputs``) resuming a
-    session is told its poses' faces first."""
+    """The plan ``kind``; an adaptive one (which reads the faces' raw ``inputs``; ``options``
+    of the fixed plan take the adaptive plan's defaults for the rest) resuming a session is
+    told its poses' faces first."""
     if kind != "adaptive":
-        return Plan(len(profile.servos), options)
-    adaptive = AdaptiveOptions(
-        seed=options.seed, sweep_steps=options.sweep_steps, neutral_every=options.neutral_every
+        shared = (options.seed, options.sweep_steps, options.neutral_every)
+        return Plan(len(profile.servos), PlanOptions(*shared, options.max_extreme_run))
+    adaptive = (
+        options
+        if isinstance(options, AdaptiveOptions)
+        else AdaptiveOptions(
+            seed=options.seed,
+            sweep_steps=options.sweep_steps,
+            neutral_every=options.neutral_every,
+        )
     )
     plan = AdaptivePlan(tuple(s.name for s in profile.servos), list(inputs), adaptive)
     if resume is not None:
@@ -288,6 +297,10 @@ def _plugin_configs(args: argparse.Namespace, out: Path) -> dict[str, msgspec.St
     ):
         raise LearnError("give the robot's camera with --camera (or --video FILE for a dry run)")
     source = sensor_flags.config(args, None)
+    if isinstance(source, CameraConfig) and not hasattr(args, NEWEST_FRAME):
+        # the face of a pose is judged from frames taken after it was reached: a frame that
+        # waited in the camera's stream must be dropped, not passed on as a new one
+        source = msgspec.structs.replace(source, newest=True)
     backend = PLUGIN_FLAGS["points"][0].config(args, {"backend": "tracker"})
     driver_base = None
     if getattr(args, "plugin_driver", "record") == "record":
@@ -325,7 +338,7 @@ def _babble(
     args: argparse.Namespace,
     rig: str,
     profile: Profile,
-    plan: tuple[str, BabblePlan],
+    plan: tuple[PlanChoice, BabblePlan],
     options: BabbleOptions,
     first: int,
     poses: int,
@@ -347,7 +360,7 @@ def _babble(
         babbler = Babbler(profile, plan[1], start=first, budget=budget, options=options)
         progress = Progress(sys.stderr, first=first, total=poses, started_s=now, until_s=until)
         shell = BabbleShell(babbler, seed=seed, progress=progress, on_neutral=lambda: None)
-        meta = metadata(rig, profile, seed, record, plan[0])
+        meta = metadata(rig, profile, seed, record, plan[0].kind, plan[0].metadata())
         meta["frame_every"] = str(args.frame_every)
         session = SessionFile(out, meta, resume)
         async with embedded_bus(listen, zenoh, rig=rig) as (bus, _):

@@ -157,16 +157,24 @@ class Babbler:
             self._reached_ns = now_ns
 
     def features(
-        self, face: bool, raw: Mapping[str, float], neutral_ready: bool, now_ns: int
+        self,
+        face: bool,
+        raw: Mapping[str, float],
+        neutral_ready: bool,
+        now_ns: int,
+        arrived_ns: int | None = None,
     ) -> None:
         """One ``…/features`` message (only once the features node runs); ``now_ns`` is when
-        its frame was taken, on the same monotonic clock."""
+        its frame was taken, on the same monotonic clock (a pose is judged from frames taken
+        after it was reached), ``arrived_ns`` when the message came (default ``now_ns``: the
+        face-lost pause runs on arrivals, so a loaded chain's latency is not a lost face)."""
         if not face:
             self._face_since_ns = None
             return
-        self._last_face_ns = now_ns
+        arrived = now_ns if arrived_ns is None else arrived_ns
+        self._last_face_ns = arrived
         if self._face_since_ns is None:
-            self._face_since_ns = now_ns
+            self._face_since_ns = arrived
         self._neutral_ready = self._neutral_ready or neutral_ready
         if self._settle is not None and self.phase == "babbling" and raw:
             self._settle.face(raw, now_ns)

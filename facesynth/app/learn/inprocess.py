@@ -3,9 +3,17 @@
 The head (:mod:`facesynth.app.simhead`) is commanded a pose, left to settle (its slew and lag
 are over well within :data:`SETTLE_NS`), rendered, tracked with the ``full`` model for a few
 frames and read by F with the head at rest as its neutral: what ``facesynth learn`` sees
-through the Maestro pty and the MJPEG camera, without the real-time pacing. Used to compare
-babbling plans and fits on the same pose budget (``python -m facesynth.app.learn.compare``)
-and by the tests of the fit on a simulated head.
+through the Maestro pty and the MJPEG camera, without the real-time pacing (:class:`SimBabbler`,
+:func:`babble`). Used to compare babbling plans and fits on the same pose budget (``python -m
+facesynth.app.learn.compare``), by ``bench robot --learn-poses`` and by the tests of the fit on
+a simulated head.
+
+:func:`babble_simhead` babbles uniform random poses of a head (a neutral every
+``neutral_every`` poses, optionally after the sweeps of ``facesynth learn``'s plan) on the
+hardware profile that has its servos (:func:`hardware_for`); :func:`learn_simhead` fits a
+learned profile on such a babbling (:func:`facesynth.app.learn.fit.fit_learned_profile`, the
+``[learn]`` extra). The learned profile's own record of what the robot moved while babbling is
+what ``bench robot`` leads with (:func:`babbled_features`).
 
 :func:`held_out_error` measures a learned profile's inverse model on poses it was not fitted
 on (a separate babbling, e.g. uniform random poses): the command error, raw and effective, as
@@ -15,15 +23,20 @@ the fit's report gives it.
 from __future__ import annotations
 
 from collections.abc import Callable, Iterable
+from typing import TYPE_CHECKING
 
+import msgspec
 import numpy as np
 
 from facesynth.app.learn.dataset import BabbleSet
 from facesynth.runtime.feature_names import NAMES
 from facesynth.runtime.frames import encode_frame
-from facesynth.runtime.profiles import Profile
-from facesynth.runtime.profiles.learned import command_range, unpack
+from facesynth.runtime.profiles import Profile, available_profiles, load_profile
+from facesynth.runtime.profiles.learned import command_range, shown_inputs, unpack
 from facesynth.runtime.profiles.learned_predict import predictor
+
+if TYPE_CHECKING:
+    from facesynth.app.simhead import HeadConfig
 
 #: The head's slew and settle lag are over well within this.
 SETTLE_NS = 1_500_000_000
@@ -136,3 +149,88 @@ def held_out_error(profile: Profile, test: BabbleSet) -> tuple[float, float]:
         profile, learned.outputs, np.clip(predicted, low, high), np.clip(wanted, low, high)
     )
     return float(raw.mean()), float(effective.mean())
+
+
+#: The fewest poses a fit is asked for (it holds 20 % out and needs 10 different poses).
+MIN_POSES = 60
+#: The hardware profile of the 16-servo heads (the bundled simhead16* and every ``seed:N``).
+HARDWARE = "head16_hardware"
+#: The name of a profile learned in process (one column per head in ``bench robot``).
+LEARNED_NAME = "learned"
+#: The sweeps a profile learned in process starts with (``facesynth learn``'s default plan):
+#: the fit finds the face's regions from them (:mod:`facesynth.app.learn.regional`).
+SWEEP_STEPS = 3
+
+
+def babble_simhead(
+    profile: Profile,
+    poses: int,
+    *,
+    head: str = "simhead16",
+    seed: int = 0,
+    neutral_every: int = 20,
+    frames: int = 2,
+    sweep_steps: int = 0,
+) -> BabbleSet:
+    """``poses`` uniform random poses (normalized units, seeded) of the simulated head
+    ``head`` (a name as :func:`~facesynth.app.simhead.load_head` takes it), each tracked for
+    ``frames`` frames (the tracker follows its last face: more frames, less hysteresis).
+    With ``sweep_steps``, the first poses are the sweeps ``facesynth learn`` starts with
+    (:class:`~facesynth.app.learn.plan.Plan`: each servo alone, that many steps each way),
+    from which the fit finds the face's regions, when they take at most half the poses
+    (fewer poses: uniform ones only, as a fit refuses sweeps cut short)."""
+    from facesynth.app.learn.plan import Plan, PlanOptions
+
+    first: list[tuple[str, np.ndarray]] = []
+    sweeps = Plan(len(profile.servos), PlanOptions(seed, max(sweep_steps, 1)))
+    if sweep_steps and 2 * sweeps.sweep_poses <= poses:
+        first = [
+            (pose.kind, np.array(pose.u)) for pose in map(sweeps.pose, range(sweeps.sweep_poses))
+        ]
+    rest = uniform_poses(len(profile.servos), poses - len(first), seed, neutral_every)
+    return babble(SimBabbler(profile, head, frames), first + rest)
+
+
+def hardware_for(head: HeadConfig) -> Profile:
+    """The hardware profile whose servos are the head's actuators (same names on the same
+    channels): head16_hardware for the 16-servo heads, head18_lids_hardware for a head with
+    lids, …; ``ValueError`` when none has them."""
+    wanted = {(a.name, a.channel) for a in head.actuators}
+    names = [HARDWARE] + [
+        name
+        for name in available_profiles(hardware=True)
+        if name.endswith("_hardware") and name != HARDWARE
+    ]
+    for name in names:
+        profile = load_profile(name)
+        if {(s.name, s.channel) for s in profile.servos} == wanted:
+            return profile
+    raise ValueError(
+        f"head {head.name}: no hardware profile has its servos (names and channels) to babble it"
+    )
+
+
+def learn_simhead(head: str, poses: int, *, seed: int = 0) -> Profile:
+    """A profile learned in process for the simulated head ``head`` (a name as
+    :func:`~facesynth.app.simhead.load_head` takes it) from ``poses`` babbled poses, on
+    :func:`hardware_for` the head, with the fit's default options, named
+    :data:`LEARNED_NAME`; ``ValueError`` (one line) when it cannot be fitted (fewer than
+    :data:`MIN_POSES` poses, no face, no hardware profile, scikit-learn missing)."""
+    from facesynth.app.learn.fit import fit_learned_profile
+    from facesynth.app.simhead import load_head
+
+    if poses < MIN_POSES:
+        raise ValueError(f"--learn-poses must be at least {MIN_POSES} (got {poses})")
+    hardware = hardware_for(load_head(head))
+    babbled = babble_simhead(hardware, poses, head=head, seed=seed, sweep_steps=SWEEP_STEPS)
+    fitted = fit_learned_profile(babbled, hardware)
+    return msgspec.structs.replace(fitted, name=LEARNED_NAME)
+
+
+def babbled_features(profile: Profile) -> frozenset[str]:
+    """What the robot moved while babbling, as a learned profile's fit recorded it: the inputs
+    it fitted whose spread the commands explain (the features T shows,
+    :func:`~facesynth.runtime.profiles.learned.shown_inputs`)."""
+    if profile.learned is None:
+        raise ValueError(f"profile {profile.name} is not learned: it has no babbling")
+    return frozenset(shown_inputs(profile.learned))

@@ -1,10 +1,11 @@
 """A babbling session file: an MCAP recording with the ``…/babble`` samples, read and resumed.
 
 A session is a facesynth recording (:mod:`facesynth.app.recording`) whose metadata says it is a
-babbling session (``learn`` and the profile, its servos, the plan and its seed), holding the
-``…/babble`` samples and, beside them, the features, servo commands and states (and a frame now
-and then) of the run. :func:`read_session` reads one back; :func:`babble_set` turns its samples
-into the :class:`~facesynth.app.learn.dataset.BabbleSet` the fitting takes.
+babbling session (``learn`` and the profile, its servos, the plan, its seed and the options
+that shape it), holding the ``…/babble`` samples and, beside them, the features, servo commands
+and states (and a frame now and then) of the run. :func:`read_session` reads one back;
+:func:`babble_set` turns its samples into the :class:`~facesynth.app.learn.dataset.BabbleSet`
+the fitting takes.
 
 MCAP files are not appended to: a resumed run writes a new file beside the old one
 (``OUT.resume``), copies every message of the old one into it first, records on, and replaces
@@ -15,12 +16,15 @@ from __future__ import annotations
 
 import logging
 import time
-from dataclasses import dataclass
+from collections.abc import Mapping
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from facesynth.app.learn.dataset import KINDS, BabbleSet
+from facesynth.app.learn.plan import PlanError
+from facesynth.app.learn.plan_options import stored
 from facesynth.app.recording.layout import LAYOUT_VERSION, Layout
 from facesynth.app.recording.reader import Recording, RecordingError
 from facesynth.app.recording.writer import SessionWriter
@@ -54,6 +58,9 @@ class Session:
     samples: list[BabbleSample]
     #: The babbling plan (one of :data:`PLANS`).
     plan: str = PLANS[0]
+    #: The options that shaped the plan (:mod:`facesynth.app.learn.plan_options`); empty for
+    #: a session written before they were kept.
+    options: dict[str, int] = field(default_factory=dict)
 
     @property
     def next_pose(self) -> int:
@@ -62,10 +69,18 @@ class Session:
 
 
 def metadata(
-    rig: str, profile: Profile, seed: int, record: list[str], plan: str = PLANS[0]
+    rig: str,
+    profile: Profile,
+    seed: int,
+    record: list[str],
+    plan: str = PLANS[0],
+    options: Mapping[str, str] | None = None,
 ) -> dict[str, str]:
-    """The session metadata of a babbling run (a recording's, plus what ``learn`` needs)."""
+    """The session metadata of a babbling run (a recording's, plus what ``learn`` needs:
+    ``options``, the fields that keep the plan's options,
+    :meth:`~facesynth.app.learn.plan_options.PlanChoice.metadata`)."""
     return {
+        **(options or {}),
         "rig": rig,
         "keys": ",".join(record),
         "frame_every": "0",
@@ -101,6 +116,10 @@ def read_session(path: str | Path) -> Session:
                 raise SessionError(f"{path}: the session's plan {plan!r} is not one of {PLANS}")
             if not servos or not profile:
                 raise SessionError(f"{path}: the session names no profile or servos")
+            try:
+                options = stored(meta, plan, path)
+            except PlanError as exc:
+                raise SessionError(str(exc)) from None
             rig = recording.rig
             wanted = [k for k in recording.bus_keys() if k.endswith("/babble")]
             samples = [
@@ -110,7 +129,7 @@ def read_session(path: str | Path) -> Session:
             ]
     except RecordingError as exc:
         raise SessionError(f"not a babbling session: {exc}") from None
-    return Session(path, rig, profile, servos, seed, samples, plan)
+    return Session(path, rig, profile, servos, seed, samples, plan, options)
 
 
 def check_profile(session: Session, profile: Profile) -> None:

@@ -175,9 +175,11 @@ class BabbleShell:
             if isinstance(message, Features):
                 # when the frame was taken, not when its features arrived (the tracker's latency
                 # must not pass off a frame from before the servos got there as a settled one)
+                now = ctx.clock.monotonic_ns()
                 age = max(0, ctx.clock.time_ns() - message.t_capture_ns)
-                taken = ctx.clock.monotonic_ns() - age
-                self.babbler.features(message.face, message.raw, message.neutral_ready, taken)
+                self.babbler.features(
+                    message.face, message.raw, message.neutral_ready, now - age, now
+                )
 
     def _publish(self, ctx: ServiceContext, sample: Sample) -> None:
         message = BabbleSample(

@@ -13,6 +13,11 @@ A camera that already sends JPEGs has them passed through (``--passthrough``, on
 the camera does not give JPEGs (a URL that is not MJPEG goes to FFmpeg; a device or back end
 that gives pixels is decoded as before). ``--width``/``--height`` on a URL ask for pixels:
 the decode path.
+
+An MJPEG URL sends every frame, whether the reader keeps up or not: ``--newest-frame``
+(:mod:`.newest`; ``facesynth learn`` turns it on for the robot's camera) reads it in a thread
+and passes on only the newest frame, stamped when it arrived, so a slow chain never takes a
+frame that waited in the socket as a new one.
 """
 
 from __future__ import annotations
@@ -32,11 +37,13 @@ from facesynth.runtime.jpeg import JpegHeaderError
 from facesynth.services.sensor.sources.base import (
     FrameSource,
     Image,
+    JpegImage,
     SourceError,
     SourceInfo,
     opencv,
 )
 from facesynth.services.sensor.sources.mjpeg import MjpegStream, NotMjpeg, part_image
+from facesynth.services.sensor.sources.newest import NewestFrame
 from facesynth.services.sensor.sources.registry import SOURCES
 
 log = logging.getLogger(__name__)
@@ -72,6 +79,15 @@ class CameraConfig(
             "(an MJPEG URL, a device's MJPG format; default on)"
         ),
     ] = True
+    newest: Annotated[
+        bool,
+        msgspec.Meta(
+            description="camera: an MJPEG URL read in a thread of its own, only its newest "
+            "frame kept, stamped when it arrived (frames not taken in time are dropped, not "
+            "queued; facesynth learn turns it on; default off)",
+            extra={"flag": "--newest-frame"},
+        ),
+    ] = False
 
 
 #: How a camera's frames reach the bus: MJPEG parts over HTTP as they are, a device's MJPG
@@ -172,6 +188,9 @@ class CameraSource(FrameSource):
         self.mode = capture_mode(target, passthrough=config.passthrough, width=width, height=height)
         self.dropped = 0
         self._stream: MjpegStream | None = None
+        self._newest: NewestFrame[JpegImage] | None = None
+        self._newest_on = config.newest
+        self._captured_ns: int | None = None
         if self.mode == "mjpeg-url":
             assert isinstance(target, str)
             try:
@@ -215,6 +234,12 @@ class CameraSource(FrameSource):
 
     def frames(self) -> Iterator[tuple[Image, int]]:
         start = time.monotonic_ns()
+        if self._stream is not None and self._newest_on:
+            self._newest = NewestFrame(self._stream.images(), name=self.info.name)
+            for arrived in self._newest:
+                self._captured_ns = arrived.wall_ns
+                yield arrived.frame, arrived.monotonic_ns - start
+            return
         if self._stream is not None:
             for jpeg in self._stream.images():
                 yield jpeg, time.monotonic_ns() - start
@@ -238,6 +263,16 @@ class CameraSource(FrameSource):
         self._capture.set(opencv().CAP_PROP_CONVERT_RGB, 1)
         self.mode = "decode"
 
+    def capture_time_ns(self) -> int | None:
+        """With ``newest``, when the frame yielded last arrived (wall clock): the sensor's
+        stamp would be when it was taken, after any wait on the chain."""
+        return self._captured_ns
+
+    @property
+    def stale_dropped(self) -> int:
+        """With ``newest``, frames dropped because a newer one arrived before they were taken."""
+        return self._newest.dropped if self._newest is not None else 0
+
     @property
     def parts_dropped(self) -> int:
         """Frames dropped because they were not JPEGs (stream parts or device buffers)."""
@@ -246,5 +281,7 @@ class CameraSource(FrameSource):
     def close(self) -> None:
         if self._stream is not None:
             self._stream.close()
+            if self._newest is not None:
+                self._newest.join(1.0)  # its read ends with the stream
         else:
             self._capture.release()

@@ -14,8 +14,10 @@ delivering frames does.
 
 from __future__ import annotations
 
+import contextlib
 import http.client
 import logging
+import socket
 import ssl
 import urllib.parse
 from collections.abc import Iterator
@@ -71,8 +73,10 @@ class MjpegStream:
         else:
             connection = http.client.HTTPConnection(parsed.hostname, parsed.port, timeout=timeout_s)
         self._connection = connection
+        self._socket: socket.socket | None = None
         try:
             connection.request("GET", path, headers={"Accept": "multipart/x-mixed-replace"})
+            self._socket = connection.sock  # getresponse() lets go of it ("Connection: close")
             response = connection.getresponse()
         except (OSError, http.client.HTTPException) as exc:
             connection.close()
@@ -127,5 +131,8 @@ class MjpegStream:
                 raise SourceError(f"{name}: the camera stopped delivering frames (stream ended)")
 
     def close(self) -> None:
-        """Close the connection."""
+        """Close the connection; a read waiting in another thread returns (stream ended)."""
+        if self._socket is not None:
+            with contextlib.suppress(OSError):
+                self._socket.shutdown(socket.SHUT_RDWR)
         self._connection.close()

@@ -141,6 +141,38 @@ def test_a_lost_face_sends_the_servos_to_neutral_and_pauses_until_it_is_back() -
     assert babbler.skipped == 0
 
 
+def test_a_slow_chain_is_no_lost_face_and_each_pose_is_judged_on_its_own_frames() -> None:
+    """Every frame reaches the babbler 1.5 s after it was taken (a loaded tracker): the face is
+    not lost meanwhile (it keeps arriving), and each pose's face is that of frames taken after
+    the servos got there, never the face of the pose before."""
+    profile = _profile()
+    babbler = Babbler(profile, Plan(16, PlanOptions(seed=3)), budget=Budget(poses=12))
+    robot = Robot(profile)
+    latency, now = 1_500 * MS, 0
+    taken: list[tuple[int, dict[str, float]]] = []  # (when, the face then), in order
+    phases: list[str] = []
+    samples: list[Sample] = []
+    while not babbler.done and now < 200_000 * MS:
+        babbler.servos(robot.positions, now)
+        taken.append((now, robot.face()))
+        if babbler.at_neutral:
+            shown = [(t, face) for t, face in taken if t <= now - latency]
+            if shown:
+                babbler.features(True, shown[-1][1], True, shown[-1][0], now)
+        step = babbler.step(now)
+        phases.append(step.phase)
+        robot.positions = dict(step.targets)
+        if step.sample is not None:
+            samples.append(step.sample)
+        now += TICK
+    assert babbler.done and "paused" not in phases
+    assert [s.pose.index for s in samples] == list(range(12))
+    neutral = profile.neutral_positions()
+    for sample in samples:
+        own = {f"f_{k}": (v - neutral[k]) / 1000 for k, v in sample.commanded.items()}
+        assert sample.face.features == pytest.approx(own)
+
+
 def test_a_pose_that_always_loses_the_face_is_skipped() -> None:
     profile = _profile()
     options = BabbleOptions(max_face_retries=1)

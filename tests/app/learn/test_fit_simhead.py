@@ -1,6 +1,6 @@
 """Fit on the simulated head: babble it in-process (command a random pose, let it settle,
 render, track with the ``full`` model, F with the head at rest as the neutral: the babbler of
-facesynth.app.bench.robot_babble) and fit."""
+facesynth.app.learn.inprocess) and fit."""
 
 from __future__ import annotations
 
@@ -8,8 +8,8 @@ import msgspec
 import numpy as np
 import pytest
 
-from facesynth.app.bench.robot_babble import babble_simhead
 from facesynth.app.learn.fit import FitOptions, fit_learned_profile
+from facesynth.app.learn.inprocess import babble_simhead
 from facesynth.runtime.profiles import load_profile
 
 

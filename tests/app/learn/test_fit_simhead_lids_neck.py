@@ -3,7 +3,7 @@ profiles (every servo, the lids and the neck included), fitted, then a performer
 the lids and her head turn the neck (T with the learned profile).
 
 The babbler is ``facesynth learn``'s view of a head without real time or a serial port
-(:func:`facesynth.app.bench.robot_babble.babble_simhead`: uniform random poses over every servo
+(:func:`facesynth.app.learn.inprocess.babble_simhead`: uniform random poses over every servo
 of the hardware profile, rendered, tracked with the ``full`` model, F with the head at rest as
 its neutral).
 """
@@ -13,8 +13,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from facesynth.app.bench.robot_babble import babble_simhead
 from facesynth.app.learn.fit import FitOptions, fit_learned_profile
+from facesynth.app.learn.inprocess import babble_simhead
 from facesynth.runtime.profiles import Profile, load_profile
 from facesynth.runtime.profiles.learned import shown_inputs
 from facesynth.services.translator.core import Translator

@@ -1,5 +1,6 @@
-"""facesynth.app.bench.robot_babble: a simulated head babbled in process on the hardware profile
-that has its servos, and the learned fit's record of what it moved."""
+"""facesynth.app.learn.inprocess, for ``bench robot --learn-poses``: a simulated head babbled in
+process on the hardware profile that has its servos, and the learned fit's record of what it
+moved."""
 
 from __future__ import annotations
 
@@ -7,7 +8,7 @@ import msgspec
 import numpy as np
 import pytest
 
-from facesynth.app.bench.robot_babble import (
+from facesynth.app.learn.inprocess import (
     babble_simhead,
     babbled_features,
     hardware_for,
