@@ -31,9 +31,15 @@ robot's observed face tells how far the real face is from what ``f`` predicted. 
   is expected to make, ``ŷ``; damped least squares through ``g``'s Jacobian
   ``J`` gives the change ``Δ* = (JᵀWJ + damping·I)⁻¹ JᵀW (x - ŷ)`` toward the target (``W``:
   each feature's weight in the plan, 0 for features the robot cannot show), bounded to
-  ``±max_correction`` per servo. The correction applied moves toward ``Δ*`` by at most
-  ``max_step`` per servo per frame, and ``u = clip(u0 + Δ, low, high)``: within the servo's
-  responsive range. Motion limits, safety rules and clamping follow in the translator as for
+  ``±max_correction`` per servo. With ``integral_gain``, the integral of the observed error
+  (each face against the target of the frame that made it, ``delay_s`` earlier:
+  :mod:`facesynth.services.translator.loop_integral`, bounded, leaking, no wind-up at a
+  servo's end) is added to it. **Lead**: the face follows the commands with a response time
+  (actuators slew, skin lags: on simhead16 the robot's face follows T's targets best 3 frames
+  late), so ``lead_s`` times the rate of the planned commands ``u0 + Δ*`` is added, and the
+  face shows each target nearer its frame. The correction applied moves toward all of it by
+  at most ``max_step`` per servo per frame, and ``u = clip(u0 + Δ, low, high)``: within the
+  servo's responsive range. Motion limits, safety rules and clamping follow in the translator as for
   the open loop, so the loop never drives outside the profile's limits or speeds.
 * **Face lost** (no observation, none with a face, or the latest older than ``max_age_s``):
   ``Δ* = 0``, so the correction returns to the open loop at ``max_step`` per frame (no jump).
@@ -51,6 +57,7 @@ from dataclasses import dataclass
 import msgspec
 import numpy as np
 
+from facesynth.services.translator.loop_integral import IntegralAction
 from facesynth.services.translator.self_model import SelfModelPlanner
 
 __all__ = ["MAX_ERROR", "ClosedLoop", "LoopOptions", "LoopState"]
@@ -66,7 +73,7 @@ class LoopOptions(msgspec.Struct, forbid_unknown_fields=True, kw_only=True):
     """How the closed loop corrects and learns (see the module's docstring); normalized
     command units (1: a servo's whole travel on one side) and standardized face units."""
 
-    max_step: float = 0.08
+    max_step: float = 0.2
     max_correction: float = 0.6
     damping: float = 10.0
     observation_gain: float = 0.0
@@ -75,6 +82,10 @@ class LoopOptions(msgspec.Struct, forbid_unknown_fields=True, kw_only=True):
     prior: float = 1.0
     slope_prior: float = 0.1
     response_s: float = 0.1
+    integral_gain: float = 0.0
+    integral_leak: float = 0.98
+    delay_s: float = 0.125
+    lead_s: float = 0.08
 
     def problems(self) -> list[str]:
         """What is wrong with these options (empty: nothing)."""
@@ -88,6 +99,10 @@ class LoopOptions(msgspec.Struct, forbid_unknown_fields=True, kw_only=True):
             "prior": (0.0, 1e6),
             "slope_prior": (-1e-12, 1e6),
             "response_s": (-1e-12, 10.0),
+            "integral_gain": (-1e-12, 1.0),
+            "integral_leak": (0.0, 1.0),
+            "delay_s": (-1e-12, 10.0),
+            "lead_s": (-1e-12, 1.0),
         }
         out = []
         for name, (low, high) in bounds.items():
@@ -160,6 +175,15 @@ class ClosedLoop:
         # (sent at, the commands' response then, the commands sent)
         self.history: deque[tuple[int, np.ndarray, np.ndarray]] = deque(maxlen=HISTORY)
         self.correction = np.zeros(n_servos)
+        self.previous: tuple[int, np.ndarray] | None = None  # (at, the last frame's u0 + Δ*)
+        self.integral = IntegralAction(
+            n_servos,
+            gain=self.options.integral_gain,
+            leak=self.options.integral_leak,
+            delay_s=self.options.delay_s,
+            bound=self.options.max_correction,
+            max_error=MAX_ERROR,
+        )
         self.face: np.ndarray | None = None  # the latest observed face (standardized)
         self.face_u: np.ndarray | None = None  # the commands that were out when it was seen
         self.face_ns: int | None = None
@@ -168,6 +192,8 @@ class ClosedLoop:
         """Forget the frames (commands sent, the latest face, the correction), keep what was
         learned."""
         self.history.clear()
+        self.integral.reset()
+        self.previous = None
         self.correction = np.zeros_like(self.correction)
         self.face = self.face_u = self.face_ns = None
 
@@ -206,6 +232,7 @@ class ClosedLoop:
         no face): paired with the commands then out, it refines the self-model."""
         if face is None or not np.isfinite(face).any():
             self.face = self.face_u = self.face_ns = None
+            self.integral.drop()
             return
         u = self.commands_at(t_ns)
         if u is None or not np.isfinite(u).all():
@@ -217,6 +244,11 @@ class ClosedLoop:
             return  # the self-model overflows here: nothing to learn from it
         self._learn(u, face - predicted)
         self.face, self.face_u, self.face_ns = face, u, t_ns
+        if self.integral.gain > 0:
+            with np.errstate(all="ignore"):
+                _, jacobian = self.model(u)
+            options = self.options
+            self.integral.update(face, t_ns, jacobian, options.damping, u, self.low, self.high)
 
     def _learn(self, u: np.ndarray, error: np.ndarray) -> None:
         """One recursive least squares step of ``error ≈ weights · [1, u]``; a step that
@@ -280,6 +312,17 @@ class ClosedLoop:
         bounded: np.ndarray = np.clip(step, -options.max_correction, options.max_correction)
         return bounded
 
+    def _lead(self, planned: np.ndarray, now_ns: int) -> np.ndarray:
+        """``lead_s`` times the rate of the commands planned (zeros on a first frame or
+        another clock), so that a face that follows them with that response time shows each
+        target on time; the planned commands of ``now_ns`` are kept for the next frame."""
+        previous, self.previous = self.previous, (now_ns, planned)
+        if self.options.lead_s <= 0 or previous is None or now_ns <= previous[0]:
+            return np.zeros_like(planned)
+        rate = (planned - previous[1]) / ((now_ns - previous[0]) / 1e9)
+        lead: np.ndarray = self.options.lead_s * rate
+        return lead
+
     def correct(
         self, u0: np.ndarray, x: np.ndarray, weights: np.ndarray | None, now_ns: int
     ) -> np.ndarray:
@@ -289,10 +332,16 @@ class ClosedLoop:
         to 0."""
         u0 = np.asarray(u0, dtype=np.float64)
         usable = np.isfinite(u0).all() and np.isfinite(x).all()
+        if usable:
+            self.integral.planned(x, weights, now_ns)
         if self.lost(now_ns) or not usable:
             target = np.zeros_like(self.correction)
+            self.integral.drop()
+            self.previous = None
         else:
-            target = self.wanted(u0, x, weights)
+            bound = self.options.max_correction
+            target = self.wanted(u0, x, weights) + self.integral.z
+            target = np.clip(target + self._lead(u0 + target, now_ns), -bound, bound)
         limit = self.options.max_step
         self.correction = self.correction + np.clip(target - self.correction, -limit, limit)
         out: np.ndarray = np.clip(u0 + self.correction, self.low, self.high)

@@ -119,6 +119,8 @@ class Translator:
             servo.seen = False
             servo.ramp = None
         self._tracking: bool | None = None
+        if self._learned is not None:
+            self._learned.reset()
         if self._learned is not None and self._learned.closed is not None:
             self._learned.closed.reset()
 
@@ -149,6 +151,8 @@ class Translator:
         for flt in self._filters.values():
             if flt is not None:
                 flt.reset()
+        if self._learned is not None:
+            self._learned.reset()
         ramp_s = self.profile.neutral_ramp_s
         for servo in self._servos:
             spec = servo.spec

@@ -22,7 +22,12 @@ Per frame, for each of the mapping's inputs ``i`` (a key of ``Features.raw``):
    .. ``command_high``, [-1, 1] when the file has none: a learned profile never drives a
    servo into travel that moves nothing, so there is no slack to take up and less wear); with
    ``plan_steps``, that guess is refined through the forward model toward the reachable face
-   nearest the target, within the same bounds (:mod:`facesynth.services.translator.self_model`). A
+   nearest the target, within the same bounds (:mod:`facesynth.services.translator.self_model`);
+   a servo a regional inverse gives from its region's features alone keeps the inverse's
+   command, the others planned around it (the whole-face self-model would turn the neck to
+   follow the gaze again). Open loop, with the file's ``retarget.lead_s``, each command is
+   then led by its rate of change against the head's lag
+   (:mod:`facesynth.services.translator.lead`), within the same bounds. A
    file's checks bound shapes and signs, not magnitudes: an output whose command is not finite
    (a model whose arithmetic overflows on extreme but finite parameters) holds its servo, as a
    missing source does.
@@ -45,9 +50,10 @@ import numpy as np
 
 from facesynth.runtime.profiles import Profile, Smoothing, has_source
 from facesynth.runtime.profiles.learned import PolyRidge, command_range, unpack
-from facesynth.runtime.profiles.learned_predict import predictor
+from facesynth.runtime.profiles.learned_predict import predictor, region_outputs
 from facesynth.services.translator.closed_loop import ClosedLoop, LoopOptions, LoopState
 from facesynth.services.translator.filters import OneEuroFilter
+from facesynth.services.translator.lead import PhaseLead
 from facesynth.services.translator.retarget import Retargeter
 from facesynth.services.translator.self_model import SelfModelPlanner
 
@@ -85,6 +91,9 @@ class LearnedTargets:
         )
         self.names = [spec.name for spec in profile.servos]
         self.outputs = list(learned.outputs)
+        #: Outputs a regional inverse gives from their region's features alone: the plan
+        #: through the whole-face self-model leaves them as the inverse gives them.
+        self.regional = region_outputs(learned.inverse, len(self.inputs), len(self.outputs))
         self.filters = [filters.get(name) for name in self.outputs]
         specs = [profile.servo(name) for name in self.outputs]
         self.neutral = np.array([s.neutral_us for s in specs])
@@ -96,6 +105,14 @@ class LearnedTargets:
         self.forward = learned.forward
         #: The closed loop through the robot's camera (None: open loop; :meth:`close_loop`).
         self.closed: ClosedLoop | None = None
+        #: The open loop's lead against the head's lag (None: not led; step 2 of the module).
+        lead_s = 0.0 if learned.retarget is None else learned.retarget.lead_s
+        self.lead = PhaseLead(lead_s) if lead_s > 0 else None
+
+    def reset(self) -> None:
+        """Forget the performance's motion (the lead's rate), as the filters are forgotten."""
+        if self.lead is not None:
+            self.lead.reset()
 
     def close_loop(
         self, options: LoopOptions | None = None, state: LoopState | None = None
@@ -170,7 +187,7 @@ class LearnedTargets:
             out: np.ndarray = np.clip(self.predict(x[None, :])[0], self.u_low, self.u_high)
         out = np.where(np.isfinite(out), out, np.nan)
         if self.planner is not None and np.isfinite(x).all() and np.isfinite(out).all():
-            out = self.planner.plan(x, out, self.plan_weights())
+            out = self.planner.plan(x, out, self.plan_weights(), self.regional)
         return out
 
     def positions(self, u: np.ndarray) -> np.ndarray:
@@ -197,6 +214,8 @@ class LearnedTargets:
             with np.errstate(all="ignore"):
                 x = (t - self.mean) / self.scale
             u = self.closed.correct(u, x, self.plan_weights(), now_ns)
+        elif self.lead is not None and t_ns is not None and np.isfinite(u).all():
+            u = np.minimum(np.maximum(self.lead(u, t_ns), self.u_low), self.u_high)
         finite = np.isfinite(u)
         if t_ns is not None:  # a servo held (no finite command) leaves its filter as it was
             u = np.array(

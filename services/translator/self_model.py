@@ -68,24 +68,40 @@ class SelfModelPlanner:
         jacobian: np.ndarray = self.coef @ d_terms[:, : self.n_servos]
         return face, jacobian
 
-    def plan(self, x: np.ndarray, u0: np.ndarray, weights: np.ndarray | None = None) -> np.ndarray:
+    def plan(
+        self,
+        x: np.ndarray,
+        u0: np.ndarray,
+        weights: np.ndarray | None = None,
+        fixed: np.ndarray | None = None,
+    ) -> np.ndarray:
         """Commands within the bounds for the standardized target face ``x``, from ``u0``;
         ``weights`` (one per face feature, >= 0; None: all 1) weigh each feature's squared
-        error (0: the feature takes no part in the plan)."""
+        error (0: the feature takes no part in the plan); ``fixed`` (one bool per servo; None:
+        none) servos stay at ``u0`` (clipped), the others planned around them."""
         u = np.clip(u0, self.low, self.high)
+        free = None if fixed is None else np.where(fixed, 0.0, 1.0)
         for _ in range(self.steps):
-            step = self._step(x, u, u0, weights)
+            step = self._step(x, u, u0, weights, free)
             if step is None:
                 break  # the self-model overflows here (extreme coefficients): keep this plan
             u = np.clip(u + step, self.low, self.high)
         return u
 
     def _step(
-        self, x: np.ndarray, u: np.ndarray, u0: np.ndarray, weights: np.ndarray | None = None
+        self,
+        x: np.ndarray,
+        u: np.ndarray,
+        u0: np.ndarray,
+        weights: np.ndarray | None = None,
+        free: np.ndarray | None = None,
     ) -> np.ndarray | None:
-        """One damped Gauss-Newton step from ``u`` (None: not computable in finite numbers)."""
+        """One damped Gauss-Newton step from ``u`` (None: not computable in finite numbers);
+        ``free``: 1 per servo the step may move, 0 per servo it leaves (None: all 1)."""
         with np.errstate(all="ignore"):
             face, jacobian = self.face(u)
+            if free is not None:  # a fixed servo's column out: its step is 0
+                jacobian = jacobian * free
             weighted = jacobian if weights is None else jacobian * weights[:, None]
             gradient = weighted.T @ (x - face) - self.prior * (u - u0)
             normal = weighted.T @ jacobian + self.eye

@@ -1,6 +1,6 @@
 """The closed loop on a simulated head in virtual time: T → C → the head → its camera image →
 the tracker → F → back to T. A learned profile is fitted here from the head's own babbling (in
-process, by facesynth.app.bench.robot_babble); the same performer segment plays
+process, by facesynth.app.learn.inprocess); the same performer segment plays
 through it with the loop open and closed, on fresh heads."""
 
 from __future__ import annotations
@@ -13,11 +13,11 @@ import numpy as np
 import pytest
 
 from facesynth.app.bench.robot import Performance, RobotLoop, robot_features, track_performer
-from facesynth.app.bench.robot_babble import babble_simhead
 from facesynth.app.bench.robot_closed import CLOSED_SUFFIX, ClosedRobotLoop, bench_closed
 from facesynth.app.bench.robot_compare import FeatureStream, compare, mark_reach, summarize
 from facesynth.app.data import sample_video
 from facesynth.app.learn.fit import FitOptions, fit_learned_profile
+from facesynth.app.learn.inprocess import babble_simhead
 from facesynth.app.simhead import SimHead, load_head
 from facesynth.runtime.clock import FAKE_EPOCH_NS
 from facesynth.runtime.profiles import Profile, load_profile, save_learned_profile

@@ -275,3 +275,70 @@ def test_the_robot_panel_shows_the_simulated_head(
     assert main([*argv, "--robot-head", "simhead16", "--bars", "none", "--max-frames", "3"]) == 0
     capsys.readouterr()
     assert _video(out)[2] == in_width + side
+
+
+def closed_loop_profile(folder: Path) -> Path:
+    """A learned profile for simhead16 written here: its first three servos follow three
+    features, the others held (and a self-model says each moves its feature alone: the head's
+    real coupling and curves differ, so its loop, closed, corrects the commands)."""
+    import msgspec
+
+    from facesynth.runtime.profiles import Learned, load_profile, save_learned_profile
+    from facesynth.runtime.profiles.learned import PolyRidge, Report, pack
+
+    hardware = load_profile("head16_hardware")
+    inputs = ["brow_raise_inner_right", "jaw_open", "lip_corner_pull_right"]
+    outputs = [spec.name for spec in hardware.servos[:3]]
+    identity = PolyRidge(
+        degree=1, powers=pack(np.eye(3)), coef=pack(np.eye(3)), intercept=pack(np.zeros(3))
+    )
+    learned = Learned(
+        inputs=inputs,
+        reach_low=pack(np.full(3, -0.05)),
+        reach_high=pack(np.full(3, 0.1)),
+        input_mean=pack(np.zeros(3)),
+        input_scale=pack(np.full(3, 0.05)),
+        outputs=outputs,
+        dead=[spec.name for spec in hardware.servos[3:]],  # held at neutral
+        inverse=identity,
+        forward=identity,
+        report=Report(model="poly_ridge", servo_error={}, candidates={}, samples=0, held_out=0),
+    )
+    profile = msgspec.structs.replace(hardware, name="loop", learned=learned)
+    return save_learned_profile(profile, folder / "loop.learned")
+
+
+def test_the_closed_loop_beside_the_open_loop(
+    short_video: Path,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """performer | the head with T's loop closed | the same head in open loop, no bars: two
+    heads, sent the same commands until the closed loop has seen its head's face, and then
+    corrected ones."""
+    from facesynth.app.simhead import SimHead
+
+    sent: dict[int, list[tuple[int, float]]] = {}
+    original = SimHead.command
+
+    def command(self: SimHead, channel: int, pulse_us: float) -> None:
+        sent.setdefault(id(self), []).append((channel, pulse_us))
+        original(self, channel, pulse_us)
+
+    monkeypatch.setattr(SimHead, "command", command)
+    profile = closed_loop_profile(tmp_path)
+    out = tmp_path / "loop.avi"
+    argv = ["render", "--video", str(short_video), "--out", str(out), "--robot-head", "simhead16"]
+    assert main([*argv, "--profile", str(profile), "--closed-loop"]) == 0
+    assert json.loads(capsys.readouterr().out)["frames"] == FRAMES
+    count, _, width, height, _ = _video(out)
+    _, _, in_width, in_height, _ = _video(short_video)
+    assert count == FRAMES and height == in_height
+    assert width == in_width + 2 * (in_height // 2 * 2)  # two square heads, no bars
+    closed, opened = (np.array(pulses) for pulses in sent.values())  # made in this order
+    assert closed.shape == opened.shape
+    channels = closed[:, 0] < 3  # the three servos the profile drives
+    apart = np.abs(closed[:, 1] - opened[:, 1])[channels]
+    assert apart[:3].max() == 0.0  # both start at the profile's neutral
+    assert apart.max() > 1.0  # then the closed loop corrects its commands (µs)

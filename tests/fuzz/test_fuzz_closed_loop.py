@@ -43,8 +43,17 @@ STATE = LoopState(
 )
 VALID = encode_loop_state(STATE, PLANNING.name, LEARNED)
 TREE = msgspec.msgpack.decode(VALID)
-#: Wide-open options: big steps, little damping (the bounds must hold by themselves).
-WILD = LoopOptions(max_step=2.0, max_correction=2.0, damping=1e-6, observation_gain=1.0)
+#: Wide-open options: big steps, little damping, the integral and the lead at their largest
+#: (the bounds must hold by themselves).
+WILD = LoopOptions(
+    max_step=2.0,
+    max_correction=2.0,
+    damping=1e-6,
+    observation_gain=1.0,
+    integral_gain=1.0,
+    integral_leak=1.0,
+    lead_s=1.0,
+)
 
 
 def _encode(tree: object) -> bytes:

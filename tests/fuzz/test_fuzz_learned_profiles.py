@@ -1,13 +1,13 @@
 """Fuzz learned profiles (``NAME.learned``, one msgpack file): the loader, and the translator's
 learned path with the inputs it reads (``Features.raw``, scaled by ``Features.named``).
 
-* Mutated, damaged and random bytes of valid files (a ridge, a k-nearest-neighbours and an MLP
-  inverse model, and one that plans through a ``poly_ridge`` self-model), parsed from bytes or
-  loaded from a file: a :class:`Profile` or a :class:`ProfileError`, nothing else. Besides the
-  generic mutations, an array of a valid file may get extreme but finite values (1e300,
-  5e-324, ...), which its checks accept: every profile the loader accepts drives a translator
-  and a control core with extreme features, every position finite and within the servo's
-  limits.
+* Mutated, damaged and random bytes of valid files (a ridge, a k-nearest-neighbours, an MLP
+  and a regional inverse model, and one that plans through a ``poly_ridge`` self-model),
+  parsed from bytes or loaded from a file: a :class:`Profile` or a :class:`ProfileError`,
+  nothing else. Besides the generic mutations, an array of a valid file may get extreme but
+  finite values (1e300, 5e-324, ...), which its checks accept: every profile the loader
+  accepts drives a translator and a control core with extreme features, every position
+  finite and within the servo's limits.
 * One valid planning profile (``plan_steps`` > 0, its forward model fitted as
   ``tests/translator/test_self_model.py`` does) through streams of arbitrary features (NaN,
   infinities, huge values, inputs missing, other keys, face lost, time going back).
@@ -41,7 +41,9 @@ from facesynth.runtime.profiles.learned import (
     KNN,
     MLP,
     Layer,
+    Part,
     PolyRidge,
+    Regional,
     Report,
     Retarget,
     pack,
@@ -104,6 +106,13 @@ RIDGE = PolyRidge(
     degree=1, powers=pack(np.eye(N_IN)), coef=pack(LINEAR), intercept=pack(np.zeros(N_OUT))
 )
 X = np.random.default_rng(0).normal(size=(12, N_IN))
+RIDGE_TWO = PolyRidge(
+    degree=2,
+    powers=pack(np.array([[1.0, 0.0], [0.0, 1.0], [1.0, 1.0]])),
+    coef=pack(np.array([[1.0, 0.2, -0.1], [0.0, 1.0, 0.3]])),
+    intercept=pack(np.zeros(2)),
+)
+KNN_ONE = KNN(k=2, weights="uniform", train_x=pack(X[:, :1]), train_y=pack(np.tanh(X[:, :1])))
 PLANNING = _learned(RIDGE, _fitted_forward(), plan_steps=4)
 VALID = [
     _learned(
@@ -129,6 +138,17 @@ VALID = [
         )
     ),
     PLANNING,
+    # a regional inverse (file version 3): one model per region, each on its own inputs
+    _learned(
+        Regional(
+            parts=[
+                Part(inputs=[0, 2], outputs=[0, 2], model=RIDGE_TWO),
+                Part(inputs=[1], outputs=[1], model=KNN_ONE),
+            ]
+        ),
+        _fitted_forward(),
+        plan_steps=2,
+    ),
     # retargeting into the robot's reach (file version 2): its noise and options fuzzed too
     msgspec.structs.replace(
         PLANNING,

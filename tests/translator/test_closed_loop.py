@@ -285,3 +285,28 @@ def test_a_state_of_other_models_is_refused() -> None:
     state = LoopState.fresh(N_FEATURES + 1, N_SERVOS, LoopOptions())
     with pytest.raises(ValueError, match="does not fit 4 features and 3 servos"):
         ClosedLoop(model, model.low, model.high, state=state)
+
+
+def test_the_lead_moves_a_ramp_earlier_by_lead_s() -> None:
+    """Commands planned along a ramp go out ``lead_s`` × their rate ahead (the face follows
+    them late); a held target has no lead; a lost face, none either."""
+    model = planner()
+    head = Head(model)
+    options = LoopOptions(lead_s=0.1, damping=1e6, max_step=2.0, max_correction=2.0)
+    rate = 0.3  # normalized units a second
+    ramp = [np.full(N_SERVOS, -0.5 + rate * i * FRAME_NS / 1e9) for i in range(20)]
+    x = np.zeros(N_FEATURES)
+    loop = ClosedLoop(model, model.low, model.high, options)
+    for index, u0 in enumerate(ramp):
+        t_ns = index * FRAME_NS
+        u = loop.correct(u0, x, None, t_ns)
+        loop.sent(u, t_ns)
+        loop.observe(head.face(u), t_ns)
+    assert np.allclose(u - ramp[-1], 0.1 * rate, atol=1e-3)
+    for index in range(20, 40):  # held
+        u = loop.correct(ramp[-1], x, None, index * FRAME_NS)
+        loop.observe(head.face(u), index * FRAME_NS)
+    assert np.allclose(u, ramp[-1], atol=1e-6)
+    blind = ClosedLoop(model, model.low, model.high, options)  # never sees a face
+    for index, u0 in enumerate(ramp):
+        assert np.array_equal(blind.correct(u0, x, None, index * FRAME_NS), u0)

@@ -3,13 +3,13 @@ servos before it resumes, so its next command never asks for a jump; and it stam
 
 from __future__ import annotations
 
-import socket
 from typing import Any
 
 import msgspec
 import pytest
 from translator_fixtures import DT, feature_servo, features_at, profile_of
 
+from facesynth.runtime.clock_host import clock_host
 from facesynth.runtime.testing import StageRun
 from facesynth.schemas.messages import ServoCommands
 from facesynth.services.translator.core import Translator
@@ -79,7 +79,7 @@ async def test_commands_are_stamped_for_the_controller_s_freshness_checks() -> N
     assert first.sender == second.sender and first.sender.startswith(run.ctx.instance + "/")
     assert (first.sender_seq, second.sender_seq) == (1, 2)
     assert second.sent_ns - first.sent_ns == 500_000_000  # the clock's wall time
-    assert first.sender_host == socket.gethostname() and first.move == "command"
+    assert first.sender_host == clock_host() and first.move == "command"
 
 
 async def test_a_translator_starts_from_where_the_controller_reports_the_servos() -> None:

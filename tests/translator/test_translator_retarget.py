@@ -130,3 +130,41 @@ def test_commands_stay_within_the_limits_and_responsive_ranges_with_retargeting_
             assert spec.min_us <= positions[spec.name] <= spec.max_us
         assert positions["right_eyebrow"] >= 1500.0 - 0.4 * 500 - 1e-6
         assert positions["left_eyebrow"] <= 1500.0 + 0.3 * 500 + 1e-6
+
+
+def _jaw_ramp(translator: Translator, frames: range) -> list[float]:
+    """``right_eyebrow`` (it follows the jaw) while her jaw opens at 0.03 a second."""
+    return [
+        translator.step(frame(i, {"jaw_open": 0.03 * i / 30, "brow_raise_inner_right": 0.0}))[
+            "right_eyebrow"
+        ]
+        for i in frames
+    ]
+
+
+def test_open_loop_commands_are_led_by_their_rate_against_the_heads_lag() -> None:
+    # the clip alone (extent 0), gain 1: u = jaw / 0.1, rising at 0.3 a second
+    led = _jaw_ramp(Translator(profile(Retarget(gain=1.0, extent=0.0, lead_s=0.1))), range(45))
+    unled = _jaw_ramp(Translator(profile(Retarget(gain=1.0, extent=0.0, lead_s=0.0))), range(45))
+    assert unled[-1] == pytest.approx(1500.0 + 500 * 0.3 * 44 / 30, abs=0.01)
+    # 0.1 s ahead: 0.03 of the servo's travel, 15 µs
+    assert led[-1] - unled[-1] == pytest.approx(15.0, abs=0.05)
+    assert led[0] == unled[0]  # the first frame has no rate yet
+
+
+def test_a_reset_or_resume_forgets_the_rate() -> None:
+    translator = Translator(profile(Retarget(gain=1.0, extent=0.0, lead_s=0.1)))
+    unled = Translator(profile(Retarget(gain=1.0, extent=0.0, lead_s=0.0)))
+    _jaw_ramp(translator, range(20))
+    translator.reset()
+    assert _jaw_ramp(translator, range(20, 21)) == _jaw_ramp(unled, range(20, 21))
+    _jaw_ramp(translator, range(21, 40))
+    _jaw_ramp(unled, range(21, 40))
+    for each in (translator, unled):  # where the servo is: within the catch-up's reach
+        each.resume({"right_eyebrow": 1500.0 + 500 * 0.3 * 40 / 30})
+    assert _jaw_ramp(translator, range(40, 41)) == _jaw_ramp(unled, range(40, 41))
+
+
+def test_a_file_without_lead_s_is_not_led() -> None:
+    learned = Translator(profile(Retarget()))._learned
+    assert learned is not None and learned.lead is None

@@ -1,12 +1,10 @@
 """``bench robot --closed-loop``: a learned profile driving a simulated head with its camera in
 the loop, in process and in virtual time, beside the same profile in open loop.
 
-:class:`ClosedRobotLoop` is :class:`~.robot.RobotLoop` (T → C → the head → its camera → the
-tracker → F) whose F output is also handed back to T (:meth:`Translator.observe`), as
-``--robot-camera`` does live: T's closed loop
-(:mod:`facesynth.services.translator.closed_loop`) corrects the next frame's commands from the
-robot's face it saw, on the robot's clock. The head's camera image of a frame is taken after
-that frame's command, so T sees each face one frame later, as a real camera would show it.
+:class:`ClosedRobotLoop` (:mod:`facesynth.app.engine.closed_robot_loop`, shared with
+``render --robot-head --closed-loop``) is :class:`~.robot.RobotLoop` whose F output is also
+handed back to T, as ``--robot-camera`` does live: T sees each face one frame later, as a real
+camera would show it.
 """
 
 from __future__ import annotations
@@ -14,13 +12,10 @@ from __future__ import annotations
 from collections.abc import Callable, Iterable, Sequence
 
 import msgspec
-import numpy as np
 
-from facesynth.app.engine.robot_loop import SETTLE_S, Head, RobotError, RobotLoop, robot_features
-from facesynth.runtime.clock import FAKE_EPOCH_NS
+from facesynth.app.engine.closed_robot_loop import ClosedRobotLoop
+from facesynth.app.engine.robot_loop import Head, RobotError, robot_features
 from facesynth.runtime.profiles import Profile
-from facesynth.schemas.messages import Features
-from facesynth.services.points.backends.base import PointsBackend
 from facesynth.services.translator.closed_loop import LoopOptions, LoopState
 
 from .robot import Performance, RobotBench, measure
@@ -30,37 +25,6 @@ __all__ = ["CLOSED_SUFFIX", "ClosedRobotLoop", "bench_closed", "run_closed"]
 
 #: How a closed-loop run of a profile is named beside its open-loop run.
 CLOSED_SUFFIX = " (closed loop)"
-
-
-class ClosedRobotLoop(RobotLoop):
-    """A :class:`~.robot.RobotLoop` whose translator sees the robot's own face."""
-
-    def __init__(
-        self,
-        profile: Profile,
-        head: Head,
-        *,
-        fps: float,
-        options: LoopOptions | None = None,
-        state: LoopState | None = None,
-        backend: PointsBackend | None = None,
-        settle_s: float = SETTLE_S,
-    ) -> None:
-        super().__init__(profile, head, fps=fps, backend=backend, settle_s=settle_s)
-        try:
-            self.loop = self.translator.close_loop(options, state)
-        except ValueError as exc:
-            raise RobotError(str(exc)) from None
-
-    def step(self, performer: Features) -> tuple[np.ndarray, Features]:
-        """Play one performer frame as :class:`~.robot.RobotLoop` does (T's command, corrected
-        by the faces seen so far → C → the head → its camera → F), then hand that face to T,
-        stamped on T's clock (the stepped chain's wall clock: the robot's clock from
-        :data:`~facesynth.runtime.clock.FAKE_EPOCH_NS`)."""
-        image, features = super().step(performer)
-        captured = FAKE_EPOCH_NS + features.t_capture_ns  # captured at the robot's now_ns
-        self.translator.observe(msgspec.structs.replace(features, t_capture_ns=captured))
-        return image, features
 
 
 def run_closed(

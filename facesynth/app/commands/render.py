@@ -33,6 +33,7 @@ def cmd_render(args: argparse.Namespace) -> int:
         bars=args.bars,
         same_size=args.same_size,
         robot_head=args.robot_head,
+        closed_loop=args.closed_loop,
     )
     print(json.dumps(summary))
     return 0
@@ -65,6 +66,12 @@ def _arguments(p: argparse.ArgumentParser) -> None:
         help="show a simulated head (a bundled name such as simhead16, or a head file) "
         "driven by the translator's profile (--profile) instead of the virtual face: "
         "performer | robot's camera | bars of what it was sent",
+    )
+    p.add_argument(
+        "--closed-loop",
+        action="store_true",
+        help="with --robot-head and a learned --profile: performer | the head with T's loop "
+        "closed through its own camera | the same head in open loop (no bars)",
     )
     add_stage_arguments(p, ["sensor", "points", "features", "translator"])
     p.add_argument("--log-level", default="WARNING", choices=("DEBUG", "INFO", "WARNING", "ERROR"))

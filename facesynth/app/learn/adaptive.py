@@ -6,9 +6,10 @@ sweeps, :class:`AdaptivePlan` spends the same poses where they teach the fit mos
 1. the neutral and **fine sweeps**: each servo alone in ``sweep_steps`` steps each way (6:
    dead bands and saturation known to a sixth of the travel, not a third);
 2. ``region_poses`` **region poses**: the sweeps seen so far give the face's regions
-   (:mod:`facesynth.app.learn.regions`); each pose moves one region's servos (uniform random,
-   the others at neutral), regions drawn in proportion to their live servos, so the fit can
-   recombine them into many training faces (:mod:`facesynth.app.learn.recombine`);
+   (:func:`~facesynth.app.learn.regions.regions_from_sweeps`, as the fit finds them); each
+   pose moves one region's servos (uniform random, the others at neutral), regions drawn in
+   proportion to their live servos, so the fit can recombine them into many training faces
+   (:mod:`facesynth.app.learn.recombine`);
 3. then, in batches of ``batch``, the **least-sure poses**: of ``candidates`` random whole-face
    poses, those on which an ensemble of self-models fitted on every pose so far disagrees
    most (:mod:`facesynth.app.learn.ensemble`). They also cover the interactions between
@@ -29,7 +30,7 @@ import numpy as np
 
 from facesynth.app.learn.ensemble import least_sure
 from facesynth.app.learn.plan import Plan, PlanError, PlanOptions, Pose, PoseSequence
-from facesynth.app.learn.regions import Regions, find_regions, sweep_effects, whole_face
+from facesynth.app.learn.regions import Regions, regions_from_sweeps, whole_face
 
 
 @dataclass(frozen=True)
@@ -123,14 +124,7 @@ class AdaptivePlan(PoseSequence):
     def _region_pose(self, index: int) -> np.ndarray:
         if self._regions is None:
             u, faces, kinds = self._data()
-            neutral = faces[kinds == "neutral"]
-            rest = np.nanmedian(neutral, axis=0) if len(neutral) else np.zeros(faces.shape[1])
-            effects = sweep_effects(faces - rest, u, kinds)
-            self._regions = (
-                whole_face(self.servos)
-                if effects is None
-                else find_regions(np.nan_to_num(effects), self.servos, self.inputs)
-            )
+            self._regions = regions_from_sweeps(faces, u, kinds, self.servos, self.inputs)
         regions = self._regions
         weights = np.array(
             [len(g) if f else 0 for g, f in zip(regions.groups, regions.features, strict=True)],

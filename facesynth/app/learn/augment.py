@@ -1,11 +1,12 @@
 """The fit's use of the face's regions: recombined training faces, where they help.
 
-:func:`face_regions` finds the regions from a session's sweeps
-(:mod:`facesynth.app.learn.regions`). :class:`Recombination` adds ``FitOptions.recombined``
-faces recombined from the region poses (:mod:`facesynth.app.learn.recombine`) to the inverse
-model's training poses when the session babbled the regions (``MIN_REGION_POSES``): a
-session whose only poses that move one region are its sweeps (the plain plan's) is fitted as
-before, on its own poses (the report says so).
+The regions come from a session's sweeps
+(:func:`facesynth.app.learn.regions.regions_from_sweeps`). :class:`Recombination` adds
+``FitOptions.recombined`` faces recombined from the region poses
+(:mod:`facesynth.app.learn.recombine`) to the inverse model's training poses when the
+session babbled the regions (``MIN_REGION_POSES``): a session whose only poses that move one
+region are its sweeps (the plain plan's) is fitted as before, on its own poses (the report
+says so).
 
 Measured (``python -m facesynth.app.learn.compare --ways adaptive``, 620 poses of the
 adaptive plan, effective held-out command error on 160 other uniform poses): 2000 faces
@@ -24,21 +25,11 @@ import numpy as np
 
 from facesynth.app.learn.models import FitOptions
 from facesynth.app.learn.recombine import babbled_units, recombine, region_pools
-from facesynth.app.learn.regions import Regions, find_regions, sweep_effects, whole_face
+from facesynth.app.learn.regions import Regions
 
 #: Recombine only from a session with at least this many region poses (a pose moving one
 #: region's servos, not a sweep): the adaptive plan's (:mod:`facesynth.app.learn.adaptive`).
 MIN_REGION_POSES = 50
-
-
-def face_regions(
-    t: np.ndarray, u: np.ndarray, kinds: np.ndarray, servos: list[str], inputs: list[str]
-) -> Regions:
-    """The face's regions from the sweeps (one region when there are none to tell)."""
-    effects = sweep_effects(t, u, kinds)
-    if effects is None or not effects.any():
-        return whole_face(tuple(servos))
-    return find_regions(effects, tuple(servos), inputs)
 
 
 @dataclass(frozen=True)

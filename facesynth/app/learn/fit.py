@@ -27,6 +27,11 @@ hardware profile it was babbled with and returns that profile with its
    poses of a seeded split by pose (a pose visited twice, e.g. the neutral, is on one side only)
    and compared by their command error on the held-out poses: the mean absolute error in µs, as
    a fraction of each servo's range (``max_us - min_us``). The best is refitted on every pose.
+   Then the **regional** inverse (``regional``, :mod:`facesynth.app.learn.regional`): each
+   servo's own model on the features its region moves (from the sweeps), kept for the servos
+   whose held-out error it keeps within ``MARGIN`` of the best candidate's, the others from
+   that candidate on the whole face; the whole is kept when its commands' faces (through a
+   self-model fitted on the training poses) stay within ``FACE_MARGIN`` of the best's.
    The face's regions and symmetric pairs, found from the sweeps, go into the report; with
    ``recombined`` > 0 and a session that babbled the regions, faces recombined from them are
    added to the training poses (never to the held-out ones: :mod:`facesynth.app.learn.augment`).
@@ -60,7 +65,7 @@ from datetime import UTC, datetime
 import msgspec
 import numpy as np
 
-from facesynth.app.learn.augment import Recombination, face_regions
+from facesynth.app.learn.augment import Recombination
 from facesynth.app.learn.coverage import UnsweptError, coverage
 from facesynth.app.learn.dataset import BabbleSet
 from facesynth.app.learn.models import (
@@ -74,12 +79,23 @@ from facesynth.app.learn.models import (
     require_sklearn,
     sklearn_predict,
 )
+from facesynth.app.learn.regional import (
+    FACE_MARGIN,
+    Faces,
+    compose,
+    fit_parts,
+    kept,
+    own_predictions,
+    regional_notes,
+    servo_inputs,
+)
+from facesynth.app.learn.regions import regions_from_sweeps
 from facesynth.app.learn.report import format_report
 from facesynth.app.learn.responsive import clip_commands, responsive_range
 from facesynth.app.learn.unexplained import unexplained
 from facesynth.runtime.feature_names import BY_NAME
 from facesynth.runtime.profiles import Learned, Profile
-from facesynth.runtime.profiles.learned import Report, Retarget, pack
+from facesynth.runtime.profiles.learned import Model, Report, Retarget, pack
 
 __all__ = [
     "CANDIDATES",
@@ -229,7 +245,8 @@ def _fit(babble: BabbleSet, profile: Profile, options: FitOptions) -> Profile:
     cover = coverage(babble, profile)
     if cover.unswept and not options.partial:
         raise UnsweptError(cover)
-    data = _choose_inputs(babble, babble.normalized(profile), options)
+    u_all = babble.normalized(profile)
+    data = _choose_inputs(babble, u_all, options)
     mean = data.t.mean(axis=0)
     scale = data.t.std(axis=0)
     scale = np.where(scale > 0, scale, 1.0)
@@ -245,7 +262,10 @@ def _fit(babble: BabbleSet, profile: Profile, options: FitOptions) -> Profile:
     raw_y = data.u[:, ~dead_mask]
     y = clip_commands(raw_y, u_low, u_high)  # commands that give the same face, as one
     train, test = _split(data.groups, options)
-    regions = face_regions(data.t, data.u, data.kinds, servos, data.inputs)
+    regions = regions_from_sweeps(
+        babble.faces, u_all, np.asarray(babble.kinds), tuple(servos), list(babble.inputs)
+    )
+    own = servo_inputs(regions, data.inputs, live) if options.regional else []
     more = Recombination(data.t, data.u, x, y, (mean, scale), (u_low, u_high), ~dead_mask)
     use, verdict = more.helps(regions, train, data.kinds, options)
     x_train, y_train = more.rows(regions, train, options) if use else (x[train], y[train])
@@ -253,27 +273,52 @@ def _fit(babble: BabbleSet, profile: Profile, options: FitOptions) -> Profile:
     raw_errors: dict[str, np.ndarray] = {}
     seconds: dict[str, float] = {}
     variants = candidate_variants(options)
+    face = Faces(poly_ridge(y[train], x[train], options)[0], x[test], u_low, u_high)
+    predictions: dict[str, np.ndarray] = {}
+
+    def judge(label: str, predicted: np.ndarray) -> None:
+        face.add(label, predicted)
+        predictions[label] = predicted
+        raw_errors[label] = command_error(profile, live, predicted, raw_y[test])
+        errors[label] = command_error(
+            profile, live, clip_commands(predicted, u_low, u_high), y[test]
+        )
+
     for label, (name, variant) in variants.items():
         begun = time.perf_counter()
         fitted, _ = fit_model(name, x_train, y_train, variant)
-        predicted = sklearn_predict(fitted, x[test])
-        raw_errors[label] = command_error(profile, live, predicted, raw_y[test])
-        predicted = clip_commands(predicted, u_low, u_high)
-        errors[label] = command_error(profile, live, predicted, y[test])
+        judge(label, sklearn_predict(fitted, x[test]))
         seconds[label] = time.perf_counter() - begun
     best = min(errors, key=lambda label: float(errors[label].mean()))
+    family, variant = variants[best]
+    keep = np.zeros(len(live), dtype=bool)
+    if any(own):  # each servo from its region's features where that does as well (regional.py)
+        begun = time.perf_counter()
+        mine = own_predictions(x_train, y_train, x[test], own, options)
+        filled = np.where(np.isnan(mine), predictions[best], mine)
+        mine_error = command_error(profile, live, clip_commands(filled, u_low, u_high), y[test])
+        keep = kept(mine_error, errors[best], own)
+        label = f"regional {best}"
+        judge(label, np.where(keep, filled, predictions[best]))
+        seconds[label] = time.perf_counter() - begun
+        if keep.any() and face.errors[label] <= face.errors[best] + FACE_MARGIN:
+            best = label
     noise = scale * unexplained(
         x, y, data.groups, lambda a, b, c: sklearn_predict(poly_ridge(a, b, options)[0], c)
     )
-    family, variant = variants[best]
     everything = np.ones(len(x), dtype=bool)
     x_all, y_all = more.rows(regions, everything, options) if use else (x, y)
-    _, inverse = fit_model(family, x_all, y_all, variant)
+    inverse: Model = (
+        fit_parts(compose(own, keep, len(data.inputs)), (family, variant), x_all, y_all, options)[1]
+        if best.startswith("regional ")
+        else fit_model(family, x_all, y_all, variant)[1]
+    )
     _, forward = poly_ridge(y, x, options)
     low = np.minimum(np.percentile(data.t, 1, axis=0), 0.0)
     high = np.maximum(np.percentile(data.t, 99, axis=0), 0.0)
     notes = data.notes + [f"{name} fitted in {seconds[name]:.1f} s" for name in seconds]
-    notes += regions.notes() + ([verdict] if verdict else [])
+    notes += regions.notes() + ([verdict] if verdict else []) + face.notes()
+    notes += regional_notes(live, own, keep, best)
     if cover.unswept:
         notes.insert(0, f"partial fit: {UnsweptError(cover)} (kept at neutral)")
     report = Report(

@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from facesynth.runtime.profiles.learned import KNN, MLP, Layer, Model, PolyRidge, pack
+from facesynth.runtime.profiles.learned_models import KNN, MLP, Base, Layer, PolyRidge, pack
 
 #: The inverse models compared, by name.
 CANDIDATES = ("poly_ridge", "knn", "mlp")
@@ -51,6 +51,9 @@ class FitOptions:
     #: (:mod:`facesynth.app.learn.augment`; 0: none), added to the inverse model's poses.
     #: Off by default: on the three simulated heads it did not lower the held-out error.
     recombined: int = 0
+    #: Also compare each candidate as a regional model (one per region of the face, each
+    #: servo from the features its region moves: :mod:`facesynth.app.learn.regional`).
+    regional: bool = True
 
 
 def require_sklearn() -> Any:
@@ -106,7 +109,7 @@ def _mlp(x: np.ndarray, y: np.ndarray, options: FitOptions) -> tuple[Any, MLP]:
     return mlp, MLP(activation="tanh", layers=layers)
 
 
-FITTERS: dict[str, Callable[[np.ndarray, np.ndarray, FitOptions], tuple[Any, Model]]] = {
+FITTERS: dict[str, Callable[[np.ndarray, np.ndarray, FitOptions], tuple[Any, Base]]] = {
     "poly_ridge": poly_ridge,
     "knn": _knn,
     "mlp": _mlp,
@@ -135,7 +138,7 @@ def candidate_variants(options: FitOptions) -> dict[str, tuple[str, FitOptions]]
     return variants
 
 
-def fit_model(name: str, x: np.ndarray, y: np.ndarray, options: FitOptions) -> tuple[Any, Model]:
+def fit_model(name: str, x: np.ndarray, y: np.ndarray, options: FitOptions) -> tuple[Any, Base]:
     """Fit candidate ``name`` on ``x`` → ``y``: (the scikit-learn model, the exported model)."""
     if name not in FITTERS:
         raise FitError(f"unknown model {name!r} (one of {', '.join(FITTERS)})")

@@ -8,7 +8,9 @@ blendshapes (``virtual_bs``) when the points backend gives them; the bars show a
 
 With ``robot_head`` (``facesynth render --robot-head simhead16 [--profile X]``), a simulated
 head driven by the translator's profile takes the virtual face's place: performer | the
-robot's camera | the bars of what C sent it (:mod:`facesynth.app.render.robot`).
+robot's camera | the bars of what C sent it (:mod:`facesynth.app.render.robot`). With
+``closed_loop`` too (``--closed-loop``, a learned profile): performer | the head with T's loop
+closed through its camera | the same head and profile in open loop, without bars.
 """
 
 from __future__ import annotations
@@ -131,6 +133,7 @@ def render_graph(
     robot_head: str | None = None,
     open_head: Callable[[str], Head] = open_simulated_head,
     setup: Setup | None = None,
+    closed_loop: bool = False,
 ) -> dict[str, Any]:
     """Render the graph's input video side by side with the virtual face (and bars), or with
     the camera of the simulated head ``robot_head`` (opened by ``open_head``).
@@ -138,6 +141,8 @@ def render_graph(
     Profiles come from ``setup`` (``run --render``: the run's settled setup, whose files were
     read at its start), else from a setup of this render's own: each file is read once."""
     setup = setup if setup is not None else Setup()
+    if closed_loop and robot_head is None:
+        raise RenderError("--closed-loop drives a simulated head: give --robot-head HEAD")
     check_render_out(out)
     sensor, source_config = video_input(graph, configs)
     points_name, points = _one(graph, "points")
@@ -160,7 +165,7 @@ def render_graph(
     # F's neutral window as in a bus run of the graph: the (first) translator profile's.
     neutral_s = setup.loaded(base.profile).neutral_seconds
     source = build_source(source_config)
-    robot = None
+    robot = second = None
     if robot_head is not None:
         if bars not in (None, "none"):
             source.close()
@@ -169,13 +174,20 @@ def render_graph(
                 "--bars takes only none"
             )
         try:
-            robot = RobotPanel(
-                robot_head,
-                setup.profile(base.profile, base.mirror),
-                fps=source.info.fps,
-                calibration=calibration,
-                open_head=open_head,
-            )
+            robot_profile = setup.profile(base.profile, base.mirror)
+            loops = (True, False) if closed_loop else (None,)
+            robot, *others = [
+                RobotPanel(
+                    robot_head,
+                    robot_profile,
+                    fps=source.info.fps,
+                    calibration=calibration,
+                    open_head=open_head,
+                    closed=closed,
+                )
+                for closed in loops
+            ]
+            second = others[0] if others else None
         except BaseException:
             source.close()
             raise
@@ -195,7 +207,8 @@ def render_graph(
         encoding=sensor.encoding,
         quality=sensor.quality,
         robot=robot,
-        robot_bars=bars != "none",
+        robot_bars=bars != "none" and not closed_loop,
+        second=second,
     )
     limit = max_frames if max_frames is not None else sensor.max_frames
     return render_video(

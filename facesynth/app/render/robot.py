@@ -5,7 +5,10 @@ performer frame's features go through T (the profile) and C onto the simulated h
 as ``facesynth bench robot`` drives it (:class:`facesynth.app.bench.robot.RobotLoop`: the
 head's neutral first, then C's speed limits on the robot's clock), and the panel is the
 head's camera image at that frame with the points the tracker finds on it; the bars then show
-the positions C sent the head.
+the positions C sent the head. With ``--closed-loop`` (a learned profile) the head is driven
+with T's loop closed through its own camera
+(:class:`~facesynth.app.engine.closed_robot_loop.ClosedRobotLoop`, as ``bench robot
+--closed-loop`` drives it), beside a second head driven by the same profile in open loop.
 """
 
 from __future__ import annotations
@@ -16,6 +19,7 @@ from collections.abc import Callable
 import cv2
 import numpy as np
 
+from facesynth.app.engine.closed_robot_loop import ClosedRobotLoop
 from facesynth.app.engine.robot_loop import Head, RobotLoop
 from facesynth.app.render.draw import draw_landmarks, draw_title, panel
 from facesynth.runtime.calibration import Calibration
@@ -47,9 +51,19 @@ class RobotPanel:
         fps: float,
         calibration: Calibration | None = None,
         open_head: Callable[[str], Head] = open_simulated_head,
+        closed: bool | None = None,
     ) -> None:
+        """``closed``: True, T's loop closed through the head's camera (a learned profile,
+        else :class:`~facesynth.app.engine.robot_loop.RobotError`); False, the same in open
+        loop, said in the title; None, the open loop with a plain title."""
         self.title = f"robot: {head} / {profile.name}"
-        self.loop = RobotLoop(profile, open_head(head), fps=fps, calibration=calibration)
+        if closed is not None:
+            self.title += ", closed loop" if closed else ", open loop"
+        self.loop: RobotLoop = (
+            ClosedRobotLoop(profile, open_head(head), fps=fps, calibration=calibration)
+            if closed
+            else RobotLoop(profile, open_head(head), fps=fps, calibration=calibration)
+        )
 
     @property
     def positions(self) -> dict[str, float]:

@@ -72,12 +72,14 @@ def check_render_out(out: str | Path) -> Path:
 @dataclass
 class Rendered:
     """What one frame gives: the performer's points, the virtual face's controls (``None``
-    with a robot), the bars' positions (``None``: no bars) and the robot's panel."""
+    with a robot), the bars' positions (``None``: no bars), the robot's panel and the second
+    robot's (``render --closed-loop``: the same head and profile in open loop)."""
 
     points: Points
     face: dict[str, float] | None
     bars: dict[str, float] | None
     robot: np.ndarray | None = None
+    second: np.ndarray | None = None
 
 
 #: The stepped chain's robots the renderer shows: the virtual face, and the bars' profile.
@@ -91,13 +93,15 @@ class RenderChain:
     backend, F, and a T and C per profile shown, :data:`FACE` and :data:`BARS`, C on media time
     as a ``--fast`` run to a virtual face or a file); or, with ``robot``, T and C onto a
     simulated head whose camera image is shown instead of the virtual face (the bars then show
-    what C sent the head, unless ``robot_bars`` is off)."""
+    what C sent the head, unless ``robot_bars`` is off); ``second``, another head shown beside
+    it (``render --closed-loop``: the robot in open loop beside the robot in closed loop)."""
 
     chain: SteppedChain
     encoding: str = "jpeg"
     quality: int = 90
     robot: RobotPanel | None = None
     robot_bars: bool = True
+    second: RobotPanel | None = None
 
     @property
     def face(self) -> RobotCores | None:
@@ -134,8 +138,12 @@ class RenderChain:
             camera, _ = self.robot.step(step.features)
             bars = self.robot.positions if self.robot_bars else None
             side = image.shape[0] // 2 * 2
+            second = None
+            if self.second is not None:
+                other, _ = self.second.step(step.features)
+                second = self.second.picture(other, image.shape[0], side)
             return Rendered(
-                step.points, None, bars, self.robot.picture(camera, image.shape[0], side)
+                step.points, None, bars, self.robot.picture(camera, image.shape[0], side), second
             )
         face = step.positions(FACE) if FACE in step.moves else None
         bars = step.positions(BARS) if BARS in step.moves else None
@@ -150,18 +158,22 @@ class Layout:
     width: int
     face_width: int
     bars_width: int
+    second_width: int = 0
 
     @classmethod
-    def beside(cls, height: int, width: int, bars: bool, robot: bool = False) -> Layout:
-        """The performer at its own size, the face (or the robot's square camera) and the bars
-        beside it, as high."""
+    def beside(
+        cls, height: int, width: int, bars: bool, robot: bool = False, second: bool = False
+    ) -> Layout:
+        """The performer at its own size, the face (or the robot's square camera), a second
+        robot's camera (``second``) and the bars beside it, as high."""
         face_width = height if robot else round(height * FACE_WIDTH / FACE_HEIGHT) // 2 * 2
         bars_width = round(height * 0.8) // 2 * 2 if bars else 0
-        return cls(height, width, face_width // 2 * 2, bars_width)
+        second_width = height // 2 * 2 if second else 0
+        return cls(height, width, face_width // 2 * 2, bars_width, second_width)
 
     @property
     def total_width(self) -> int:
-        return self.width + self.face_width + self.bars_width
+        return self.width + self.face_width + self.second_width + self.bars_width
 
 
 def compose(
@@ -170,8 +182,10 @@ def compose(
     face: dict[str, float] | np.ndarray,
     bars: tuple[str, list[BarSpec], dict[str, float]] | None,
     layout: Layout,
+    second: np.ndarray | None = None,
 ) -> np.ndarray:
-    """One output frame: ``face`` is the virtual face's controls, or the robot's panel."""
+    """One output frame: ``face`` is the virtual face's controls, or the robot's panel;
+    ``second``, a second robot's panel after it."""
     performer = image.copy()
     landmarks = None
     if points.face:
@@ -184,7 +198,7 @@ def compose(
         face_panel = panel(layout.height, layout.face_width)
         draw_shapes(face_panel, face_geometry(face))
         draw_title(face_panel, "virtual")
-    parts = [performer, face_panel]
+    parts = [performer, face_panel] + ([second] if second is not None else [])
     if bars is not None:
         bars_panel = panel(layout.height, layout.bars_width)
         draw_bars(bars_panel, *bars)
@@ -274,7 +288,13 @@ def render_video(
             rendered = chain.step(image, seq, t_media_ns, fps)
             if writer is None:
                 height, width = image.shape[:2]
-                layout = Layout.beside(height, width, bars is not None, chain.robot is not None)
+                layout = Layout.beside(
+                    height,
+                    width,
+                    bars is not None,
+                    chain.robot is not None,
+                    chain.second is not None,
+                )
                 size = (width, height) if same_size else (layout.total_width, height)
                 writer = cv2.VideoWriter(str(tmp), cv2.VideoWriter.fourcc(*codec), fps, size)
                 if not writer.isOpened():
@@ -286,7 +306,7 @@ def render_video(
                 )
             extra = (bars[0], bars[1], rendered.bars or {}) if bars is not None else None
             shown_face = rendered.robot if rendered.robot is not None else rendered.face or {}
-            picture = compose(image, rendered.points, shown_face, extra, layout)
+            picture = compose(image, rendered.points, shown_face, extra, layout, rendered.second)
             if same_size:
                 picture = _letterbox(picture, size)
             writer.write(picture)

@@ -1,12 +1,14 @@
 """The learned profile file (``NAME.learned``): one msgpack map, never pickle.
 
-``{format: "facesynth.learned_profile", version: 2, profile: <the hardware profile, as its
+``{format: "facesynth.learned_profile", version: 3, profile: <the hardware profile, as its
 TOML's fields>, inputs, reach_low, reach_high, input_mean, input_scale, outputs, dead,
 inverse, forward, plan_steps, plan_prior, command_low, command_high, noise, retarget, report}``:
 the fields of :class:`~.learned.Learned` at the top level, arrays as ``{dtype, shape, data:
 bytes}`` (``command_low`` / ``command_high`` may be absent or None: the whole travel).
 Version 2 added ``noise`` and ``retarget`` (T's retargeting into the robot's reach); a
-version 1 file (neither) still loads, and T retargets it as it did.
+version 1 file (neither) still loads, and T retargets it as it did. Version 3 added the
+``regional`` inverse model (one model per region of the face); a version 1 or 2 file, which
+cannot hold one, still loads.
 :func:`encode_learned_profile` writes it;
 :func:`~.loading.parse_learned_profile` reads and checks it (every malformed variant is a
 :class:`~.loading.ProfileError` of one line).
@@ -26,9 +28,11 @@ from .learned import Learned
 from .model import Profile
 
 FORMAT = "facesynth.learned_profile"
-VERSION = 2
-#: The versions this reads (1: before ``noise`` and ``retarget``).
-VERSIONS = (1, 2)
+VERSION = 3
+#: The versions this reads (1: before ``noise`` and ``retarget``; 2: before ``regional``).
+VERSIONS = (1, 2, 3)
+#: The first version that may hold a ``regional`` inverse model.
+REGIONAL_SINCE = 3
 SUFFIX = ".learned"
 
 

@@ -10,7 +10,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from .learned import KNN, MLP, Model, PolyRidge, unpack
+from .learned_models import KNN, MLP, Base, Model, Part, PolyRidge, Regional, unpack
 
 #: The functions of ``ACTIVATION_NAMES`` (a test keeps the two in step).
 ACTIVATIONS: dict[str, Callable[[np.ndarray], np.ndarray]] = {
@@ -99,10 +99,92 @@ def _mlp(model: MLP) -> Predict:
     return predict
 
 
+def _fused(parts: list[Part]) -> tuple[np.ndarray, Predict]:
+    """The :class:`PolyRidge` parts of a regional model as one evaluation: every part's terms
+    over the whole input (a factor index -1 is the constant 1.0), their coefficients
+    block-diagonal; (the outputs it gives, its function). One product and one matrix
+    product for all of them, not a pass per part (14 parts: 0.37 ms a frame against 0.03)."""
+    factors, blocks, intercepts, outputs = [], [], [], []
+    degree = max(poly_factors(part.model).shape[1] for part in parts)  # type: ignore[arg-type]
+    for part in parts:
+        assert isinstance(part.model, PolyRidge)
+        local = poly_factors(part.model)
+        inputs = np.append(np.array(part.inputs, dtype=np.intp), -1)  # local constant → -1
+        padded = np.full((len(local), degree), -1, dtype=np.intp)
+        padded[:, : local.shape[1]] = inputs[local]
+        factors.append(padded)
+        blocks.append(unpack(part.model.coef).T)
+        intercepts.append(unpack(part.model.intercept))
+        outputs.extend(part.outputs)
+    coef = np.zeros((sum(len(f) for f in factors), len(outputs)))
+    row = column = 0
+    for block in blocks:
+        coef[row : row + block.shape[0], column : column + block.shape[1]] = block
+        row, column = row + block.shape[0], column + block.shape[1]
+    every = np.concatenate(factors)
+    intercept = np.concatenate(intercepts)
+
+    def predict(x: np.ndarray) -> np.ndarray:
+        extended = np.concatenate([x, np.ones((x.shape[0], 1))], axis=1)
+        terms = extended[:, every]  # (n, T, degree); -1 is the constant column
+        product = terms[:, :, 0]
+        for column in range(1, degree):
+            product = product * terms[:, :, column]
+        # A term that overflows (extreme but finite parameters) meets the other blocks' zeros:
+        # every fused output is NaN then, and T holds those servos (as for any overflow).
+        with np.errstate(invalid="ignore"):
+            out: np.ndarray = product @ coef + intercept
+        return out
+
+    return np.array(outputs, dtype=np.intp), predict
+
+
+def _regional(model: Regional) -> Predict:
+    polys = [part for part in model.parts if isinstance(part.model, PolyRidge)]
+    others = [
+        (
+            np.array(part.inputs, dtype=np.intp),
+            np.array(part.outputs, dtype=np.intp),
+            _base(part.model),
+        )
+        for part in model.parts
+        if not isinstance(part.model, PolyRidge)
+    ]
+    fused = [_fused(polys)] if polys else []
+    n_out = sum(len(part.outputs) for part in model.parts)
+
+    def predict(x: np.ndarray) -> np.ndarray:
+        out = np.empty((x.shape[0], n_out))
+        for outputs, run in fused:
+            out[:, outputs] = run(x)
+        for inputs, outputs, run_part in others:
+            out[:, outputs] = run_part(x[:, inputs])
+        return out
+
+    return predict
+
+
 def predictor(model: Model) -> Predict:
     """A numpy function ``(n, inputs) -> (n, outputs)`` for a valid model."""
+    if isinstance(model, Regional):
+        return _regional(model)
+    return _base(model)
+
+
+def _base(model: Base) -> Predict:
     if isinstance(model, PolyRidge):
         return _poly_ridge(model)
     if isinstance(model, KNN):
         return _knn(model)
     return _mlp(model)
+
+
+def region_outputs(model: Model, inputs: int, outputs: int) -> np.ndarray:
+    """Per output of a valid model over ``inputs`` inputs: whether a :class:`Regional` model
+    gives it from its region's inputs alone (fewer than every input)."""
+    out = np.zeros(outputs, dtype=bool)
+    if isinstance(model, Regional):
+        for part in model.parts:
+            if len(part.inputs) < inputs:
+                out[part.outputs] = True
+    return out

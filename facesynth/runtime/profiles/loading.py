@@ -19,7 +19,16 @@ import msgspec
 from facesynth.runtime.named_files import NamedFiles
 from facesynth.runtime.oneline import one_line
 
-from .learned_file import FORMAT, SUFFIX, VERSIONS, Header, LearnedFile, split_file
+from .learned import Regional
+from .learned_file import (
+    FORMAT,
+    REGIONAL_SINCE,
+    SUFFIX,
+    VERSIONS,
+    Header,
+    LearnedFile,
+    split_file,
+)
 from .model import Profile, ServoSpec
 from .validation import validate_profile
 
@@ -198,6 +207,11 @@ def parse_learned_profile(data: bytes, source: str = "<learned profile>") -> Pro
         raise _error(source, [f"malformed learned profile: {exc}"]) from None
     if document.profile.learned is not None:
         raise _error(source, ["profile.learned: the hardware profile holds no mapping"])
+    if isinstance(document.inverse, Regional) and document.version < REGIONAL_SINCE:
+        raise _error(
+            source,
+            [f"inverse: a regional model needs version {REGIONAL_SINCE} (not {document.version})"],
+        )
     profile = split_file(document)
     problems = validate_profile(profile)
     if problems:

@@ -91,7 +91,7 @@ def test_retargeting_round_trips_and_a_version_1_file_loads_without_it(tmp_path:
         ),
     )
     path = save_learned_profile(retargeted, tmp_path / "new.learned")
-    assert msgspec.msgpack.decode(path.read_bytes())["version"] == 2
+    assert msgspec.msgpack.decode(path.read_bytes())["version"] == 3
     assert load_profile(str(path)) == retargeted
     assert "retargets 0.8 of the performer's change into the robot's reach over the 3 inputs" in (
         describe_learned(retargeted.learned)
@@ -176,7 +176,7 @@ MALFORMED = [
     ("a list", _bytes([1, 2]), "not a learned profile (Expected `object`"),
     ("wrong format", _bytes(_document(format="facesynth.calibration")), "format 'facesynth.calib"),
     ("no format", _bytes({"version": 1}), "format None"),
-    ("wrong version", _bytes(_document(version=3)), "version 3 is not supported (this reads 1, 2)"),
+    ("wrong version", _bytes(_document(version=4)), "version 4 is not supported (this reads 1, 2"),
     ("version true", _bytes(_document(version=True)), "version True is not supported"),
     ("noise shape", _bytes(_document(noise=_array([0.1, 0.1]))), "noise: shape [2] is not [3]"),
     ("noise sign", _bytes(_document(noise=_array([0.1, -0.1, 0]))), "noise: must be >= 0"),
@@ -187,6 +187,9 @@ MALFORMED = [
     ("retarget region", _bytes(_document(retarget={"region_floor": 0})), "retarget.region_floor"),
     ("retarget extent", _bytes(_document(retarget={"extent": -2.5})), "retarget.extent -2.5"),
     ("retarget show", _bytes(_document(retarget={"show_noise": -1})), "retarget.show_noise -1"),
+    ("retarget lead", _bytes(_document(retarget={"lead_s": -0.1})), "retarget.lead_s -0.1 is"),
+    ("retarget lead nan", _bytes(_document(retarget={"lead_s": float("nan")})), "lead_s nan is"),
+    ("retarget lead long", _bytes(_document(retarget={"lead_s": 2})), "lead_s 2.0 is outside"),
     ("retarget field", _bytes(_document(retarget={"boost": 2})), "unknown field `boost`"),
     ("retarget type", _bytes(_document(retarget=[0.9])), "`$.retarget`"),
     # Found by fuzzing: msgspec raises UnicodeDecodeError for a string that is not UTF-8.
