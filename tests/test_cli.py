@@ -16,6 +16,9 @@ from aiohttp import web
 
 from facesynth.app.cli import build_parser, main
 from facesynth.app.data import sample_openface_csv, sample_video
+from facesynth.app.learn.session import metadata
+from facesynth.app.recording.writer import SessionWriter
+from facesynth.runtime.profiles import load_profile
 
 COMMANDS = [
     "run",
@@ -90,7 +93,18 @@ def _files(tmp: Path) -> dict[str, Path]:
     future.write_bytes(b"\x82\xa6format\xb9facesynth.learned_profile\xa7version\x03")
     folder = tmp / "a-folder"
     folder.mkdir()
-    return {**paths, "truncated.mp4": truncated, "a-folder": folder, "future.learned": future}
+    # a babbling session of paper16 whose fixed plan swept in 3 steps a neutral every 25
+    session = tmp / "session.mcap"
+    plan = {"learn_sweep_steps": "3", "learn_neutral_every": "25"}
+    meta = metadata("self", load_profile("paper16"), 0, ["babble"], "fixed", plan)
+    SessionWriter(session, metadata=meta).close()
+    return {
+        **paths,
+        "truncated.mp4": truncated,
+        "a-folder": folder,
+        "future.learned": future,
+        "session.mcap": session,
+    }
 
 
 CASES = [
@@ -106,7 +120,7 @@ CASES = [
     ("bad track file", ["points", "--points-jsonl", "{track.jsonl}"], "68 finite"),
     ("bad track blendshapes", ["points", "--points-jsonl", "{blend.jsonl}"], "52 numbers in 0..1"),
     ("unknown tracker model", ["points", "--model", "huge"], "unknown tracker model 'huge'"),
-    ("unknown bench model", ["bench", "tracker", "--models", "fast,huge"], "unknown ['huge']"),
+    ("unknown bench model", ["bench", "tracker", "--models", "fast,huge"], "unknown huge;"),
     (
         "mediapipe without task",
         ["bench", "tracker", "--mediapipe-python", "python3", "--frames", "2"],
@@ -118,7 +132,7 @@ CASES = [
         "task file not found",
     ),
     ("bench repeat", ["bench", "tracker", "--repeat", "0", "--frames", "2"], "--repeat"),
-    ("fidelity model", ["bench", "fidelity", "--models", "slow"], "unknown ['slow']"),
+    ("fidelity model", ["bench", "fidelity", "--models", "slow"], "--models: unknown slow;"),
     (
         "blendshape profile, fast model",
         ["run", "--model", "fast", "--profile", "head16_bs", "--listen", "tcp/127.0.0.1:0"],
@@ -571,6 +585,14 @@ CASES = [
         ],
         "--plan must be one of fixed, adaptive, not 'clever'",
     ),
+    (
+        "learn resumed with another plan option",
+        [
+            *("learn", "--profile", "paper16", "--out", "{session.mcap}", "--video", "x"),
+            *("--sweep-steps", "2"),
+        ],
+        "session.mcap was babbled with --sweep-steps 3: resume it with that value",
+    ),
     ("learn without a profile", ["learn", "--out", "s.mcap"], "--profile"),
     ("learn fit a missing session", ["learn", "--fit-only", "nope.mcap"], "does not exist"),
     (
@@ -655,6 +677,19 @@ CASES = [
         "render robot bars",
         ["render", "--robot-head", "simhead16", "--bars", "paper16", "--out", "x.mp4"],
         "--bars takes only none",
+    ),
+    (
+        "render closed loop without a head",
+        ["render", "--closed-loop", "--out", "x.mp4"],
+        "--closed-loop drives a simulated head: give --robot-head HEAD",
+    ),
+    (
+        "render closed loop on a written profile",
+        [
+            *("render", "--robot-head", "simhead16", "--profile", "head16"),
+            *("--closed-loop", "--out", "x.mp4"),
+        ],
+        "profile head16 is not learned: no closed loop",
     ),
     (
         "simhead unknown head",
