@@ -16,6 +16,7 @@ from pathlib import Path
 
 import cv2
 from PIL import Image
+from readme_media import save_gif
 
 CLIP = range(290, 390, 3)  # 4 s of the 24 fps video: she laughs
 CLIP_WIDTH = 720
@@ -42,18 +43,7 @@ def frames(path: str) -> list[Image.Image]:
 
 def main(video: str) -> None:
     clip = frames(video)
-    height = round(clip[0].height * CLIP_WIDTH / clip[0].width)
-    small = [image.resize((CLIP_WIDTH, height), Image.Resampling.LANCZOS) for image in clip]
-    palette = small[len(small) // 2].quantize(colors=96, method=Image.Quantize.MEDIANCUT)
-    quantised = [image.quantize(palette=palette, dither=Image.Dither.NONE) for image in small]
-    quantised[0].save(
-        Path(__file__).parent / OUT,
-        save_all=True,
-        append_images=quantised[1:],
-        duration=125,
-        loop=0,
-        optimize=True,
-    )
+    save_gif(clip, CLIP_WIDTH, colors=96, frame_ms=125, path=Path(__file__).parent / OUT)
 
 
 if __name__ == "__main__":

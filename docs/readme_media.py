@@ -37,24 +37,29 @@ def frames(path: str) -> dict[int, Image.Image]:
     return found
 
 
+def save_gif(clip: list[Image.Image], width: int, colors: int, frame_ms: int, path: Path) -> None:
+    """Write ``clip`` as a looping GIF at ``width`` pixels, one palette (of its middle frame)."""
+    height = round(clip[0].height * width / clip[0].width)
+    small = [image.resize((width, height), Image.Resampling.LANCZOS) for image in clip]
+    palette = small[len(small) // 2].quantize(colors=colors, method=Image.Quantize.MEDIANCUT)
+    quantised = [image.quantize(palette=palette, dither=Image.Dither.NONE) for image in small]
+    quantised[0].save(
+        path,
+        save_all=True,
+        append_images=quantised[1:],
+        duration=frame_ms,
+        loop=0,
+        optimize=True,
+    )
+
+
 def main(video: str) -> None:
     out = Path(__file__).parent
     images = frames(video)
     shot = images[SHOT].quantize(colors=256, method=Image.Quantize.MEDIANCUT)
     shot.save(out / "side-by-side.png", optimize=True)
     clip = [images[i] for i in CLIP]
-    height = round(clip[0].height * CLIP_WIDTH / clip[0].width)
-    small = [image.resize((CLIP_WIDTH, height), Image.Resampling.LANCZOS) for image in clip]
-    palette = small[len(small) // 2].quantize(colors=64, method=Image.Quantize.MEDIANCUT)
-    quantised = [image.quantize(palette=palette, dither=Image.Dither.NONE) for image in small]
-    quantised[0].save(
-        out / "side-by-side.gif",
-        save_all=True,
-        append_images=quantised[1:],
-        duration=167,
-        loop=0,
-        optimize=True,
-    )
+    save_gif(clip, CLIP_WIDTH, colors=64, frame_ms=167, path=out / "side-by-side.gif")
 
 
 if __name__ == "__main__":
