@@ -90,7 +90,7 @@ def _files(tmp: Path) -> dict[str, Path]:
     truncated.write_bytes(video[: len(video) // 20])
     # a learned profile from a later facesynth (msgpack: {format: ..., version: 3})
     future = tmp / "future.learned"
-    future.write_bytes(b"\x82\xa6format\xb9facesynth.learned_profile\xa7version\x03")
+    future.write_bytes(b"\x82\xa6format\xb9facesynth.learned_profile\xa7version\x04")
     folder = tmp / "a-folder"
     folder.mkdir()
     # a babbling session of paper16 whose fixed plan swept in 3 steps a neutral every 25
@@ -613,7 +613,7 @@ CASES = [
     (
         "learned profile of a later version",
         ["translator", "--profile", "{future.learned}"],
-        "learned profile version 3 is not supported (this reads 1, 2)",
+        "learned profile version 4 is not supported (this reads 1, 2, 3)",
     ),
     ("bench robot frames", ["bench", "robot", "--frames", "0"], "--frames must be at least 1"),
     ("bench robot profile", ["bench", "robot", "--profile", "robo9"], "robo9: no profile"),
