@@ -121,8 +121,8 @@ class Translator:
         self._tracking: bool | None = None
         if self._learned is not None:
             self._learned.reset()
-        if self._learned is not None and self._learned.closed is not None:
-            self._learned.closed.reset()
+            if self._learned.closed is not None:
+                self._learned.closed.reset()
 
     def neutral(self) -> dict[str, float]:
         """Every servo at neutral."""
