@@ -4,6 +4,8 @@ optionally one-sided (slack on one side) and saturating servos."""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 
 from facesynth.app.learn.dataset import BabbleSet
@@ -97,17 +99,7 @@ def synthetic_babble(n: int = 1500, seed: int = 0, head: SyntheticHead | None = 
                 kinds[row] = "sweep"
     faces = np.concatenate([head.features(u), rng.normal(0.0, 0.02, (n, len(STILL)))], axis=1)
     faces[rng.integers(0, n, 12), rng.integers(0, len(head.moved), 12)] = np.nan  # lost values
-    neutral = np.array([s.neutral_us for s in profile.servos])
-    up = np.array([s.max_us - s.neutral_us for s in profile.servos])
-    down = np.array([s.neutral_us - s.min_us for s in profile.servos])
-    commands = neutral + np.where(u >= 0, u * up, u * down)
-    return BabbleSet(
-        servos=tuple(s.name for s in profile.servos),
-        commands=commands,
-        inputs=head.moved + STILL,
-        faces=faces,
-        kinds=tuple(kinds),
-    )
+    return babble_set(profile, u, head.moved + STILL, faces, kinds)
 
 
 def planned_babble(poses: int, seed: int = 0) -> BabbleSet:
@@ -119,13 +111,25 @@ def planned_babble(poses: int, seed: int = 0) -> BabbleSet:
     u = np.array([pose.u for pose in chosen])
     rng = np.random.default_rng(seed)
     faces = np.concatenate([head.features(u), rng.normal(0.0, 0.02, (poses, len(STILL)))], 1)
+    return babble_set(profile, u, head.moved + STILL, faces, [pose.kind for pose in chosen])
+
+
+def babble_set(
+    profile: Profile,
+    u: np.ndarray,
+    inputs: Sequence[str],
+    faces: np.ndarray,
+    kinds: Sequence[str],
+) -> BabbleSet:
+    """A session's samples: normalized commands ``u`` (n, S) of ``profile``'s servos, as the
+    pulses they stand for, with their ``faces`` over ``inputs`` and their ``kinds``."""
     neutral = np.array([s.neutral_us for s in profile.servos])
     up = np.array([s.max_us - s.neutral_us for s in profile.servos])
     down = np.array([s.neutral_us - s.min_us for s in profile.servos])
     return BabbleSet(
         servos=tuple(s.name for s in profile.servos),
         commands=neutral + np.where(u >= 0, u * up, u * down),
-        inputs=head.moved + STILL,
+        inputs=tuple(inputs),
         faces=faces,
-        kinds=tuple(pose.kind for pose in chosen),
+        kinds=tuple(kinds),
     )

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from synthetic_babble import babble_set
 
 from facesynth.app.learn.dataset import BabbleSet
 from facesynth.app.learn.fit import FitOptions, fit_learned_profile
@@ -54,16 +55,7 @@ def _babble(profile: Profile, sweeps: bool, poses: int = 400) -> BabbleSet:
     u = np.array(rows)
     span = np.array([BY_NAME[name].default_max - BY_NAME[name].default_min for name in features])
     faces = (np.tanh(0.8 * u @ weights.T) + rng.normal(0.0, 0.002, (len(u), n))) * span / 2
-    neutral = np.array([s.neutral_us for s in profile.servos])
-    up = np.array([s.max_us - s.neutral_us for s in profile.servos])
-    down = np.array([s.neutral_us - s.min_us for s in profile.servos])
-    return BabbleSet(
-        servos=tuple(s.name for s in profile.servos),
-        commands=neutral + np.where(u >= 0, u * up, u * down),
-        inputs=tuple(features),
-        faces=faces,
-        kinds=tuple(kinds),
-    )
+    return babble_set(profile, u, features, faces, kinds)
 
 
 OPTIONS = FitOptions(candidates=("poly_ridge",))

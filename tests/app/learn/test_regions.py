@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from synthetic_babble import STILL, SyntheticHead, hardware, synthetic_babble
+from synthetic_babble import STILL, SyntheticHead, babble_set, hardware, synthetic_babble
 
 from facesynth.app.learn.adaptive import AdaptiveOptions, AdaptivePlan
 from facesynth.app.learn.dataset import BabbleSet
@@ -131,16 +131,7 @@ def _planned_session(lost: bool) -> tuple[AdaptivePlan, BabbleSet]:
         faces.append(face)
         kinds.append(pose.kind)
     u = np.array(rows)
-    neutral = np.array([s.neutral_us for s in profile.servos])
-    up = np.array([s.max_us - s.neutral_us for s in profile.servos])
-    down = np.array([s.neutral_us - s.min_us for s in profile.servos])
-    babble = BabbleSet(
-        servos=servos,
-        commands=neutral + np.where(u >= 0, u * up, u * down),
-        inputs=tuple(inputs),
-        faces=np.array(faces),
-        kinds=tuple(kinds),
-    )
+    babble = babble_set(profile, u, inputs, np.array(faces), kinds)
     return plan, babble
 
 
