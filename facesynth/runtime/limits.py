@@ -86,15 +86,3 @@ def router_limit() -> int:
 def stage_limit(stage: keys.DataKey) -> int:
     """The payload limit of ``stage``'s key, in bytes."""
     return STAGE_LIMITS[stage]
-
-
-class PayloadTooLarge(ValueError):
-    """A payload over its key's limit, refused before it was decoded."""
-
-
-def check_size(size: int, limit: int, what: str) -> None:
-    """Raise :class:`PayloadTooLarge` when ``size`` bytes of ``what`` exceed ``limit``."""
-    if size > limit:
-        raise PayloadTooLarge(
-            f"a {what} of {size} bytes is over its limit of {limit} bytes: refused undecoded"
-        )

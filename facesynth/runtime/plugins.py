@@ -27,7 +27,7 @@ import tomllib
 from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Generic, TypeVar, Union
+from typing import Any, Generic, TypeVar
 
 import msgspec
 
@@ -141,11 +141,6 @@ class Registry(Generic[T]):
             raise PluginError(
                 f"unknown {self.kind} {name!r} (known: {', '.join(self.names())})"
             ) from None
-
-    def config_union(self) -> Any:
-        """The tagged union of every registered config struct (for ``msgspec.convert``)."""
-        types = tuple(plugin.config for plugin in self)
-        return Union[types] if len(types) > 1 else types[0]  # noqa: UP007 - built at run time
 
     def parse(self, data: Mapping[str, Any], where: str = "") -> msgspec.Struct:
         """A validated config from a mapping such as ``{"driver": "record", "out": "x"}``.

@@ -58,13 +58,6 @@ def qos_profile(reliability: Reliability, depth: int) -> Any:
     return QoSProfile(history=QoSHistoryPolicy.KEEP_LAST, depth=depth, reliability=policy)
 
 
-def rmw_identifier() -> str:
-    """The middleware rclpy would use here (``rmw_fastrtps_cpp``); rclpy must be installed."""
-    from rclpy.utilities import get_rmw_implementation_identifier
-
-    return str(get_rmw_implementation_identifier())
-
-
 class Ros2Node:
     """One rclpy node in a context of its own (rclpy's signal handlers off).
 

@@ -342,3 +342,53 @@ def test_the_closed_loop_beside_the_open_loop(
     apart = np.abs(closed[:, 1] - opened[:, 1])[channels]
     assert apart[:3].max() == 0.0  # both start at the profile's neutral
     assert apart.max() > 1.0  # then the closed loop corrects its commands (µs)
+
+
+@pytest.fixture
+def closes(monkeypatch: pytest.MonkeyPatch) -> list[str]:
+    """The videos a render closes, by name, as it closes them."""
+    from facesynth.services.sensor.sources.video import VideoSource
+
+    closed: list[str] = []
+    original = VideoSource.close
+
+    def close(self: VideoSource) -> None:
+        closed.append(self.info.name)
+        original(self)
+
+    monkeypatch.setattr(VideoSource, "close", close)
+    return closed
+
+
+def test_a_render_that_cannot_build_its_bars_closes_its_video(
+    short_video: Path, tmp_path: Path, closes: list[str], capsys: pytest.CaptureFixture[str]
+) -> None:
+    argv = ["render", "--video", str(short_video), "--out", str(tmp_path / "o.avi")]
+    assert main([*argv, "--bars", "no_such_profile"]) == 2
+    assert "no_such_profile" in capsys.readouterr().err
+    assert closes == [str(short_video)]
+
+
+def test_a_second_head_that_cannot_open_closes_what_was_opened(
+    short_video: Path, tmp_path: Path, closes: list[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``render --closed-loop`` opens two heads: the second failing leaves nothing open."""
+    import facesynth.app.simhead as simhead
+
+    heads: list[object] = []
+    real = simhead.SimHead
+
+    def one_head_only(*args: object) -> object:
+        if heads:
+            raise OSError("the second head is not there")
+        heads.append(real(*args))
+        return heads[-1]
+
+    monkeypatch.setattr(simhead, "SimHead", one_head_only)
+    argv = ["render", "--video", str(short_video), "--out", str(tmp_path / "o.avi")]
+    argv += ["--robot-head", "simhead16", "--profile", str(closed_loop_profile(tmp_path))]
+    with pytest.raises(OSError, match="the second head is not there"):
+        main([*argv, "--closed-loop"])
+    assert len(heads) == 1
+    assert closes == [str(short_video)]
+    assert not (tmp_path / "o.avi").exists()

@@ -12,12 +12,16 @@ answer is ``IN OUT FRAMES MEDIAN MAX``: bytes from the driver and to it, then, o
 servo bus, the frames that carried a read-back (a frame runs from one Sync Write to the next,
 as the emulator parsed them) and their bytes both ways, median and largest. (On a loaded
 machine a stalled sender's poses can arrive together: such a "frame" holds several.)
+:class:`DeviceHost` starts such a process and asks it, for ``bench drivers --emulated`` and
+``bench run`` alike.
 """
 
 from __future__ import annotations
 
+import contextlib
 import importlib
 import statistics
+import subprocess
 import sys
 from pathlib import Path
 from typing import Any
@@ -38,6 +42,51 @@ KINDS: dict[str, tuple[str, str, dict[str, Any]]] = {
     ),
     "feetech": ("fake_devices.feetech", "FakeFeetechBus", {"ids": list(range(1, 17))}),
 }
+
+
+#: An emulator's counts: bytes in, out; read-back frames, their median and largest bytes.
+Counts = tuple[int, int, int, float, int]
+
+
+class EmulatorStartError(RuntimeError):
+    """A device_host process that did not say it was ready."""
+
+
+class DeviceHost:
+    """A device_host process serving emulator ``kind`` at ``link`` (``parent`` holds
+    fake_devices), ready once built: its byte counts (:meth:`close` it)."""
+
+    def __init__(self, parent: Path, kind: str, link: Path) -> None:
+        self.proc = subprocess.Popen(
+            [sys.executable, "-m", "facesynth.app.bench.device_host", str(parent), kind, str(link)],
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            text=True,
+        )
+        assert self.proc.stdout is not None and self.proc.stdin is not None
+        line = self.proc.stdout.readline().strip()
+        if line != "ready":
+            self.close()
+            raise EmulatorStartError(f"the {kind} emulator did not start ({line!r})")
+
+    def count(self) -> Counts:
+        """The counts since the previous call (see the module)."""
+        assert self.proc.stdin is not None and self.proc.stdout is not None
+        self.proc.stdin.write("count\n")
+        self.proc.stdin.flush()
+        got, sent, frames, median, largest = self.proc.stdout.readline().split()
+        return int(got), int(sent), int(frames), float(median), int(largest)
+
+    def close(self) -> None:
+        """Close its stdin, so it exits; killed if it has not within 5 s."""
+        with contextlib.suppress(OSError):
+            assert self.proc.stdin is not None
+            self.proc.stdin.close()
+        try:
+            self.proc.wait(timeout=5)
+        except subprocess.TimeoutExpired:
+            self.proc.kill()
+            self.proc.wait()
 
 
 def make_device(parent: Path, kind: str, link: Path) -> Any:

@@ -23,7 +23,6 @@ import asyncio
 import contextlib
 import math
 import statistics
-import subprocess
 import sys
 import tempfile
 import time
@@ -32,6 +31,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from facesynth.app.bench.device_host import Counts, DeviceHost
 from facesynth.app.wiring import OptionError
 from facesynth.runtime.profiles import Profile
 from facesynth.services.control.core import CommandInfo
@@ -41,8 +41,6 @@ from facesynth.services.control.drivers.bus_servo.budget import wire_s
 #: Where the emulators live in a source checkout (the parent of ``fake_devices``).
 FAKE_DEVICES = Path(__file__).resolve().parents[3] / "tests" / "control"
 WARMUP_FRAMES = 15
-#: An emulator's counts: bytes in, out; read-back frames, their median and largest bytes.
-Counts = tuple[int, int, int, float, int]
 
 
 @dataclass(frozen=True)
@@ -140,41 +138,6 @@ def poses(profile: Profile, count: int) -> list[dict[str, float]]:
     return out
 
 
-class _Host:
-    """A device_host child: its pty link and its byte counts."""
-
-    def __init__(self, parent: Path, kind: str, link: Path) -> None:
-        self.proc = subprocess.Popen(
-            [sys.executable, "-m", "facesynth.app.bench.device_host", str(parent), kind, str(link)],
-            stdin=subprocess.PIPE,
-            stdout=subprocess.PIPE,
-            text=True,
-        )
-        assert self.proc.stdout is not None and self.proc.stdin is not None
-        line = self.proc.stdout.readline().strip()
-        if line != "ready":
-            self.close()
-            raise RuntimeError(f"the {kind} emulator did not start ({line!r})")
-
-    def count(self) -> tuple[int, int, int, float, int]:
-        """Bytes in, out; read-back frames, their median and largest bytes (device_host)."""
-        assert self.proc.stdin is not None and self.proc.stdout is not None
-        self.proc.stdin.write("count\n")
-        self.proc.stdin.flush()
-        got, sent, frames, mean, largest = self.proc.stdout.readline().split()
-        return int(got), int(sent), int(frames), float(mean), int(largest)
-
-    def close(self) -> None:
-        with contextlib.suppress(OSError):
-            assert self.proc.stdin is not None
-            self.proc.stdin.close()
-        try:
-            self.proc.wait(timeout=5)
-        except subprocess.TimeoutExpired:
-            self.proc.kill()
-            self.proc.wait()
-
-
 class _TimedBus:
     """The PCA9685 model's bus, adding the CPU (thread time) of its calls to ``spent``."""
 
@@ -223,12 +186,9 @@ def _device(
         )
         return
     link = folder / f"tty-{case.kind}"
-    host = _Host(parent, case.kind, link)
-    try:
+    with contextlib.closing(DeviceHost(parent, case.kind, link)) as host:
         driver = DRIVERS.build(DRIVERS.parse({**case.config, "port": str(link)}), profile)
         yield driver, host.count, spent
-    finally:
-        host.close()
 
 
 async def _drive(

@@ -34,6 +34,7 @@ from pathlib import Path
 import msgspec
 
 from facesynth.app.bench.budget import model_calls_ms
+from facesynth.app.bench.device_host import DeviceHost, EmulatorStartError
 from facesynth.app.bench.driver_cpu import FAKE_DEVICES
 from facesynth.app.bench.run_compare_report import (
     PlainFigures,
@@ -185,35 +186,14 @@ def maestro_on_a_pty(folder: Path) -> Iterator[Output]:
         )
         return
     link = folder / "ttyMaestro"
-    host_args = ["maestro", str(link)]
-    host = subprocess.Popen(
-        [sys.executable, "-m", "facesynth.app.bench.device_host", str(FAKE_DEVICES), *host_args],
-        stdin=subprocess.PIPE,
-        stdout=subprocess.PIPE,
-        text=True,
-    )
-    assert host.stdin is not None and host.stdout is not None
-
-    def bytes_in() -> int:
-        assert host.stdin is not None and host.stdout is not None
-        host.stdin.write("count\n")
-        host.stdin.flush()
-        return int(host.stdout.readline().split()[0])
-
     try:
-        line = host.stdout.readline().strip()
-        if line != "ready":
-            raise RunFailed(f"the Maestro emulator did not start ({line!r})")
+        host = DeviceHost(FAKE_DEVICES, "maestro", link)
+    except EmulatorStartError as exc:
+        raise RunFailed(str(exc)) from None
+    with contextlib.closing(host):
         args = ["--driver", "maestro", "--port", str(link), "--maestro-model", "mini24"]
-        yield Output(args, "--driver maestro onto an emulated Mini Maestro 24 on a pty", bytes_in)
-    finally:
-        with contextlib.suppress(OSError):
-            host.stdin.close()
-        try:
-            host.wait(timeout=5)
-        except subprocess.TimeoutExpired:
-            host.kill()
-            host.wait()
+        description = "--driver maestro onto an emulated Mini Maestro 24 on a pty"
+        yield Output(args, description, lambda: host.count()[0])
 
 
 def run_plain(options: Options) -> PlainFigures:

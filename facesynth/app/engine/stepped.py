@@ -23,11 +23,9 @@ from dataclasses import dataclass, field
 import msgspec
 import numpy as np
 
-from facesynth.app.graph import Graph
 from facesynth.app.nodes import ControlNode, TranslatorNode
-from facesynth.app.profile_choice import settle
 from facesynth.app.stages.setup import Setup
-from facesynth.app.wiring import OptionError, build_node, build_profile, build_translator
+from facesynth.app.wiring import OptionError, build_profile, build_translator
 from facesynth.runtime.calibration import Calibration
 from facesynth.runtime.clock import FAKE_EPOCH_NS
 from facesynth.runtime.frames import encode_frame, tick_frame
@@ -250,59 +248,6 @@ class SteppedChain:
         self.backend = backend
         self.processor = processor
         self.robots = {robot.name: robot for robot in robots}
-
-    @classmethod
-    def from_graph(
-        cls,
-        graph: Graph,
-        configs: dict[str, msgspec.Struct | None] | None = None,
-        *,
-        setup: Setup | None = None,
-    ) -> SteppedChain:
-        """A graph's points, features, translator and control nodes, built by
-        :func:`facesynth.app.wiring.build_node` from the chain's settled setup as ``run``
-        builds them (``setup``, else :func:`~facesynth.app.profile_choice.settle` of ``graph``
-        and ``configs``, which fills in the robots' profiles); the sensor is the caller's.
-
-        At most one points and one features node; a translator per robot (``robot``), each
-        with its robot's control node if there is one. Whether the chain's input comes faster
-        than real time (C's motion time) is the setup's: the graph's sensor says.
-        """
-        configs = configs or {}
-        setup = setup if setup is not None else settle(graph, configs)
-        stages: dict[str, object] = {}
-        for stage in ("points", "features"):
-            nodes = graph.of_stage(stage)
-            if len(nodes) > 1:
-                raise OptionError(f"a stepped chain has one {stage} node (found {len(nodes)})")
-            for name, node in nodes.items():
-                stages[stage] = build_node(
-                    name, node, graph, configs.get(name), setup=setup
-                ).service
-        controls = {node.robot: (name, node) for name, node in graph.of_stage("control").items()}
-        robots = []
-        robot_names: set[str | None] = set()
-        for name, node in graph.of_stage("translator").items():
-            if node.robot in robot_names:
-                raise OptionError(f"a stepped chain has one translator per robot ({name})")
-            robot_names.add(node.robot)
-            translator = build_node(name, node, graph, configs.get(name), setup=setup).service
-            found = controls.pop(node.robot, None)
-            if found is None:
-                default = ControlNode(profile=node.profile, mirror=node.mirror)
-                core = control_core(default, setup=setup)
-            else:
-                control_name, control = found
-                driver = configs.get(control_name) or setup.configs.get(control_name)
-                core = control_core(control, driver, setup.fast, setup)
-            robots.append(RobotCores(name, translator, core))
-        if controls:
-            raise OptionError(f"control node {next(iter(controls.values()))[0]} has no translator")
-        backend = stages.get("points")
-        processor = stages.get("features")
-        assert backend is None or isinstance(backend, PointsBackend)
-        assert processor is None or isinstance(processor, FeatureProcessor)
-        return cls(backend, processor, robots)
 
     def start(self, t_ns: int) -> dict[str, Move]:
         """Every robot's C starts at ``t_ns`` (else each starts at its first command)."""

@@ -28,7 +28,7 @@ from facesynth.app.arguments import flag_dest
 from facesynth.app.chain import freeze_startup_objects
 from facesynth.app.engine.router import embedded_bus
 from facesynth.app.graph import Graph
-from facesynth.app.learn.adaptive import AdaptiveOptions, AdaptivePlan
+from facesynth.app.learn.adaptive import AdaptivePlan
 from facesynth.app.learn.core import BabbleOptions, Babbler, Budget
 from facesynth.app.learn.coverage import UnsweptError
 from facesynth.app.learn.dataset import BabbleSet
@@ -104,9 +104,7 @@ def cmd_learn(args: argparse.Namespace) -> int:
     kind = plan_kind(args, resume)
     choice = choose(args, kind, seed, resume.options if resume is not None else None, out)
     plan_options = choice.base()
-    plan = make_plan(
-        kind, profile, choice.adaptive() if kind == "adaptive" else plan_options, resume
-    )
+    plan = make_plan(choice, profile, resume)
     options = BabbleOptions(
         settle=SettleOptions(
             frames=args.settle_frames,
@@ -168,28 +166,16 @@ def plan_kind(args: argparse.Namespace, resume: Session | None) -> str:
 
 
 def make_plan(
-    kind: str,
+    choice: PlanChoice,
     profile: Profile,
-    options: PlanOptions | AdaptiveOptions,
     resume: Session | None,
     inputs: tuple[str, ...] = NAMES,
 ) -> BabblePlan:
-    """The plan ``kind``; an adaptive one (which reads the faces' raw ``inputs``; ``options``
-    of the fixed plan take the adaptive plan's defaults for the rest) resuming a session is
-    told its poses' faces first."""
-    if kind != "adaptive":
-        shared = (options.seed, options.sweep_steps, options.neutral_every)
-        return Plan(len(profile.servos), PlanOptions(*shared, options.max_extreme_run))
-    adaptive = (
-        options
-        if isinstance(options, AdaptiveOptions)
-        else AdaptiveOptions(
-            seed=options.seed,
-            sweep_steps=options.sweep_steps,
-            neutral_every=options.neutral_every,
-        )
-    )
-    plan = AdaptivePlan(tuple(s.name for s in profile.servos), list(inputs), adaptive)
+    """The plan ``choice`` names, made with the options of its kind; an adaptive one (which
+    reads the faces' raw ``inputs``) resuming a session is told its poses' faces first."""
+    if choice.kind != "adaptive":
+        return Plan(len(profile.servos), choice.base())
+    plan = AdaptivePlan(tuple(s.name for s in profile.servos), list(inputs), choice.adaptive())
     if resume is not None:
         plan.replay({s.seq: s.features for s in resume.samples}, resume.next_pose)
         log.info("the adaptive plan was told the %d poses of %s", plan.observed, resume.path)

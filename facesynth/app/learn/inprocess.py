@@ -12,8 +12,7 @@ a simulated head.
 ``neutral_every`` poses, optionally after the sweeps of ``facesynth learn``'s plan) on the
 hardware profile that has its servos (:func:`hardware_for`); :func:`learn_simhead` fits a
 learned profile on such a babbling (:func:`facesynth.app.learn.fit.fit_learned_profile`, the
-``[learn]`` extra). The learned profile's own record of what the robot moved while babbling is
-what ``bench robot`` leads with (:func:`babbled_features`).
+``[learn]`` extra).
 
 :func:`held_out_error` measures a learned profile's inverse model on poses it was not fitted
 on (a separate babbling, e.g. uniform random poses): the command error, raw and effective, as
@@ -32,7 +31,7 @@ from facesynth.app.learn.dataset import BabbleSet
 from facesynth.runtime.feature_names import NAMES
 from facesynth.runtime.frames import encode_frame
 from facesynth.runtime.profiles import Profile, available_profiles, load_profile
-from facesynth.runtime.profiles.learned import command_range, shown_inputs, unpack
+from facesynth.runtime.profiles.learned import command_range, unpack
 from facesynth.runtime.profiles.learned_predict import predictor
 
 if TYPE_CHECKING:
@@ -225,12 +224,3 @@ def learn_simhead(head: str, poses: int, *, seed: int = 0) -> Profile:
     babbled = babble_simhead(hardware, poses, head=head, seed=seed, sweep_steps=SWEEP_STEPS)
     fitted = fit_learned_profile(babbled, hardware)
     return msgspec.structs.replace(fitted, name=LEARNED_NAME)
-
-
-def babbled_features(profile: Profile) -> frozenset[str]:
-    """What the robot moved while babbling, as a learned profile's fit recorded it: the inputs
-    it fitted whose spread the commands explain (the features T shows,
-    :func:`~facesynth.runtime.profiles.learned.shown_inputs`)."""
-    if profile.learned is None:
-        raise ValueError(f"profile {profile.name} is not learned: it has no babbling")
-    return frozenset(shown_inputs(profile.learned))

@@ -28,7 +28,6 @@ from facesynth.app.learn.plan_options import stored
 from facesynth.app.recording.layout import LAYOUT_VERSION, Layout
 from facesynth.app.recording.reader import Recording, RecordingError
 from facesynth.app.recording.writer import SessionWriter
-from facesynth.runtime import keys
 from facesynth.runtime.profiles import Profile
 from facesynth.schemas.messages import BabbleSample
 
@@ -193,8 +192,3 @@ class SessionFile:
         """Complete the file (the writer must be closed); a resumed session replaces the old."""
         if self.writing != self.path:
             self.writing.replace(self.path)
-
-
-def babble_key(rig: str) -> str:
-    """The key the babbler's samples go on."""
-    return keys.stage_key(rig, "babble")

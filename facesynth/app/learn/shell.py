@@ -46,8 +46,6 @@ log = logging.getLogger("facesynth.learn")
 #: How often the babbler steps and (re)sends its command: the control interface's watchdog
 #: needs commands well within its 0.5 s.
 RATE_HZ = 30.0
-#: Longest wait for the servos to return to neutral after Ctrl-C or the end (seconds).
-FINISH_TIMEOUT_S = 10.0
 #: After this long at neutral without a face, say that the camera sees none (seconds).
 NO_FACE_NOTICE_S = 10.0
 #: What the session records besides ``babble``.

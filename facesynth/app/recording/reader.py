@@ -152,8 +152,6 @@ class Recording:
         self.schemas: dict[int, Schema] = dict(summary.schemas)
         stats = summary.statistics
         self.counts: dict[int, int] = dict(stats.channel_message_counts) if stats else {}
-        self.start_ns = stats.message_start_time if stats else 0
-        self.end_ns = stats.message_end_time if stats else 0
         self._image_decoders: dict[int, Callable[[bytes], Any]] = {}
 
     def __enter__(self) -> Recording:

@@ -15,18 +15,17 @@ closed through its camera | the same head and profile in open loop, without bars
 
 from __future__ import annotations
 
+import contextlib
 import logging
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import msgspec
 
-from facesynth.app.engine.robot_loop import Head
 from facesynth.app.engine.stepped import RobotCores, SteppedChain
 from facesynth.app.graph import Graph, plugin_config
 from facesynth.app.nodes import ControlNode, FeaturesNode, SensorNode, TranslatorNode
-from facesynth.app.render.robot import RobotPanel, open_simulated_head
+from facesynth.app.render.robot import RobotPanel
 from facesynth.app.render.video import (
     BARS,
     FACE,
@@ -131,12 +130,11 @@ def render_graph(
     same_size: bool = False,
     progress: Progress | None = None,
     robot_head: str | None = None,
-    open_head: Callable[[str], Head] = open_simulated_head,
     setup: Setup | None = None,
     closed_loop: bool = False,
 ) -> dict[str, Any]:
     """Render the graph's input video side by side with the virtual face (and bars), or with
-    the camera of the simulated head ``robot_head`` (opened by ``open_head``).
+    the camera of the simulated head ``robot_head``.
 
     Profiles come from ``setup`` (``run --render``: the run's settled setup, whose files were
     read at its start), else from a setup of this render's own: each file is read once."""
@@ -164,52 +162,47 @@ def render_graph(
         )
     # F's neutral window as in a bus run of the graph: the (first) translator profile's.
     neutral_s = setup.loaded(base.profile).neutral_seconds
+    if robot_head is not None and bars not in (None, "none"):
+        raise RenderError(
+            "with --robot-head the bars show what the robot's profile sent it: "
+            "--bars takes only none"
+        )
     source = build_source(source_config)
-    robot = second = None
-    if robot_head is not None:
-        if bars not in (None, "none"):
-            source.close()
-            raise RenderError(
-                "with --robot-head the bars show what the robot's profile sent it: "
-                "--bars takes only none"
-            )
-        try:
+    with contextlib.ExitStack() as opened:
+        opened.callback(source.close)  # until render_video has it (it closes it then)
+        panels: list[RobotPanel] = []
+        robots = []
+        if robot_head is not None:
             robot_profile = setup.profile(base.profile, base.mirror)
-            loops = (True, False) if closed_loop else (None,)
-            robot, *others = [
-                RobotPanel(
-                    robot_head,
-                    robot_profile,
-                    fps=source.info.fps,
-                    calibration=calibration,
-                    open_head=open_head,
-                    closed=closed,
+            for closed in (True, False) if closed_loop else (None,):
+                panels.append(
+                    RobotPanel(
+                        robot_head,
+                        robot_profile,
+                        fps=source.info.fps,
+                        calibration=calibration,
+                        closed=closed,
+                    )
                 )
-                for closed in loops
-            ]
-            second = others[0] if others else None
-        except BaseException:
-            source.close()
-            raise
-    robots = []
-    if robot is None:
-        shown = [(FACE, face_name)]
-        if bars_profile and bars_profile != "none":
-            shown.append((BARS, bars_profile))
-        for name, profile in shown:  # T and C as a --fast run to a virtual face builds them
-            translator = TranslatorNode(
-                profile=profile, mirror=base.mirror, calibration=base.calibration
-            )
-            control = ControlNode(profile=profile, mirror=base.mirror, motion_time="media")
-            robots.append(RobotCores.from_nodes(name, translator, control, setup=setup))
-    chain = RenderChain(
-        SteppedChain(backend, build_processor(features, neutral_s), robots),
-        encoding=sensor.encoding,
-        quality=sensor.quality,
-        robot=robot,
-        robot_bars=bars != "none" and not closed_loop,
-        second=second,
-    )
+        else:
+            shown = [(FACE, face_name)]
+            if bars_profile and bars_profile != "none":
+                shown.append((BARS, bars_profile))
+            for name, profile in shown:  # T and C as a --fast run to a virtual face builds them
+                translator = TranslatorNode(
+                    profile=profile, mirror=base.mirror, calibration=base.calibration
+                )
+                control = ControlNode(profile=profile, mirror=base.mirror, motion_time="media")
+                robots.append(RobotCores.from_nodes(name, translator, control, setup=setup))
+        chain = RenderChain(
+            SteppedChain(backend, build_processor(features, neutral_s), robots),
+            encoding=sensor.encoding,
+            quality=sensor.quality,
+            robot=panels[0] if panels else None,
+            robot_bars=bars != "none" and not closed_loop,
+            second=panels[1] if len(panels) > 1 else None,
+        )
+        opened.pop_all()
     limit = max_frames if max_frames is not None else sensor.max_frames
     return render_video(
         source,

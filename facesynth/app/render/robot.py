@@ -14,34 +14,27 @@ with T's loop closed through its own camera
 from __future__ import annotations
 
 import contextlib
-from collections.abc import Callable
 
 import cv2
 import numpy as np
 
 from facesynth.app.engine.closed_robot_loop import ClosedRobotLoop
-from facesynth.app.engine.robot_loop import Head, RobotLoop
+from facesynth.app.engine.robot_loop import RobotLoop
 from facesynth.app.render.draw import draw_landmarks, draw_title, panel
 from facesynth.runtime.calibration import Calibration
 from facesynth.runtime.profiles import Profile
 from facesynth.schemas.messages import Features, Points
 from facesynth.services.features.core import FeatureError, ibug_points
 
-__all__ = ["RobotPanel", "open_simulated_head", "robot_image"]
+__all__ = ["RobotPanel", "robot_image"]
 
 #: Height of the darkened band under the panel's title (pixels).
 TITLE_BAND = 26
 
 
-def open_simulated_head(name_or_path: str) -> Head:
-    """A simulated head, bundled (by name) or from a head file."""
-    from facesynth.app.simhead import SimHead, load_head
-
-    return SimHead(load_head(name_or_path))
-
-
 class RobotPanel:
-    """One simulated head following the performer through one profile."""
+    """One simulated head (``head``: bundled, by name, or a head file) following the performer
+    through one profile."""
 
     def __init__(
         self,
@@ -50,7 +43,6 @@ class RobotPanel:
         *,
         fps: float,
         calibration: Calibration | None = None,
-        open_head: Callable[[str], Head] = open_simulated_head,
         closed: bool | None = None,
     ) -> None:
         """``closed``: True, T's loop closed through the head's camera (a learned profile,
@@ -59,10 +51,11 @@ class RobotPanel:
         self.title = f"robot: {head} / {profile.name}"
         if closed is not None:
             self.title += ", closed loop" if closed else ", open loop"
-        self.loop: RobotLoop = (
-            ClosedRobotLoop(profile, open_head(head), fps=fps, calibration=calibration)
-            if closed
-            else RobotLoop(profile, open_head(head), fps=fps, calibration=calibration)
+        from facesynth.app.simhead import SimHead, load_head
+
+        loop = ClosedRobotLoop if closed else RobotLoop
+        self.loop: RobotLoop = loop(
+            profile, SimHead(load_head(head)), fps=fps, calibration=calibration
         )
 
     @property

@@ -235,32 +235,6 @@ _BUILDERS: Final[dict[str, Callable[[Face], tuple[np.ndarray | None, np.ndarray 
 
 #: Every primitive effect, in a fixed order.
 EFFECTS: Final = tuple(_BUILDERS)
-#: What a positive / negative activation of each effect means (for help and error messages).
-MEANING: Final = {
-    "brow_right": "right brow up / down",
-    "brow_left": "left brow up / down",
-    "brow_inner": "inner brows up / frown (down and together)",
-    "lids_right": "right eye wide / closing",
-    "lids_left": "left eye wide / closing",
-    "gaze_right_x": "right iris toward the performer's left / right",
-    "gaze_right_y": "right iris up / down",
-    "gaze_left_x": "left iris toward the performer's left / right",
-    "gaze_left_y": "left iris up / down",
-    "cheek_right": "right cheek raised / nothing",
-    "cheek_left": "left cheek raised / nothing",
-    "upper_lip_right": "right upper lip raised / nothing",
-    "upper_lip_left": "left upper lip raised / nothing",
-    "jaw": "jaw dropped / clenched",
-    "lip_corner_right": "right lip corner pulled up and out / pulled down",
-    "lip_corner_left": "left lip corner pulled up and out / pulled down",
-    "lower_lip_right": "right half of the lower lip down / nothing",
-    "lower_lip_left": "left half of the lower lip down / nothing",
-    "lip_pucker": "mouth narrowed / stretched",
-    "blink_right": "right upper lid closed over the eye (1: shut) / eye opened wide",
-    "blink_left": "left upper lid closed over the eye (1: shut) / eye opened wide",
-    "neck_yaw": "head turned 25 degrees toward the performer's left / right",
-    "neck_pitch": "head tilted 15 degrees chin up / chin down",
-}
 
 
 def effect_shapes(face: Face) -> list[EffectShape]:

@@ -29,12 +29,13 @@ from facesynth.app.engine.stepped import (
 from facesynth.app.graph import Graph, load_graph, plugin_config
 from facesynth.app.nodes import (
     ControlNode,
-    FeaturesNode,
     PointsNode,
     SensorNode,
     TranslatorNode,
+    stage_of,
 )
-from facesynth.app.wiring import OptionError, build_source, replay_frames_of
+from facesynth.app.profile_choice import settle
+from facesynth.app.wiring import OptionError, build_node, build_source, replay_frames_of
 from facesynth.runtime.profiles import load_profile
 from facesynth.schemas.messages import Features, Frame
 from facesynth.services.control.drivers.record import RecordConfig, read_record
@@ -94,9 +95,28 @@ def _frames(graph: Graph) -> list[Frame]:
         source.close()
 
 
+def _chain(graph: Graph) -> SteppedChain:
+    """The graph's points, features and translator nodes (one of each at most) built as
+    ``run`` builds them (:func:`facesynth.app.wiring.build_node`, from the graph's settled
+    setup), the translator with the graph's control node."""
+    setup = settle(graph, {})
+    built = {
+        stage_of(node): (name, build_node(name, node, graph, None, setup=setup).service)
+        for name, node in graph.nodes.items()
+        if stage_of(node) in ("points", "features", "translator")
+    }
+    robots = []
+    if "translator" in built:
+        ((name, control),) = graph.of_stage("control").items()
+        core = control_core(control, setup.configs.get(name), setup.fast, setup)
+        robots.append(RobotCores(*built["translator"], core))
+    services = {stage: service for stage, (_, service) in built.items()}
+    return SteppedChain(services.get("points"), services.get("features"), robots)
+
+
 def _stepped(graph_file: Path) -> tuple[SteppedChain, list[Frame]]:
     graph = load_graph(str(graph_file), plugins=False)
-    return SteppedChain.from_graph(graph), _frames(graph)
+    return _chain(graph), _frames(graph)
 
 
 class _Resumes(logging.Handler):
@@ -224,7 +244,7 @@ def test_the_video_through_the_tracker_matches_too(tmp_path: Path) -> None:
     path.write_text(VIDEO_GRAPH.format(frames=frames, out=out))
     sent = _run(path, out)
     graph = load_graph(str(path), plugins=False)
-    chain = SteppedChain.from_graph(graph)
+    chain = _chain(graph)
     sensor = graph.nodes["sensor"]
     assert isinstance(sensor, SensorNode)
     source = build_source(plugin_config(sensor, "sensor"))  # type: ignore[arg-type]
@@ -267,7 +287,7 @@ def test_a_performers_calibration_is_wired_as_in_the_services(tmp_path: Path) ->
 
 
 def test_each_stage_may_be_left_out_from_the_front() -> None:
-    points_only = SteppedChain.from_graph(
+    points_only = _chain(
         Graph(
             nodes={
                 "points": PointsNode(
@@ -293,16 +313,6 @@ def test_t_and_c_of_different_profiles_are_refused() -> None:
     translator = Translator(load_profile("paper16"))
     with pytest.raises(OptionError, match="translator's profile paper16 is not the control's"):
         RobotCores("r", translator, control_core(ControlNode(profile="head16")))
-
-
-def test_a_control_node_without_a_translator_is_refused() -> None:
-    control = ControlNode(profile="paper16", driver={"driver": "record", "out": "x.jsonl"})
-    graph = Graph(nodes={"features": FeaturesNode(), "control": control})
-    with pytest.raises(OptionError, match="control node control has no translator"):
-        SteppedChain.from_graph(graph)
-    two = {name: TranslatorNode(profile="paper16") for name in ("t1", "t2")}
-    with pytest.raises(OptionError, match=r"one translator per robot \(t2\)"):
-        SteppedChain.from_graph(Graph(nodes=dict(two)))
 
 
 def test_c_measures_motion_as_its_service_would() -> None:

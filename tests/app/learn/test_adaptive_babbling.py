@@ -17,7 +17,8 @@ from facesynth.app.cli import main
 from facesynth.app.learn.adaptive import AdaptiveOptions, AdaptivePlan
 from facesynth.app.learn.cli import make_plan
 from facesynth.app.learn.core import BabbleOptions, Babbler, Budget, Sample
-from facesynth.app.learn.plan import PlanError, PlanOptions, to_pulses
+from facesynth.app.learn.plan import PlanError, to_pulses
+from facesynth.app.learn.plan_options import PlanChoice
 from facesynth.app.learn.progress import Progress
 from facesynth.app.learn.session import SessionFile, metadata, read_session
 from facesynth.app.learn.settle import SettleOptions
@@ -55,6 +56,8 @@ def paired(positions: dict[str, float]) -> dict[str, float]:
 
 
 INPUTS = sorted(alone(NEUTRAL))
+#: The adaptive plan a learn run below babbles: small sweeps, the other options the defaults.
+CHOICE = PlanChoice("adaptive", 2, {"sweep_steps": 1, "neutral_every": 5})
 
 
 class Told(AdaptivePlan):
@@ -177,8 +180,7 @@ async def _learn(tmp: Path, poses: int) -> tuple[Any, AdaptivePlan]:
     interface (record driver), recorder and session file; resumed if the file exists."""
     path = tmp / "s.mcap"
     resume = read_session(path) if path.exists() else None
-    options = PlanOptions(seed=2, sweep_steps=1, neutral_every=5)
-    plan = make_plan("adaptive", PROFILE, options, resume, tuple(INPUTS))
+    plan = make_plan(CHOICE, PROFILE, resume, tuple(INPUTS))
     assert isinstance(plan, AdaptivePlan)
     start = resume.next_pose if resume is not None else 0
     assert plan.observed == start
@@ -212,7 +214,7 @@ async def test_a_resumed_session_file_gives_the_adaptive_plan_its_earlier_sample
     assert (result.taken, result.next_pose, plan.observed) == (4, 4, 4)
     session = read_session(tmp_path / "s.mcap")
     assert session.plan == "adaptive"
-    resumed = make_plan("adaptive", PROFILE, PlanOptions(2, 1, 5), session, tuple(INPUTS))
+    resumed = make_plan(CHOICE, PROFILE, session, tuple(INPUTS))
     assert isinstance(resumed, AdaptivePlan) and resumed.observed == 4
     recorded = [[s.features[name] for name in INPUTS] for s in session.samples]
     np.testing.assert_array_equal(np.array(resumed._faces), recorded)  # told what was seen

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import time
 from pathlib import Path
 
 import msgspec
@@ -23,7 +22,6 @@ from facesynth.runtime.profiles import load_profile, save_learned_profile
 from facesynth.runtime.profiles.learned import Retarget, shown_inputs, unpack
 from facesynth.runtime.profiles.learned_predict import predictor
 from facesynth.services.translator.core import Translator
-from facesynth.services.translator.timing import time_translator
 
 
 @pytest.fixture(scope="module")
@@ -31,14 +29,12 @@ def fitted():
     """The synthetic head babbled 1,500 times and fitted with every candidate."""
     head = SyntheticHead()
     babble = synthetic_babble(1500, head=head)
-    begun = time.perf_counter()
-    profile = fit_learned_profile(babble, hardware())
-    return profile, head, time.perf_counter() - begun
+    return fit_learned_profile(babble, hardware()), head
 
 
 @pytest.mark.slow
 def test_held_out_command_error_is_within_five_percent_of_range(fitted) -> None:
-    profile, _, seconds = fitted
+    profile, _ = fitted
     learned = profile.learned
     report = learned.report
     whole = {"poly_ridge", "knn", "mlp(alpha=0.1)", "mlp(alpha=1)"}
@@ -48,7 +44,6 @@ def test_held_out_command_error_is_within_five_percent_of_range(fitted) -> None:
     assert regional == f"regional {best}" and report.model in (best, regional)
     assert set(report.servo_error) == set(learned.outputs)
     assert max(report.servo_error.values()) <= 0.05, report.servo_error
-    assert seconds < 60
     # Features the head never moved are not inputs; the dead channels stay at neutral.
     assert set(learned.inputs) <= set(MOVED) and not set(learned.inputs) & set(STILL)
     assert len(learned.inputs) >= 35
@@ -68,7 +63,7 @@ def test_the_saved_profile_drives_the_head_back_to_the_commanded_pose(
 ) -> None:
     """Poses never babbled: the robot's own face, fed to T as a performer whose range is the
     robot's, gives back the commands that made it (within the held-out error)."""
-    profile, head, _ = fitted
+    profile, head = fitted
     path = save_learned_profile(profile, tmp_path / "synthetic.learned")
     loaded = load_profile(str(path))
     assert loaded == profile
@@ -94,7 +89,6 @@ def test_the_saved_profile_drives_the_head_back_to_the_commanded_pose(
     error = command_error(loaded, [names[i] for i in live], back[:, live], u[:, live])
     assert error.mean() < 0.05
     assert np.all(pulses[:, list(DEAD)] == 1500.0)
-    assert time_translator(loaded, frames=200) < 5.0  # the goal is 1 ms; a loaded CI box
 
 
 def test_numpy_predicts_what_scikit_learn_predicts() -> None:

@@ -54,8 +54,8 @@ def test_every_shaping_option_is_kept_in_the_session_and_read_back(tmp_path: Pat
     }
     resumed = choose(_args(), "adaptive", 5, session.options, session.path)
     assert resumed == choice  # none given: the session's, every one
-    plan = make_plan("adaptive", PROFILE, resumed.adaptive(), None)
-    assert plan.pose(1).u == make_plan("adaptive", PROFILE, choice.adaptive(), None).pose(1).u
+    plan = make_plan(resumed, PROFILE, None)
+    assert plan.pose(1).u == make_plan(choice, PROFILE, None).pose(1).u
 
 
 @pytest.mark.parametrize(
@@ -111,7 +111,7 @@ def test_options_that_cannot_make_a_plan_are_one_line_errors(tmp_path: Path) -> 
 
 def test_the_fixed_plan_made_from_a_choice_is_the_plan_of_its_options() -> None:
     choice = choose(_args("--sweep-steps", "1", "--neutral-every", "4"), "fixed", 2)
-    plan = make_plan("fixed", PROFILE, choice.base(), None)
+    plan = make_plan(choice, PROFILE, None)
     assert isinstance(plan, Plan)
     assert [plan.pose(i).kind for i in range(5)] == [
         "neutral",
