@@ -48,6 +48,19 @@ class FaceMotion:
             if spec.max_speed <= 0
         }
         self.catching_up: set[str] = set()
+        #: Per servo, what :meth:`step` reads of its spec, looked up once: name, limits, speed
+        #: and acceleration bounds, catch-up speed.
+        self._rows = [
+            (
+                spec.name,
+                spec.min_us,
+                spec.max_us,
+                spec.max_speed,
+                spec.max_accel,
+                self.catch_up_speed.get(spec.name, 0.0),
+            )
+            for spec in profile.servos
+        ]
         self.catch_up()
 
     def catch_up(self) -> None:
@@ -70,10 +83,13 @@ class FaceMotion:
         Targets are clamped to each servo's limits first.
         """
         dt = min(dt_s, self.max_step_s)
-        for name, spec in self._specs.items():
-            target = spec.clamp(targets.get(name, self.positions[name]))
-            position, velocity = self.positions[name], self.velocities[name]
-            speed, accel = self.speed_limit(name), spec.max_accel
+        positions, velocities, catching_up = self.positions, self.velocities, self.catching_up
+        # (each servo's spec read once, in _rows; ServoSpec.clamp and speed_limit inlined,
+        # the same arithmetic)
+        for name, low, high, max_speed, accel, catch_up in self._rows:
+            position, velocity = positions[name], velocities[name]
+            target = min(max(targets.get(name, position), low), high)
+            speed = max_speed if max_speed > 0 else (catch_up if name in catching_up else 0.0)
             if speed <= 0 and accel <= 0:
                 position, velocity = target, 0.0  # unlimited: there at once
             elif dt <= 0:
@@ -83,11 +99,11 @@ class FaceMotion:
             if abs(position - target) <= REACHED_US:
                 # Arrived: braking left at most one step's worth of speed, which stops here.
                 position, velocity = target, 0.0
-                self.catching_up.discard(name)
-            clamped = spec.clamp(position)
-            self.positions[name] = clamped
-            self.velocities[name] = velocity if clamped == position else 0.0
-        return dict(self.positions)
+                catching_up.discard(name)
+            clamped = min(max(position, low), high)
+            positions[name] = clamped
+            velocities[name] = velocity if clamped == position else 0.0
+        return dict(positions)
 
     def reached(self, targets: Mapping[str, float]) -> bool:
         """Whether every servo is at its target (clamped) and still."""

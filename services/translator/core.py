@@ -68,6 +68,7 @@ from facesynth.services.translator.mapping import (
 from facesynth.services.translator.safety import apply_exclusive
 from facesynth.services.translator.sources import (
     Filters,
+    GroupMeans,
     ServoWiring,
     face_range,
     smoothing_filter,
@@ -103,6 +104,7 @@ class Translator:
             ServoWiring(spec, servo_range, profile.smoothing_for(spec))
             for spec, servo_range in zip(profile.servos, self._ranges, strict=True)
         ]
+        self._means = GroupMeans(servo.points for servo in self._servos)
         self._filters: Filters = {}
         for servo in self._servos:
             servo.add_filters(self._filters)
@@ -183,7 +185,8 @@ class Translator:
         if self._learned is not None:  # facesynth.services.translator.learned
             return self._learned.targets(raw or {}, named, t_ns, now_ns)
         cache: dict[object, float] = {}
-        return [servo.target(deltas, named, t_ns, self._filters, cache) for servo in self._servos]
+        means = None if deltas is None else self._means(deltas)
+        return [servo.target(means, named, t_ns, self._filters, cache) for servo in self._servos]
 
     def positions(
         self, deltas: np.ndarray, named: Mapping[str, float] | None = None, raw: Raw = None
@@ -286,7 +289,8 @@ class Translator:
                 target = spec.neutral_us if held is None else held
             targets[spec.name] = target
         rules = self.profile.safety.exclusive
-        targets = apply_exclusive(targets, rules, self._specs)
+        if rules:  # (without rules the positions stand as they are)
+            targets = apply_exclusive(targets, rules, self._specs)
         if self._tracking is not None and tracking != self._tracking:
             self._start_ramps(tracking)
         self._tracking = tracking
@@ -294,7 +298,8 @@ class Translator:
             servo.spec.name: self._move(servo, targets[servo.spec.name], t_ns)
             for servo in self._servos
         }
-        safe = apply_exclusive(out, rules, self._specs)
+        # (without rules nothing is pulled back: ``out`` itself is clamped below)
+        safe = apply_exclusive(out, rules, self._specs) if rules else out
         for servo in self._servos:
             name = servo.spec.name
             if safe[name] != out[name]:

@@ -120,15 +120,18 @@ class ProfileLimits:
     def __init__(self, profile: Profile) -> None:
         self.profile_name = profile.name
         self.specs = {spec.name: spec for spec in profile.servos}
+        #: Each servo's limits, looked up once (every command is clamped to them).
+        self._limits = {spec.name: (spec.min_us, spec.max_us) for spec in profile.servos}
 
     def clamp(self, positions: Mapping[str, float]) -> dict[str, float]:
         """``positions`` checked and clamped."""
         out = {}
+        limits = self._limits
         for name, value in positions.items():
-            spec = self.specs.get(name)
-            if spec is None:
+            bounds = limits.get(name)
+            if bounds is None:
                 raise DriverError(f"servo {name!r} is not in profile {self.profile_name!r}")
             if not math.isfinite(value):
                 raise DriverError(f"position of {name!r} is {value}")
-            out[name] = spec.clamp(value)
+            out[name] = min(max(value, bounds[0]), bounds[1])  # ServoSpec.clamp
         return out
