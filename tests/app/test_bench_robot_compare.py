@@ -16,6 +16,7 @@ from facesynth.app.bench.robot_compare import (
     lead,
     mark_reach,
     moved_threshold,
+    reach_ratio,
     span,
     summarize,
 )
@@ -209,3 +210,40 @@ def test_the_lead_is_over_what_the_performer_moves_and_the_robot_babbled() -> No
     nothing = lead(rows, set())
     assert nothing.features == () and math.isnan(nothing.mean_rho)
     assert math.isnan(nothing.median_ratio) and math.isnan(nothing.in_band)
+
+
+def test_the_ratio_in_reach_is_against_her_change_clipped_into_the_robots_reach() -> None:
+    theirs = np.linspace(-1.0, 1.0, 101)  # span (p95 - p5) 1.8
+    ours = np.clip(theirs, -0.2, 0.6)  # the robot follows her exactly where it can go
+    assert span(ours) / span(theirs) == pytest.approx(0.8 / 1.8)  # the plain ratio: lost
+    assert reach_ratio(theirs, ours, -0.2, 0.6) == pytest.approx(1.0)
+    assert reach_ratio(theirs, 0.5 * ours, -0.2, 0.6) == pytest.approx(0.5)
+    wide = reach_ratio(theirs, ours, -5.0, 5.0)  # a reach beyond hers: the plain ratio
+    assert wide == pytest.approx(0.8 / 1.8)
+    ours_gapped = ours.copy()
+    ours_gapped[:50] = np.nan  # only the frames both sides have count
+    assert reach_ratio(theirs, ours_gapped, -0.2, 0.6) == pytest.approx(1.0)
+    # She moves only where the robot cannot go (below its neutral): not counted.
+    assert math.isnan(reach_ratio(np.linspace(-1.0, 0.0, 50), np.zeros(50), 0.0, 0.5))
+    assert math.isnan(reach_ratio(theirs, np.full(101, np.nan), -0.2, 0.6))
+
+
+def test_compare_and_the_lead_take_the_ratio_in_reach_where_the_reach_is_known() -> None:
+    wave = 0.1 * np.sin(T)
+    performer = stream(jaw_open=wave, lips_part=wave, lip_pucker=wave)
+    robot = stream(
+        jaw_open=np.clip(wave, -0.05, 0.05),  # all the robot can: ratio 0.5, in reach 1
+        lips_part=0.5 * np.clip(wave, 0.0, 0.1),  # half of what it can (one side)
+        lip_pucker=np.full(N, np.nan),  # never seen: 0 where she moves within its reach
+    )
+    reach = {"jaw_open": (-0.05, 0.05), "lips_part": (0.0, 0.1), "lip_pucker": (-0.1, 0.1)}
+    rows = by_name(compare(performer, robot, reach=reach))
+    assert rows["jaw_open"].ratio == pytest.approx(0.5, abs=0.02)
+    assert rows["jaw_open"].reach_ratio == pytest.approx(1.0)
+    assert rows["lips_part"].reach_ratio == pytest.approx(0.5)
+    assert rows["lip_pucker"].reach_ratio == 0.0
+    figures = lead(list(rows.values()), {"jaw_open", "lips_part", "lip_pucker"})
+    assert figures.median_reach_ratio == pytest.approx(0.5)
+    unknown = compare(performer, robot, reach={"jaw_open": (-0.05, 0.05)})
+    assert all(math.isnan(row.reach_ratio) for row in unknown if row.name != "jaw_open")
+    assert math.isnan(lead(compare(performer, robot), None).median_reach_ratio)

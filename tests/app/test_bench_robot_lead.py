@@ -17,18 +17,26 @@ from facesynth.runtime.profiles import Profile
 from facesynth.runtime.profiles.learned import shown_inputs
 
 
-def _row(name: str, rho: float, ratio: float, moved: bool = True) -> FeatureRow:
-    return FeatureRow(name, "inter-ocular distance", 100, 0.2, 0.2 * ratio, rho, ratio, moved)
+def _row(
+    name: str, rho: float, ratio: float, moved: bool = True, in_reach: float = float("nan")
+) -> FeatureRow:
+    return FeatureRow(
+        name, "inter-ocular distance", 100, 0.2, 0.2 * ratio, rho, ratio, moved, True, in_reach
+    )
 
 
-def _bench(babbled: frozenset[str] | None) -> RobotBench:
+def _bench(babbled: frozenset[str] | None, reach_from: str | None = None) -> RobotBench:
     written = [_row("jaw_open", 0.8, 1.0), _row("lips_part", 0.2, 0.5), _row("head_yaw", 0.0, 0.0)]
-    learned = [_row("jaw_open", 0.9, 0.9), _row("lips_part", 0.6, 0.7), _row("head_yaw", 0.1, 0.1)]
+    learned = [
+        _row("jaw_open", 0.9, 0.9, in_reach=1.1),
+        _row("lips_part", 0.6, 0.7, in_reach=0.9),
+        _row("head_yaw", 0.1, 0.1),
+    ]
     runs = [
         ProfileRun(name, rows, summarize(rows), 1.0, 1, 0.5)
         for name, rows in (("head16", written), ("learned", learned))
     ]
-    return RobotBench("v", 100, 24.0, "full", 1.0, [HeadRun("seed:1", runs, babbled)])
+    return RobotBench("v", 100, 24.0, "full", 1.0, [HeadRun("seed:1", runs, babbled, reach_from)])
 
 
 def test_the_table_leads_with_the_babbled_features_then_every_moved_one() -> None:
@@ -37,7 +45,7 @@ def test_the_table_leads_with_the_babbled_features_then_every_moved_one() -> Non
     at = lines.index("head seed:1: 100 frames")
     assert "head16" in lines[at + 1] and "learned" in lines[at + 1]
     assert " ".join(lines[at + 2].split()) == (
-        "lead, 2 moved & babbled: rho / ratio 0.50 / 0.75 0.75 / 0.80"
+        "lead, 2 moved & babbled: rho / ratio / in reach 0.50 / 0.75 / - 0.75 / 0.80 / 1.00"
     )
     assert " ".join(lines[at + 3].split()) == "all 3 moved: rho / ratio 0.33 / 0.50 0.53 / 0.70"
     assert lines[at + 4] == "  moved, not babbled (left out of the lead): head_yaw"
@@ -48,6 +56,17 @@ def test_the_table_leads_with_the_babbled_features_then_every_moved_one() -> Non
     learned = head["profiles"][1]["lead"]
     assert learned["basis"] == "babbling" and learned["features"] == ["jaw_open", "lips_part"]
     assert learned["mean_rho"] == pytest.approx(0.75)
+    assert learned["median_reach_ratio"] == pytest.approx(1.0)
+    assert head["profiles"][0]["lead"]["median_reach_ratio"] is None
+    assert head["profiles"][1]["features"][0]["reach_ratio"] == pytest.approx(1.1)
+
+
+def test_the_table_says_whose_reach_the_ratio_in_reach_is_taken_against() -> None:
+    lines = format_robot(_bench(frozenset({"jaw_open"}), "learned")).splitlines()
+    at = lines.index("head seed:1: 100 frames")
+    assert lines[at + 5] == "  in reach: against the robot's reach as learned records it"
+    assert robot_json(_bench(None, "learned"))["heads"][0]["reach_from"] == "learned"
+    assert "in reach: against" not in format_robot(_bench(None))
 
 
 def test_a_head_not_babbled_leads_with_what_some_profile_reached() -> None:

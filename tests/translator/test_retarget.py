@@ -79,7 +79,7 @@ def test_by_default_each_feature_is_clipped_on_its_own() -> None:
 
 
 def test_a_feature_she_moves_beyond_the_robots_reach_is_scaled_into_it() -> None:
-    model = retargeter(["jaw_open", "lips_part"], [-0.05, -0.05], [0.1, 0.3])
+    model = retargeter(["jaw_open", "lips_part"], [-0.05, -0.05], [0.1, 0.3], extent=2.5)
     for frame in range(300):  # ten seconds: her jaw and lips at an RMS of 0.1
         model.weights.update(np.array([0.1, -0.1]) * (-1) ** frame, frame * S // 30)
     assert model.weights.rms() == pytest.approx([0.1, 0.1])
@@ -92,6 +92,19 @@ def test_a_feature_she_moves_beyond_the_robots_reach_is_scaled_into_it() -> None
     clip = retargeter(["jaw_open"], [-0.05], [0.1], extent=0.0)
     clip.weights.update(np.array([0.1]), 0)
     assert clip.targets(np.array([0.1])) == pytest.approx([0.09])
+
+
+def test_by_default_a_change_whose_95th_percentile_is_within_reach_is_not_scaled_down() -> None:
+    # Her jaw at an RMS of 0.04: were it normally distributed, 95 % of its frames within
+    # 0.078 of her neutral, 0.9 of which (0.07) the robot reaches (0.08). Her extent is taken
+    # at about that 95th percentile (1.9 RMS, 0.076), so her change is only clipped, not
+    # scaled (2.5 RMS, 0.1, scaled it by 0.8).
+    model = retargeter(["jaw_open"], [-0.08], [0.08])
+    for frame in range(300):
+        model.weights.update(np.array([0.04]) * (-1) ** frame, frame * S // 30)
+    assert model.weights.rms() == pytest.approx([0.04])
+    assert model.targets(np.array([0.05])) == pytest.approx([0.045])
+    assert model.targets(np.array([-0.078])) == pytest.approx([-0.9 * 0.078])
 
 
 def test_a_region_shrinks_as_one_before_its_features_are_clipped() -> None:

@@ -3,7 +3,9 @@
 ``python -m facesynth.app.bench.likeness_budget --head simhead16 --profile H.learned --frames 180``
 plays the performer video through a learned profile onto a simulated head, as ``bench robot``
 does, and measures the same lead figures (mean ρ and median amplitude ratio over the features
-the performer moves and the robot moved while babbling) at each stage of the way:
+the performer moves and the robot moved while babbling), and the median amplitude ratio *in
+reach* (against her change clipped into the profile's reach box, gain 1:
+:func:`~facesynth.app.bench.robot_compare.reach_ratio`), at each stage of the way:
 
 * **target**: T's retargeted target face itself (:mod:`facesynth.services.translator.retarget`),
   against the performer: what retargeting keeps;
@@ -35,7 +37,7 @@ from typing import Protocol
 
 import numpy as np
 
-from facesynth.app.bench.robot import Performance, run_profile, track_performer
+from facesynth.app.bench.robot import Performance, reach_box, run_profile, track_performer
 from facesynth.app.bench.robot_compare import FeatureRow, FeatureStream, compare, lead
 from facesynth.app.learn.inprocess import SimBabbler
 from facesynth.runtime.feature_names import NAMES
@@ -55,12 +57,14 @@ ITERATIONS = 2
 
 @dataclass(frozen=True)
 class Stage:
-    """One stage's lead figures and its rows (per feature)."""
+    """One stage's lead figures and its rows (per feature); ``median_reach_ratio``: the
+    median amplitude ratio against her change clipped into the robot's reach (gain 1)."""
 
     name: str
     mean_rho: float
     median_ratio: float
     rows: list[FeatureRow]
+    median_reach_ratio: float = math.nan
 
 
 @dataclass(frozen=True)
@@ -225,10 +229,12 @@ def budget(
         out: np.ndarray = (face - mean) / scale
         return out
 
+    reach = reach_box(profile)
+
     def stage(name: str, stream: FeatureStream, lag: int = 0) -> Stage:
-        rows = compare(performance.stream, stream, lag)
+        rows = compare(performance.stream, stream, lag, reach=reach)
         figures = lead(rows, shown)
-        return Stage(name, figures.mean_rho, figures.median_ratio, rows)
+        return Stage(name, figures.mean_rho, figures.median_ratio, rows, figures.median_reach_ratio)
 
     stages = []
     wanted, weights, planned = translate(profile, performance)
@@ -306,9 +312,15 @@ class _Recorder:
 
 def report(result: Budget) -> str:
     """The budget as text: lead figures per stage, then per feature."""
-    lines = [f"lead over {len(result.features)} features (mean rho / median amplitude ratio):"]
+    lines = [
+        f"lead over {len(result.features)} features (mean rho / median amplitude ratio / the "
+        f"same against her change clipped into the robot's reach, gain 1):"
+    ]
     for s in result.stages:
-        lines.append(f"  {s.name:<12} {s.mean_rho:5.2f} / {s.median_ratio:4.2f}")
+        lines.append(
+            f"  {s.name:<12} {s.mean_rho:5.2f} / {s.median_ratio:4.2f} / "
+            f"{s.median_reach_ratio:4.2f}"
+        )
     noise = [v for v in result.noise.values() if math.isfinite(v)]
     lines.append(
         f"  still-head noise / performer std: median {np.median(noise):.2f}, max {max(noise):.2f}"

@@ -15,7 +15,9 @@ In process, for simulated heads, faster than real time and deterministic (time i
   robot's neutral is learned first, while C holds the head at the profile's neutral
   (:data:`SETTLE_S` to settle, then F's neutral window);
 * both sides' ``Features.raw`` (relative to each face's neutral, unscaled) are aligned per
-  frame and compared by :mod:`.robot_compare`.
+  frame and compared by :mod:`.robot_compare`; with the robot's reach of a learned profile
+  (:func:`reach_box`: the head's first learned profile, the one learned in process first),
+  each feature's amplitude is also taken against her change clipped into that reach.
 """
 
 from __future__ import annotations
@@ -38,7 +40,7 @@ from facesynth.app.engine.robot_loop import (
 )
 from facesynth.app.engine.stepped import SteppedChain, sensor_frame
 from facesynth.runtime.profiles import Profile, load_profile
-from facesynth.runtime.profiles.learned import shown_inputs
+from facesynth.runtime.profiles.learned import shown_inputs, unpack
 from facesynth.schemas.messages import Features
 from facesynth.services.features.core import FeatureProcessor
 from facesynth.services.sensor.sources.video import VideoConfig, VideoSource
@@ -64,6 +66,7 @@ __all__ = [
     "RobotLoop",
     "bench_robot",
     "measure",
+    "reach_box",
     "robot_features",
     "track_performer",
 ]
@@ -138,11 +141,13 @@ class ProfileRun:
 @dataclass(frozen=True)
 class HeadRun:
     """Every profile on one head, and what the robot moved while babbling when a profile was
-    learned for it in process (``babbled``; None: not babbled here)."""
+    learned for it in process (``babbled``; None: not babbled here); ``reach_from``: the
+    learned profile whose reach box the rows' ratio in reach is taken against (None: none)."""
 
     head: str
     profiles: list[ProfileRun]
     babbled: frozenset[str] | None = None
+    reach_from: str | None = None
 
 
 @dataclass(frozen=True)
@@ -176,6 +181,22 @@ def run_profile(
     return FeatureStream.from_frames(frames, names=performance.stream.names)
 
 
+def reach_box(profile: Profile) -> dict[str, tuple[float, float]] | None:
+    """A learned profile's record of the robot's reach per input (``reach_low`` ..
+    ``reach_high``: its babbled face's 1st to 99th percentile, relative to its neutral), for
+    the inputs it can show; None for a profile that is not learned."""
+    learned = profile.learned
+    if learned is None:
+        return None
+    shown = set(shown_inputs(learned))
+    low, high = unpack(learned.reach_low), unpack(learned.reach_high)
+    return {
+        name: (float(lo), float(hi))
+        for name, lo, hi in zip(learned.inputs, low, high, strict=True)
+        if name in shown
+    }
+
+
 def bench_robot(
     performance: Performance,
     heads: Iterable[str],
@@ -207,7 +228,9 @@ def measure(
     compared with the performer's; reach marked per head (a profile: by name, or loaded).
 
     ``learn(head)``: profiles learned for that head in process, run after the others; the
-    first one's record of what the robot moved while babbling is the head's ``babbled``."""
+    first one's record of what the robot moved while babbling is the head's ``babbled``.
+    The head's first learned profile (one learned in process first) gives the robot's reach
+    (:func:`reach_box`) each row's ratio in reach is taken against."""
     loaded = [p if isinstance(p, Profile) else _load(p) for p in profiles]
     result = RobotBench(
         video=performance.video,
@@ -227,12 +250,14 @@ def measure(
             mine = learn(head_name)
             on_head += mine
             babbled = frozenset(shown_inputs(mine[0].learned)) if mine[0].learned else None
+        boxed = next((p for p in on_head[len(loaded) :] + loaded if p.learned), None)
+        reach = None if boxed is None else reach_box(boxed)
         for profile in on_head:
             if progress is not None:
                 progress(f"{head_name} / {profile.name}")
             started = time.monotonic()
             robot = run(head_name, profile)
-            runs.append(compare(performance.stream, robot))
+            runs.append(compare(performance.stream, robot, reach=reach))
             lags.append(best_lag(performance.stream, robot))
             seconds.append(time.monotonic() - started)
         marked = mark_reach(runs)
@@ -244,6 +269,7 @@ def measure(
                     for profile, rows, s, lag in zip(on_head, marked, seconds, lags, strict=True)
                 ],
                 babbled,
+                None if boxed is None else boxed.name,
             )
         )
     return result

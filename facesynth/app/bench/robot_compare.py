@@ -11,6 +11,10 @@ its camera sees it through the same tracker and F. Per feature:
 * **ρ**: Pearson's correlation over the frames where both sides have a value (0 when either
   side is constant there: a head that never moves a feature does not follow it);
 * **ratio**: the robot's span over the performer's (same percentiles, same frames);
+* **ratio in reach** (:func:`reach_ratio`, when the robot's reach is known: a learned
+  profile's ``reach_low`` .. ``reach_high``): the robot's span over the span of her change
+  *clipped into the robot's reach* (gain 1, same frames), so amplitude she shows where the
+  robot cannot go does not count as lost; NaN when her clipped change does not move;
 * **reach**: across every profile measured on one head, a feature the robot never moves by
   :data:`REACH_RATIO` of the performer's span and by :data:`REACH_FLOOR` of its unit's
   threshold is one the head cannot reach (:func:`mark_reach`): nothing any profile did moved it
@@ -56,6 +60,7 @@ __all__ = [
     "lead",
     "mark_reach",
     "moved_threshold",
+    "reach_ratio",
     "span",
     "summarize",
 ]
@@ -144,6 +149,18 @@ def span(values: np.ndarray) -> float:
     return float(high - low)
 
 
+def reach_ratio(theirs: np.ndarray, ours: np.ndarray, low: float, high: float) -> float:
+    """The robot's span (``ours``) over the span of the performer's change (``theirs``)
+    clipped into the robot's reach ``[low, high]`` (gain 1), over the frames where both have a
+    value: her amplitude where the robot's reach allows it. NaN when she does not move within
+    the reach (her clipped change has no span) or no frame has both."""
+    both = np.isfinite(theirs) & np.isfinite(ours)
+    if not both.any():
+        return math.nan
+    wanted = span(np.clip(theirs[both], low, high))
+    return span(ours[both]) / wanted if wanted > 0 else math.nan
+
+
 def _pearson(a: np.ndarray, b: np.ndarray) -> float:
     da, db = a - a.mean(), b - b.mean()
     denominator = math.sqrt(float(np.dot(da, da)) * float(np.dot(db, db)))
@@ -155,7 +172,8 @@ def _pearson(a: np.ndarray, b: np.ndarray) -> float:
 @dataclass(frozen=True)
 class FeatureRow:
     """One feature of one run: the performer's span, the robot's, ρ and their ratio over the
-    frames both sides have (``frames``); ``reachable`` as :func:`mark_reach` decides."""
+    frames both sides have (``frames``); ``reachable`` as :func:`mark_reach` decides;
+    ``reach_ratio`` as :func:`reach_ratio` gives it (NaN: the robot's reach not known)."""
 
     name: str
     unit: str
@@ -166,6 +184,7 @@ class FeatureRow:
     ratio: float
     moved: bool
     reachable: bool = True
+    reach_ratio: float = math.nan
 
     @property
     def in_band(self) -> bool:
@@ -173,12 +192,18 @@ class FeatureRow:
         return RATIO_BAND[0] <= self.ratio <= RATIO_BAND[1]
 
 
-def compare(performer: FeatureStream, robot: FeatureStream, lag: int = 0) -> list[FeatureRow]:
+def compare(
+    performer: FeatureStream,
+    robot: FeatureStream,
+    lag: int = 0,
+    reach: Mapping[str, tuple[float, float]] | None = None,
+) -> list[FeatureRow]:
     """Per performer feature (known to the contract), aligned frame by frame with the robot's.
 
     The streams must have the same number of frames (frame ``i`` of the robot is its face after
     the performer's frame ``i`` drove it); with ``lag``, the performer's frame ``i`` is compared
-    with the robot's frame ``i + lag``."""
+    with the robot's frame ``i + lag``. ``reach``: the robot's ``(low, high)`` per feature,
+    relative to its neutral, for each row's ``reach_ratio`` (a feature without one: NaN)."""
     if len(performer) != len(robot):
         raise ValueError(f"{len(performer)} performer frames but {len(robot)} robot frames")
     if not 0 <= lag < len(performer):
@@ -201,6 +226,11 @@ def compare(performer: FeatureStream, robot: FeatureStream, lag: int = 0) -> lis
         else:
             our_span = span(ours)
             rho, ratio = 0.0, 0.0  # the robot never showed it while the performer did
+        box = (reach or {}).get(name)
+        in_reach = math.nan
+        if box is not None:  # too few frames: 0, as the ratio, where she moves within reach
+            shown = ours if count >= MIN_FRAMES else np.zeros_like(theirs)
+            in_reach = reach_ratio(theirs, shown, *box)
         rows.append(
             FeatureRow(
                 name=name,
@@ -211,6 +241,7 @@ def compare(performer: FeatureStream, robot: FeatureStream, lag: int = 0) -> lis
                 rho=rho,
                 ratio=ratio,
                 moved=moved,
+                reach_ratio=in_reach,
             )
         )
     return rows
@@ -283,13 +314,15 @@ class Lead:
     """The figures ``bench robot`` leads with: mean ρ, median ratio and the share of ratios
     within :data:`RATIO_BAND` over ``features``, the features the performer moves that the
     robot moved while babbling (``basis`` ``"babbling"``), or, for a head that was not
-    babbled, that some profile moved on it (``"reach"``, :func:`mark_reach`)."""
+    babbled, that some profile moved on it (``"reach"``, :func:`mark_reach`); and the median
+    ratio in reach (:func:`reach_ratio`) over those of them that have one (NaN: none)."""
 
     basis: str
     features: tuple[str, ...]
     mean_rho: float
     median_ratio: float
     in_band: float
+    median_reach_ratio: float = math.nan
 
 
 def lead(rows: Sequence[FeatureRow], babbled: Collection[str] | None) -> Lead:
@@ -300,10 +333,12 @@ def lead(rows: Sequence[FeatureRow], babbled: Collection[str] | None) -> Lead:
     else:
         chosen = [row for row in rows if row.moved and row.name in babbled]
     ratios = [row.ratio for row in chosen if math.isfinite(row.ratio)]
+    in_reach = [row.reach_ratio for row in chosen if math.isfinite(row.reach_ratio)]
     return Lead(
         basis="reach" if babbled is None else "babbling",
         features=tuple(sorted(row.name for row in chosen)),
         mean_rho=float(np.mean([row.rho for row in chosen])) if chosen else math.nan,
         median_ratio=float(np.median(ratios)) if ratios else math.nan,
         in_band=sum(row.in_band for row in chosen) / len(chosen) if chosen else math.nan,
+        median_reach_ratio=float(np.median(in_reach)) if in_reach else math.nan,
     )

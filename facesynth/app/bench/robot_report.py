@@ -21,8 +21,8 @@ from .robot_compare import (
 
 __all__ = ["format_robot", "robot_json"]
 
-NAME_WIDTH = 26
-CELL = 15
+NAME_WIDTH = 34
+CELL = 20
 
 
 def _cell(head: HeadRun) -> int:
@@ -50,17 +50,25 @@ def _legend() -> str:
         f"unit's threshold\n"
         f"lead: mean rho / median ratio over the features the performer moves and the robot "
         f"moved while babbling (a profile learned for the head: the inputs its fit can show); "
-        f"on a head not babbled here, over those it can reach; 'all': every moved feature"
+        f"on a head not babbled here, over those it can reach; 'all': every moved feature\n"
+        f"in reach: median of the robot's span / the span of her change clipped into the "
+        f"robot's reach (gain 1; reach_low..reach_high of the head's learned profile, its "
+        f"babbled face's 1st-99th percentile), so what the robot cannot reach is not counted "
+        f"as lost ('-': no learned profile on the head)"
     )
 
 
 def _lead_label(first: Lead) -> str:
     which = "babbled" if first.basis == "babbling" else "reached"
-    return f"lead, {len(first.features)} moved & {which}: rho / ratio"
+    return f"lead, {len(first.features)} moved & {which}: rho / ratio / in reach"
 
 
 def _pair(figures: Lead) -> str:
     return f"{_number(figures.mean_rho)} / {_number(figures.median_ratio)}"
+
+
+def _triple(figures: Lead) -> str:
+    return f"{_pair(figures)} / {_number(figures.median_reach_ratio)}"
 
 
 def lead_lines(head: HeadRun) -> list[str]:
@@ -72,7 +80,7 @@ def lead_lines(head: HeadRun) -> list[str]:
     every = [lead(run.rows, moved) for run in head.profiles]
     lines = [
         f"  {_lead_label(leads[0]):<{NAME_WIDTH + 16}}"
-        + "".join(f"{_pair(figures):<{width}}" for figures in leads),
+        + "".join(f"{_triple(figures):<{width}}" for figures in leads),
         f"  {f'all {len(moved)} moved: rho / ratio':<{NAME_WIDTH + 16}}"
         + "".join(f"{_pair(figures):<{width}}" for figures in every),
     ]
@@ -80,6 +88,8 @@ def lead_lines(head: HeadRun) -> list[str]:
         left = sorted(set(moved) - set(leads[0].features))
         if left:
             lines.append(f"  moved, not babbled (left out of the lead): {', '.join(left)}")
+    if head.reach_from is not None:
+        lines.append(f"  in reach: against the robot's reach as {head.reach_from} records it")
     return lines
 
 
@@ -157,10 +167,10 @@ def format_robot(result: RobotBench) -> str:
         lines.append(f"  run time: {took}")
     if len(result.heads) > 1:
         lines.append("")
-        lines.append("lead per head (mean rho / median ratio over the lead's features):")
+        lines.append("lead per head (mean rho / median ratio / in reach over the lead's features):")
         for head in result.heads:
             cells = ", ".join(
-                f"{run.profile} {_pair(lead(run.rows, head.babbled))}" for run in head.profiles
+                f"{run.profile} {_triple(lead(run.rows, head.babbled))}" for run in head.profiles
             )
             lines.append(f"  {head.head}: {cells}")
     return "\n".join(lines)
@@ -188,6 +198,7 @@ def _lead_json(figures: Lead) -> dict[str, Any]:
         "mean_rho": _finite(figures.mean_rho),
         "median_ratio": _finite(figures.median_ratio),
         "in_band": _finite(figures.in_band),
+        "median_reach_ratio": _finite(figures.median_reach_ratio),
     }
 
 
@@ -202,6 +213,7 @@ def _row_json(row: FeatureRow) -> dict[str, Any]:
         "robot_span": _finite(row.robot_span),
         "rho": _finite(row.rho),
         "ratio": _finite(row.ratio),
+        "reach_ratio": _finite(row.reach_ratio),
     }
 
 
@@ -221,6 +233,7 @@ def robot_json(result: RobotBench) -> dict[str, Any]:
             {
                 "head": head.head,
                 "babbled": None if head.babbled is None else sorted(head.babbled),
+                "reach_from": head.reach_from,
                 "profiles": [
                     {
                         "profile": run.profile,

@@ -29,17 +29,22 @@ class Retarget(msgspec.Struct, forbid_unknown_fields=True, kw_only=True):
     ``extent``: the performer's extent on a feature is taken as this many times her running
     root mean square change, and where it exceeds the robot's reach her change is scaled by
     reach / extent before the clip (0: never, Emo's clip alone; on simhead16 scaling gave
-    ρ 0.59 against the clip's 0.57 at the same amplitude); ``lead_s``: each command is led
-    by its rate of change times this (s) against the head's lag, open loop only
-    (:mod:`services.translator.lead`; 0, the default: not led; on simhead16 0.1 s raised ρ
-    from 0.59 to 0.62 and the amplitude ratio from 0.47 to 0.50)."""
+    ρ 0.59 against the clip's 0.57 at the same amplitude); 1.9: about her 95th percentile
+    (her 95th percentile change is a median 1.85 times its root mean square over the
+    features of the sample video; files fitted before 2026-11-27 carry 2.5, which scaled the
+    target to 0.59 of her amplitude where 1.9 gives 0.67; on simhead16 and simhead16_stiff
+    1.9 kept ρ within 0.005 while the robot's amplitude ratio rose from 0.47 to 0.52 and
+    from 0.53 to 0.54); ``lead_s``: each command is led by its rate of change times this
+    (s) against the head's lag, open loop only (:mod:`services.translator.lead`; 0, the
+    default: not led; on simhead16 0.1 s raised ρ from 0.59 to 0.62 and the amplitude ratio
+    from 0.47 to 0.50)."""
 
     gain: float = 0.9
     tau_s: float = 10.0
     min_weight: float = 0.2
     show_noise: float = 0.85
     region_floor: float = 1.0
-    extent: float = 2.5
+    extent: float = 1.9
     lead_s: float = 0.0
 
 
