@@ -31,16 +31,23 @@ robot's observed face tells how far the real face is from what ``f`` predicted. 
   is expected to make, ``ŷ``; damped least squares through ``g``'s Jacobian
   ``J`` gives the change ``Δ* = (JᵀWJ + damping·I)⁻¹ JᵀW (x - ŷ)`` toward the target (``W``:
   each feature's weight in the plan, 0 for features the robot cannot show), bounded to
-  ``±max_correction`` per servo. With ``integral_gain``, the integral of the observed error
-  (each face against the target of the frame that made it, ``delay_s`` earlier:
+  ``±max_correction`` per servo. **Regions** (``regional``, off by default: it cost lead ρ
+  on simhead18_neck; with a regional inverse's ``regions``): a servo given from its region's
+  features alone takes its share of that solve on the error of its region's features only
+  (the weights outside it 0, every servo in ``J``), so an error in the gaze never moves the
+  neck; a servo of the whole face takes the whole face's (one solve per distinct region).
+  With ``integral_gain``, the integral of the observed error (each face against the target
+  of the frame that made it, ``delay_s`` earlier:
   :mod:`facesynth.services.translator.loop_integral`, bounded, leaking, no wind-up at a
   servo's end) is added to it. **Lead**: the face follows the commands with a response time
   (actuators slew, skin lags: on simhead16 the robot's face follows T's targets best 3 frames
   late), so ``lead_s`` times the rate of the planned commands ``u0 + Δ*`` is added, and the
-  face shows each target nearer its frame. The correction applied moves toward all of it by
-  at most ``max_step`` per servo per frame, and ``u = clip(u0 + Δ, low, high)``: within the
-  servo's responsive range. Motion limits, safety rules and clamping follow in the translator as for
-  the open loop, so the loop never drives outside the profile's limits or speeds.
+  face shows each target nearer its frame: the open loop's
+  :class:`~facesynth.services.translator.lead.PhaseLead` (the rate low-passed at 10 Hz,
+  restarted after a gap and whenever the face is lost). The correction applied moves toward
+  all of it by at most ``max_step`` per servo per frame, and ``u = clip(u0 + Δ, low, high)``:
+  within the servo's responsive range. Motion limits, safety rules and clamping follow in the
+  translator as for the open loop, so the loop never drives outside the profile's limits or speeds.
 * **Face lost** (no observation, none with a face, or the latest older than ``max_age_s``):
   ``Δ* = 0``, so the correction returns to the open loop at ``max_step`` per frame (no jump).
 
@@ -57,6 +64,7 @@ from dataclasses import dataclass
 import msgspec
 import numpy as np
 
+from facesynth.services.translator.lead import PhaseLead
 from facesynth.services.translator.loop_integral import IntegralAction
 from facesynth.services.translator.self_model import SelfModelPlanner
 
@@ -86,6 +94,7 @@ class LoopOptions(msgspec.Struct, forbid_unknown_fields=True, kw_only=True):
     integral_leak: float = 0.98
     delay_s: float = 0.125
     lead_s: float = 0.08
+    regional: bool = False
 
     def problems(self) -> list[str]:
         """What is wrong with these options (empty: nothing)."""
@@ -131,6 +140,27 @@ class LoopState:
         )
 
 
+def region_groups(
+    regions: np.ndarray | None, n_servos: int, n_features: int, enabled: bool
+) -> tuple[np.ndarray, np.ndarray] | None:
+    """The regions the correction solves for: each distinct row of ``regions`` (servos,
+    features) as a 0/1 mask of features, (regions, features), and each servo's region's index;
+    None when every servo reads the whole face (one solve), ``regions`` is None or not
+    ``enabled``; ValueError for ``regions`` of another shape."""
+    if regions is None:
+        return None
+    regions = np.asarray(regions, dtype=bool)
+    if regions.shape != (n_servos, n_features):
+        raise ValueError(
+            f"closed loop: regions of shape {regions.shape} do not fit {n_servos} servos and "
+            f"{n_features} features"
+        )
+    if not enabled or regions.all():
+        return None
+    masks, index = np.unique(regions, axis=0, return_inverse=True)
+    return masks.astype(np.float64), index.reshape(-1)
+
+
 def prior_diagonal(options: LoopOptions, n_servos: int) -> np.ndarray:
     """The covariance's prior (and bound) per regressor: the bias's, then each slope's."""
     return np.append(options.prior, np.full(n_servos, options.slope_prior))
@@ -146,9 +176,12 @@ class ClosedLoop:
         high: np.ndarray,
         options: LoopOptions | None = None,
         state: LoopState | None = None,
+        regions: np.ndarray | None = None,
     ) -> None:
         """``planner``: the profile's self-model; ``low`` / ``high``: each servo's responsive
-        range (normalized); ``state``: what an earlier run learned (None: nothing yet)."""
+        range (normalized); ``state``: what an earlier run learned (None: nothing yet);
+        ``regions``: (servos, features) bools, the features each servo's correction reads
+        (a regional inverse's regions; None: every servo the whole face)."""
         self.options = options if options is not None else LoopOptions()
         if problems := self.options.problems():
             raise ValueError("closed loop: " + "; ".join(problems))
@@ -171,11 +204,12 @@ class ClosedLoop:
                 f"{n_features} features and {n_servos} servos"
             )
         self.eye = np.eye(n_servos)
+        self.groups = region_groups(regions, n_servos, n_features, self.options.regional)
         self.bound = np.maximum(prior_diagonal(self.options, n_servos), 1e-300)
         # (sent at, the commands' response then, the commands sent)
         self.history: deque[tuple[int, np.ndarray, np.ndarray]] = deque(maxlen=HISTORY)
         self.correction = np.zeros(n_servos)
-        self.previous: tuple[int, np.ndarray] | None = None  # (at, the last frame's u0 + Δ*)
+        self.lead = PhaseLead(max(self.options.lead_s, 0.0))  # on u0 + Δ*, as the open loop's
         self.integral = IntegralAction(
             n_servos,
             gain=self.options.integral_gain,
@@ -193,7 +227,7 @@ class ClosedLoop:
         learned."""
         self.history.clear()
         self.integral.reset()
-        self.previous = None
+        self.lead.reset()
         self.correction = np.zeros_like(self.correction)
         self.face = self.face_u = self.face_ns = None
 
@@ -298,30 +332,24 @@ class ClosedLoop:
                 )
                 expected = expected + options.observation_gain * missed
             error = x - expected
-            weighted = jacobian if weights is None else jacobian * weights[:, None]
-            normal = weighted.T @ jacobian + options.damping * self.eye
-            gradient = weighted.T @ error
+            weighted = (jacobian if weights is None else jacobian * weights[:, None]).T
+            if self.groups is not None:  # per region: its features' error alone, all servos
+                weighted = weighted[None] * self.groups[0][:, None, :]  # (regions, S, F)
+            normal = weighted @ jacobian + options.damping * self.eye
+            gradient = weighted @ error
             if not (np.isfinite(normal).all() and np.isfinite(gradient).all()):
                 return np.zeros_like(u0)
             try:
-                step: np.ndarray = np.linalg.solve(normal, gradient)
+                steps = np.linalg.solve(normal, gradient[..., None])[..., 0]
             except np.linalg.LinAlgError:
                 return np.zeros_like(u0)
+        step: np.ndarray = (
+            steps if self.groups is None else steps[self.groups[1], np.arange(len(u0))]
+        )
         if not np.isfinite(step).all():
             return np.zeros_like(u0)
         bounded: np.ndarray = np.clip(step, -options.max_correction, options.max_correction)
         return bounded
-
-    def _lead(self, planned: np.ndarray, now_ns: int) -> np.ndarray:
-        """``lead_s`` times the rate of the commands planned (zeros on a first frame or
-        another clock), so that a face that follows them with that response time shows each
-        target on time; the planned commands of ``now_ns`` are kept for the next frame."""
-        previous, self.previous = self.previous, (now_ns, planned)
-        if self.options.lead_s <= 0 or previous is None or now_ns <= previous[0]:
-            return np.zeros_like(planned)
-        rate = (planned - previous[1]) / ((now_ns - previous[0]) / 1e9)
-        lead: np.ndarray = self.options.lead_s * rate
-        return lead
 
     def correct(
         self, u0: np.ndarray, x: np.ndarray, weights: np.ndarray | None, now_ns: int
@@ -337,11 +365,12 @@ class ClosedLoop:
         if self.lost(now_ns) or not usable:
             target = np.zeros_like(self.correction)
             self.integral.drop()
-            self.previous = None
+            self.lead.reset()
         else:
             bound = self.options.max_correction
             target = self.wanted(u0, x, weights) + self.integral.z
-            target = np.clip(target + self._lead(u0 + target, now_ns), -bound, bound)
+            planned = u0 + target
+            target = np.clip(target + self.lead(planned, now_ns) - planned, -bound, bound)
         limit = self.options.max_step
         self.correction = self.correction + np.clip(target - self.correction, -limit, limit)
         out: np.ndarray = np.clip(u0 + self.correction, self.low, self.high)

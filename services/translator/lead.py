@@ -7,6 +7,8 @@ every simulated head). :class:`PhaseLead` adds to each command its rate of chang
 frame-to-frame jitter is not amplified: the inverse of a first-order lag of ``lead_s``. On
 simhead16 (the whole sample video, a profile learned from 600 poses) a lead of 0.1 s raised
 the lead figures from ρ 0.59 / amplitude 0.47 to 0.62 / 0.50; 0.2 s overshoots (ρ 0.59).
+The closed loop (:mod:`facesynth.services.translator.closed_loop`) leads its planned commands
+with the same class, restarted whenever the robot's face is lost: one lead for both loops.
 
 The caller clips the result to the servos' bounds. Time is data (the frames' own times); a
 first sample, a time that goes back or jumps by more than ``max_gap_s``

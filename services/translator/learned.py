@@ -50,7 +50,11 @@ import numpy as np
 
 from facesynth.runtime.profiles import Profile, Smoothing, has_source
 from facesynth.runtime.profiles.learned import PolyRidge, command_range, unpack
-from facesynth.runtime.profiles.learned_predict import predictor, region_outputs
+from facesynth.runtime.profiles.learned_predict import (
+    predictor,
+    region_inputs,
+    region_outputs,
+)
 from facesynth.services.translator.closed_loop import ClosedLoop, LoopOptions, LoopState
 from facesynth.services.translator.filters import OneEuroFilter
 from facesynth.services.translator.lead import PhaseLead
@@ -94,6 +98,8 @@ class LearnedTargets:
         #: Outputs a regional inverse gives from their region's features alone: the plan
         #: through the whole-face self-model leaves them as the inverse gives them.
         self.regional = region_outputs(learned.inverse, len(self.inputs), len(self.outputs))
+        #: The features each output's region reads (the closed loop corrects it on those).
+        self.regions = region_inputs(learned.inverse, len(self.inputs), len(self.outputs))
         self.filters = [filters.get(name) for name in self.outputs]
         specs = [profile.servo(name) for name in self.outputs]
         self.neutral = np.array([s.neutral_us for s in specs])
@@ -102,6 +108,10 @@ class LearnedTargets:
         self.min_us = np.array([s.min_us for s in specs])
         self.max_us = np.array([s.max_us for s in specs])
         self.fixed = {name: profile.servo(name).neutral_us for name in learned.dead}
+        #: The targets' row before a frame's outputs go in (dead servos at neutral), and
+        #: where each output goes in it (a file names every servo once: outputs or dead).
+        self.row = [self.fixed.get(name) for name in self.names]
+        self.slots = [self.names.index(name) for name in self.outputs]
         self.forward = learned.forward
         #: The closed loop through the robot's camera (None: open loop; :meth:`close_loop`).
         self.closed: ClosedLoop | None = None
@@ -123,7 +133,7 @@ class LearnedTargets:
         if not isinstance(self.forward, PolyRidge):
             raise ValueError("a closed loop needs a learned profile with a poly_ridge self-model")
         planner = self.planner or SelfModelPlanner(self.forward, 0, 0.0, self.u_low, self.u_high)
-        self.closed = ClosedLoop(planner, self.u_low, self.u_high, options, state)
+        self.closed = ClosedLoop(planner, self.u_low, self.u_high, options, state, self.regions)
         return self.closed
 
     def observed(self, raw: Mapping[str, float]) -> np.ndarray | None:
@@ -192,9 +202,8 @@ class LearnedTargets:
 
     def positions(self, u: np.ndarray) -> np.ndarray:
         """Pulses of the outputs for ``u`` (not reversed-aware), within their limits."""
-        out: np.ndarray = np.clip(
-            self.neutral + np.where(u >= 0, u * self.up, u * self.down), self.min_us, self.max_us
-        )
+        pulses = self.neutral + np.where(u >= 0, u * self.up, u * self.down)
+        out: np.ndarray = np.minimum(np.maximum(pulses, self.min_us), self.max_us)  # np.clip's
         return out
 
     def targets(
@@ -217,18 +226,19 @@ class LearnedTargets:
         elif self.lead is not None and t_ns is not None and np.isfinite(u).all():
             u = np.minimum(np.maximum(self.lead(u, t_ns), self.u_low), self.u_high)
         finite = np.isfinite(u)
+        oks = finite.tolist()
         if t_ns is not None:  # a servo held (no finite command) leaves its filter as it was
             u = np.array(
                 [
-                    v if f is None or not ok else f(float(v), t_ns)
-                    for f, v, ok in zip(self.filters, u, finite, strict=True)
+                    v if f is None or not ok else f(v, t_ns)
+                    for f, v, ok in zip(self.filters, u.tolist(), oks, strict=True)
                 ]
             )
         pulses = self.positions(np.where(finite, u, 0.0)).tolist()
-        by_name: dict[str, float | None] = dict(self.fixed)
-        for name, pulse, ok in zip(self.outputs, pulses, finite, strict=True):
-            by_name[name] = pulse if ok else None
-        return [by_name[name] for name in self.names]
+        row = list(self.row)
+        for slot, pulse, ok in zip(self.slots, pulses, oks, strict=True):
+            row[slot] = pulse if ok else None
+        return row
 
 
 def learned_targets(

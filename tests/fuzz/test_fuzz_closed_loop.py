@@ -4,10 +4,11 @@ the loop closed fed arbitrary performer frames and arbitrary faces of the robot.
 * Mutated, damaged and random bytes of a valid state, and valid ones with extreme finite
   arrays: a :class:`LoopState` or a :class:`LoopStateError`, nothing else; every state accepted
   drives a translator through the robot's faces with every position finite and within limits.
-* One planning profile (``tests/fuzz/test_fuzz_learned_profiles.py``'s) with the loop closed,
-  through streams of performer frames interleaved with the robot's faces (NaN, infinities, huge
-  values, features missing, face lost, capture times from any clock, going back): every
-  position finite and within the servo's limits.
+* One planning profile (``tests/fuzz/test_fuzz_learned_profiles.py``'s), or its regional one
+  corrected through each servo's region, with the loop closed, through streams of performer
+  frames interleaved with the robot's faces (NaN, infinities, huge values, features missing,
+  face lost, capture times from any clock, going back): every position finite and within the
+  servo's limits.
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ from __future__ import annotations
 import msgspec
 import numpy as np
 import pytest
+import test_fuzz_learned_profiles as profiles
 from fuzzing import FUZZ, check_tally, outcome, tally
 from hypothesis import given
 from hypothesis import strategies as st
@@ -22,6 +24,7 @@ from mutations import damaged, mutated
 from test_fuzz_learned_profiles import PLANNING, _check, extreme_arrays, frames
 
 from facesynth.runtime.profiles import Profile
+from facesynth.runtime.profiles.learned import Regional
 from facesynth.schemas.messages import Features
 from facesynth.services.translator.closed_loop import LoopOptions, LoopState
 from facesynth.services.translator.core import Translator
@@ -43,8 +46,10 @@ STATE = LoopState(
 )
 VALID = encode_loop_state(STATE, PLANNING.name, LEARNED)
 TREE = msgspec.msgpack.decode(VALID)
-#: Wide-open options: big steps, little damping, the integral and the lead at their largest
-#: (the bounds must hold by themselves).
+#: A profile with a regional inverse: its loop corrects each servo through its region.
+REGIONAL = next(p for p in profiles.VALID if p.learned and isinstance(p.learned.inverse, Regional))
+#: Wide-open options: big steps, little damping, the integral and the lead at their largest,
+#: the correction through each servo's region (the bounds must hold by themselves).
 WILD = LoopOptions(
     max_step=2.0,
     max_correction=2.0,
@@ -53,6 +58,7 @@ WILD = LoopOptions(
     integral_gain=1.0,
     integral_leak=1.0,
     lead_s=1.0,
+    regional=True,
 )
 
 
@@ -113,12 +119,23 @@ def test_closed_loop_translator_positions_stay_within_the_limits() -> None:
 
     @FUZZ
     @given(
-        frames(), frames(), st.lists(st.sampled_from(LAGS), min_size=1, max_size=4), st.booleans()
+        frames(),
+        frames(),
+        st.lists(st.sampled_from(LAGS), min_size=1, max_size=4),
+        st.booleans(),
+        st.booleans(),
     )
-    def case(performer: list[Features], robot: list[Features], lags: list[int], wild: bool) -> None:
-        translator = Translator(PLANNING)
-        translator.close_loop(WILD if wild else LoopOptions())
-        drive(PLANNING, translator, performer * 3, robot, lags)
+    def case(
+        performer: list[Features],
+        robot: list[Features],
+        lags: list[int],
+        wild: bool,
+        regional: bool,
+    ) -> None:
+        profile = REGIONAL if regional else PLANNING
+        translator = Translator(profile)
+        translator.close_loop(WILD if wild else LoopOptions(regional=regional))
+        drive(profile, translator, performer * 3, robot, lags)
         loop = translator._learned.closed if translator._learned is not None else None
         assert loop is not None
         assert np.isfinite(loop.state.weights).all() and np.isfinite(loop.state.covariance).all()

@@ -15,6 +15,7 @@ from facesynth.services.translator.closed_loop import (
     LoopOptions,
     LoopState,
 )
+from facesynth.services.translator.lead import PhaseLead
 from facesynth.services.translator.self_model import SelfModelPlanner
 
 FRAME_NS = 33_333_333
@@ -310,3 +311,32 @@ def test_the_lead_moves_a_ramp_earlier_by_lead_s() -> None:
     blind = ClosedLoop(model, model.low, model.high, options)  # never sees a face
     for index, u0 in enumerate(ramp):
         assert np.array_equal(blind.correct(u0, x, None, index * FRAME_NS), u0)
+
+
+def test_the_lead_is_the_open_loops_phase_lead_restarted_when_the_face_is_lost() -> None:
+    """One lead for open and closed loop: the planned commands are led as
+    :class:`PhaseLead` leads the open loop's (the rate low-passed: a jump in the plan is not
+    led by its whole frame-to-frame rate); a lost face restarts it (no stale rate)."""
+    model = planner()
+    head = Head(model)
+    options = LoopOptions(lead_s=0.1, damping=1e6, max_step=2.0, max_correction=2.0)
+    loop = ClosedLoop(model, model.low, model.high, options)
+    lead = PhaseLead(0.1)
+    x = np.zeros(N_FEATURES)
+    plan = [np.full(N_SERVOS, v) for v in (0.0, 0.0, 0.3, 0.3, 0.1, 0.1)]
+    for index, u0 in enumerate(plan):
+        t_ns = index * FRAME_NS
+        expected = u0  # the first frame has seen no face: the open loop, nothing led
+        if index > 0:
+            expected = np.clip(lead(u0 + loop.wanted(u0, x, None), t_ns), model.low, model.high)
+        u = loop.correct(u0, x, None, t_ns)
+        assert np.allclose(u, expected, atol=1e-12), index
+        loop.sent(u, t_ns)
+        loop.observe(head.face(u), t_ns)
+        if index == 2:  # the jump: led by less than its raw rate (0.9 a frame here)
+            assert 0.5 < u[0] - u0[0] < 0.65
+    later = len(plan) * FRAME_NS + round(options.max_age_s * 1e9) + 1  # the face is lost
+    assert np.array_equal(loop.correct(plan[-1], x, None, later), plan[-1])
+    loop.observe(head.face(plan[-1]), later)
+    moved = plan[-1] + 0.2  # the first frame after: no rate from before the loss
+    assert np.allclose(loop.correct(moved, x, None, later + FRAME_NS), moved, atol=1e-3)

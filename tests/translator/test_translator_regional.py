@@ -10,7 +10,8 @@ from test_translator_learned import ZERO, learned_profile
 
 from facesynth.runtime.profiles import Profile, encode_learned_profile, parse_learned_profile
 from facesynth.runtime.profiles.learned import Part, PolyRidge, Regional, pack
-from facesynth.runtime.profiles.learned_predict import region_outputs
+from facesynth.runtime.profiles.learned_predict import region_inputs, region_outputs
+from facesynth.services.translator.closed_loop import LoopOptions
 from facesynth.services.translator.core import Translator
 
 #: The self-model: servo i moves input i (the second one only half its reach), and the first
@@ -73,3 +74,18 @@ def test_the_plan_leaves_a_servo_its_region_gives_and_refines_the_others() -> No
     second = regional.servos[1]
     assert kept[second.name] > second.neutral_us + 5.0
     assert planned[second.name] > second.neutral_us + 5.0
+
+
+def test_the_closed_loop_corrects_each_servo_through_its_region() -> None:
+    """The regions reach T's closed loop from the file: the first servo is corrected on
+    input 0 alone, the others on the whole face; a whole-face inverse has one region."""
+    regional, whole = _planning(regional=True), _planning(regional=False)
+    assert regional.learned is not None
+    masks = region_inputs(regional.learned.inverse, 3, 3)
+    assert masks.tolist() == [[True, False, False], [True, True, True], [True, True, True]]
+    on = LoopOptions(regional=True)
+    groups = Translator(regional).close_loop(on).groups
+    assert groups is not None
+    assert groups[0][groups[1][0]].tolist() == [1.0, 0.0, 0.0]
+    assert Translator(whole).close_loop(on).groups is None
+    assert Translator(regional).close_loop().groups is None  # off by default

@@ -188,3 +188,16 @@ def region_outputs(model: Model, inputs: int, outputs: int) -> np.ndarray:
             if len(part.inputs) < inputs:
                 out[part.outputs] = True
     return out
+
+
+def region_inputs(model: Model, inputs: int, outputs: int) -> np.ndarray:
+    """Per output of a valid model over ``inputs`` inputs, the inputs its region reads,
+    (outputs, inputs) bools: a :class:`Regional` part's inputs for its outputs, every input
+    for an output of a whole-face model (or of a part that reads them all)."""
+    out = np.ones((outputs, inputs), dtype=bool)
+    if isinstance(model, Regional):
+        for part in model.parts:
+            mask = np.zeros(inputs, dtype=bool)
+            mask[part.inputs] = True
+            out[part.outputs] = mask
+    return out
