@@ -672,6 +672,16 @@ CASES = [
         ["bench", "robot", "--learn-poses", "100", "--driver", "maestro", "--camera", "0"],
         "--learn-poses babbles the simulated heads in process",
     ),
+    (
+        "bench robot missing calibration",
+        ["bench", "robot", "--calibration", "/nonexistent/alice.json"],
+        "--calibration: calibration file /nonexistent/alice.json does not exist",
+    ),
+    (
+        "bench robot broken calibration",
+        ["bench", "robot", "--calibration", "{bad.json}"],
+        "bad.json: JSON is malformed",
+    ),
     ("render robot head", ["render", "--robot-head", "robo9", "--out", "x.mp4"], "'robo9'"),
     (
         "render robot bars",

@@ -143,6 +143,49 @@ def test_a_segment_plays_as_a_video_of_its_own() -> None:
         track_performer(str(sample_video()), frames=3, start=10_000)
 
 
+def test_her_neutral_can_come_from_a_calibration(
+    monkeypatch: pytest.MonkeyPatch, face_image: np.ndarray
+) -> None:
+    """``bench robot --calibration``: her change is read from the calibration's neutral from
+    her first frame on (not from her first second, mid-grimace: her smile score is 0.49 in
+    frame 0), T is given it too (as ``run --calibration`` gives it), and the report says so."""
+    from facesynth.app.bench import robot as bench
+    from facesynth.app.bench.robot import measure, performer_neutral
+    from facesynth.app.bench.robot_compare import FeatureStream
+    from facesynth.app.bench.robot_report import robot_json
+    from facesynth.runtime.calibration import Calibration
+
+    rest = Calibration(
+        name="rest",
+        neutral=[1.0] * 68,
+        delta_min=[0.0] * 68,
+        delta_max=[0.0] * 68,
+        named_neutral={"mouthSmileLeft": 0.0, "eyeBlinkLeft": 0.0},
+    )
+    calibrated = track_performer(str(sample_video()), frames=4, calibration=rest)
+    first = calibrated.features[0]
+    assert calibrated.calibration is rest and first.neutral_ready
+    assert first.raw["mouthSmileLeft"] == pytest.approx(0.49, abs=0.05)  # her score, from 0
+
+    class Built(Exception):
+        """The robot's loop was built (with these keyword arguments)."""
+
+    def built(*args: object, **kwargs: object) -> None:
+        raise Built(kwargs)
+
+    monkeypatch.setattr(bench, "RobotLoop", built)
+    with pytest.raises(Built) as loop:
+        run_profile(calibrated, load_profile("paper16"), StillHead(face_image))
+    assert loop.value.args[0]["calibration"] is rest
+    values = np.full(calibrated.stream.values.shape, np.nan)
+    still = FeatureStream(calibrated.stream.names, values)
+    result = measure(calibrated, ["still"], ["paper16"], lambda head, profile: still)
+    told = "performer's neutral (her change is read from it): calibration 'rest'"
+    assert told in format_robot(result)
+    assert robot_json(result)["performer_neutral"] == "calibration 'rest' (its neutral step)"
+    assert performer_neutral(None) == "her first second with a face"
+
+
 def test_frames_must_be_positive() -> None:
     with pytest.raises(RobotError, match="--frames must be at least 1"):
         track_performer(str(sample_video()), frames=0)

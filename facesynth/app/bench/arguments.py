@@ -166,6 +166,13 @@ def add_bench_arguments(p: argparse.ArgumentParser) -> None:
         "lead with the features the performer moves that the head moved while babbling",
     )
     p.add_argument(
+        "--calibration",
+        metavar="NAME|PATH",
+        help="robot: the performer's calibration (facesynth calibrate: its neutral step, e.g. "
+        "her face at rest) for her F and T, as run --calibration takes it (default: her "
+        "neutral from her first second with a face)",
+    )
+    p.add_argument(
         "--track", help="smoothing: a facesynth track file to measure tracking noise from"
     )
     p.add_argument(

@@ -3,15 +3,17 @@
 In process, for simulated heads, faster than real time and deterministic (time is data):
 
 * the performer: every frame of the video → the tracker (``full`` model, blendshapes on) → F
-  (its neutral: the first second with a face), once (:func:`track_performer`), shared by every
-  profile and head;
+  (its neutral: the first second with a face, or a performer calibration's neutral step, as
+  ``run --calibration`` takes it), once (:func:`track_performer`), shared by every profile and
+  head;
 * the robot (:class:`RobotLoop`, one per profile and head): each performer frame's features →
   T (the profile) → C (T and C as the stepped chain runs them,
   :class:`facesynth.app.engine.stepped.RobotCores`; C on the robot's own clock:
   checks, clamping, ``max_speed``/``max_accel``, and its own catch-up steps every
   ``MAX_STEP_S`` between commands, as the control service runs them) → each servo's channel on
   the head (``command(channel, pulse_us)``, the head's own dynamics stepped to each move's
-  instant) → the head's camera image at the frame's instant → the same tracker and F. The
+  instant) → the head's camera image at the frame's instant → the same tracker and F (T with
+  the performer's calibration, if any, as ``run`` gives it). The
   robot's neutral is learned first, while C holds the head at the profile's neutral
   (:data:`SETTLE_S` to settle, then F's neutral window);
 * both sides' ``Features.raw`` (relative to each face's neutral, unscaled) are aligned per
@@ -39,6 +41,7 @@ from facesynth.app.engine.robot_loop import (
     tracker,
 )
 from facesynth.app.engine.stepped import SteppedChain, sensor_frame
+from facesynth.runtime.calibration import Calibration
 from facesynth.runtime.profiles import Profile, load_profile
 from facesynth.runtime.profiles.learned import shown_inputs, unpack
 from facesynth.schemas.messages import Features
@@ -66,6 +69,7 @@ __all__ = [
     "RobotLoop",
     "bench_robot",
     "measure",
+    "performer_neutral",
     "reach_box",
     "robot_features",
     "track_performer",
@@ -75,30 +79,53 @@ __all__ = [
 DEFAULT_PROFILES: Final = ("paper16", "head16", "head16_bs")
 
 
+#: Where the performer's neutral comes from without a calibration.
+FIRST_SECOND: Final = "her first second with a face"
+
+
 @dataclass(frozen=True)
 class Performance:
-    """The performer's side, tracked once: F's output per frame and its raw stream."""
+    """The performer's side, tracked once: F's output per frame and its raw stream; the
+    calibration her F took (None: her neutral from her first second with a face)."""
 
     video: str
     fps: float
     features: list[Features]
     stream: FeatureStream
     seconds: float
+    calibration: Calibration | None = None
+
+
+def performer_neutral(calibration: Calibration | None) -> str:
+    """Where the performer's neutral comes from, for the report."""
+    if calibration is None:
+        return FIRST_SECOND
+    return f"calibration {calibration.name!r} (its neutral step)"
 
 
 def track_performer(
-    video: str, *, frames: int | None = None, model: str = MODEL, start: int = 0
+    video: str,
+    *,
+    frames: int | None = None,
+    model: str = MODEL,
+    start: int = 0,
+    calibration: Calibration | None = None,
 ) -> Performance:
     """The performer's features from ``frames`` frames of ``video`` (all: None) from frame
     ``start`` on; a segment plays as a video of its own (media time from 0 at ``start``, F's
-    neutral from its first second)."""
+    neutral from its first second, or ``calibration``'s neutral when given)."""
     if frames is not None and frames < 1:
         raise RobotError("--frames must be at least 1")
     if start < 0:
         raise RobotError("the first frame must be 0 or later")
     started = time.monotonic()
     source = VideoSource(VideoConfig(path=video))
-    chain = SteppedChain(tracker(model), FeatureProcessor(neutral_seconds=NEUTRAL_S))
+    processor = (
+        FeatureProcessor(neutral_seconds=NEUTRAL_S)
+        if calibration is None
+        else FeatureProcessor.from_calibration(calibration, neutral_seconds=NEUTRAL_S)
+    )
+    chain = SteppedChain(tracker(model), processor)
     out: list[Features] = []
     origin_ns: int | None = None
     try:
@@ -121,7 +148,8 @@ def track_performer(
     if not any(robot_features(f) for f in out):
         raise RobotError(f"{video}: the tracker never found the performer's face with a neutral")
     stream = FeatureStream.from_frames([robot_features(f) for f in out])
-    return Performance(video, source.info.fps, out, stream, time.monotonic() - started)
+    seconds = time.monotonic() - started
+    return Performance(video, source.info.fps, out, stream, seconds, calibration)
 
 
 @dataclass(frozen=True)
@@ -160,6 +188,8 @@ class RobotBench:
     model: str
     performer_seconds: float
     heads: list[HeadRun] = field(default_factory=list)
+    #: Where the performer's neutral came from (:func:`performer_neutral`).
+    neutral: str = FIRST_SECOND
 
 
 def run_profile(
@@ -169,8 +199,9 @@ def run_profile(
     *,
     on_frame: Callable[[int, np.ndarray, Features], None] | None = None,
 ) -> FeatureStream:
-    """The robot's raw features for every performer frame (``on_frame`` sees each image)."""
-    loop = RobotLoop(profile, head, fps=performance.fps)
+    """The robot's raw features for every performer frame (``on_frame`` sees each image); T
+    with the performer's calibration, if any."""
+    loop = RobotLoop(profile, head, fps=performance.fps, calibration=performance.calibration)
     loop.start()
     frames: list[dict[str, float] | None] = []
     for index, performer in enumerate(performance.features):
@@ -238,6 +269,7 @@ def measure(
         fps=performance.fps,
         model=MODEL,
         performer_seconds=round(performance.seconds, 2),
+        neutral=performer_neutral(performance.calibration),
     )
     for head_name in heads:
         runs: list[list[FeatureRow]] = []

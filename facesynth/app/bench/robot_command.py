@@ -14,6 +14,7 @@ import msgspec
 from facesynth.app.engine.robot_loop import Head, RobotError
 from facesynth.app.wiring import OptionError
 from facesynth.runtime.atomic import write_atomic
+from facesynth.runtime.calibration import Calibration, load_calibration
 from facesynth.runtime.outputs import check_output
 from facesynth.runtime.profiles import Profile
 
@@ -39,6 +40,17 @@ def profiles_of(args: argparse.Namespace) -> list[str]:
     return chosen or list(DEFAULT_PROFILES)
 
 
+def performer_calibration(name: str | None) -> Calibration | None:
+    """``--calibration NAME|PATH``: the performer's calibration, checked before any tracking
+    (None: F takes her neutral from her first second with a face)."""
+    if name is None:
+        return None
+    try:
+        return load_calibration(name)
+    except ValueError as exc:
+        raise RobotError(f"--calibration: {exc}") from None
+
+
 def bench_robot_command(args: argparse.Namespace) -> int:
     """Every profile on every simulated head in process, or (``--driver``, ``--camera`` or
     ``--ros2-image-topic``) on a head outside it in real time; a table (or ``--json``) on
@@ -56,6 +68,7 @@ def bench_robot_command(args: argparse.Namespace) -> int:
             load_profile(name)  # before any tracking
         except ValueError as exc:
             raise RobotError(f"--profile {name}: {exc}") from None
+    calibration = performer_calibration(getattr(args, "calibration", None))
     live = any(v is not None for v in (args.driver, args.camera, args.ros2_image_topic))
     if getattr(args, "closed_loop", False):
         _check_closed_loop(profiles, live, args.learn_poses is not None)
@@ -66,14 +79,16 @@ def bench_robot_command(args: argparse.Namespace) -> int:
         print(f"bench robot: {what}", file=sys.stderr, flush=True)
 
     if live:
-        result = _live(args, profiles, progress)
+        result = _live(args, profiles, progress, calibration)
     else:
         if args.port is not None:
             raise OptionError("--port goes with --driver (a head outside this process)")
         heads, open_head = simulated_heads(args.head)
         learn = _learner(args.learn_poses) if args.learn_poses is not None else None
         progress("tracking the performer")
-        performance = track_performer(args.video or str(sample_video()), frames=args.frames)
+        performance = track_performer(
+            args.video or str(sample_video()), frames=args.frames, calibration=calibration
+        )
         if getattr(args, "closed_loop", False):
             from .robot_closed import bench_closed
 
@@ -164,7 +179,10 @@ def ros2_camera_config(topic: str) -> msgspec.Struct:
 
 
 def _live(
-    args: argparse.Namespace, profiles: list[str], progress: Callable[[str], None]
+    args: argparse.Namespace,
+    profiles: list[str],
+    progress: Callable[[str], None],
+    calibration: Calibration | None = None,
 ) -> RobotBench:
     """Every profile on the head behind ``--driver``, watched through ``--camera`` (or the
     robot's camera on ROS 2, ``--ros2-image-topic``)."""
@@ -188,7 +206,9 @@ def _live(
     feed = CameraFeed(SOURCES.build(camera))  # a camera that cannot open: before any tracking
     try:
         progress("tracking the performer")
-        performance = track_performer(args.video or str(sample_video()), frames=args.frames)
+        performance = track_performer(
+            args.video or str(sample_video()), frames=args.frames, calibration=calibration
+        )
         seen = f"camera {args.camera}" if args.camera is not None else f"ros2 {watch}"
         name = f"{args.driver} {args.port or ''} | {seen}".replace("  ", " ")
 

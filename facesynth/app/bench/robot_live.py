@@ -42,6 +42,7 @@ from facesynth.app.engine.robot_loop import (
     tracker,
 )
 from facesynth.app.engine.stepped import RobotCores, sensor_frame
+from facesynth.runtime.calibration import Calibration
 from facesynth.runtime.profiles import Profile
 from facesynth.schemas.messages import Features
 from facesynth.services.control.core import MAX_STEP_S, Move
@@ -122,14 +123,16 @@ class _Live:
         camera: CameraFeed,
         backend: PointsBackend,
         clock: Callable[[], int],
+        calibration: Calibration | None = None,
     ) -> None:
         self.profile = profile
         self.driver = driver
         self.camera = camera
         self.backend = backend
         self.clock = clock
-        #: T and C as the stepped chain runs them, here on the monotonic clock.
-        self.cores = RobotCores.of_profile("robot", profile)
+        #: T and C as the stepped chain runs them, here on the monotonic clock (T with the
+        #: performer's calibration, if any, as ``run`` gives it).
+        self.cores = RobotCores.of_profile("robot", profile, calibration=calibration)
         self.control = self.cores.control
         self.processor = FeatureProcessor(neutral_seconds=NEUTRAL_S, neutral_held=True)
         self.seq = 0
@@ -229,7 +232,8 @@ async def live_profile(
     :class:`.robot.RobotError` when no face with a neutral is seen within ``timeout_s`` after
     ``settle_s`` at neutral)."""
     period_ns = round(1e9 / performance.fps)
-    run = _Live(profile, driver, camera, backend if backend is not None else tracker(), clock)
+    backend = backend if backend is not None else tracker()
+    run = _Live(profile, driver, camera, backend, clock, performance.calibration)
     async with driver:
         try:
             at_neutral = await run.neutral(period_ns, round(settle_s * 1e9), round(timeout_s * 1e9))

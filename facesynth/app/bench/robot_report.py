@@ -158,6 +158,7 @@ def format_robot(result: RobotBench) -> str:
     lines = [
         f"performer: {result.video} ({result.frames} frames at {result.fps:.2f} fps, tracker "
         f"{result.model}, tracked in {result.performer_seconds:.1f} s)",
+        f"performer's neutral (her change is read from it): {result.neutral}",
         _legend(),
     ]
     for head in result.heads:
@@ -229,6 +230,7 @@ def robot_json(result: RobotBench) -> dict[str, Any]:
         "reach_ratio": REACH_RATIO,
         "reach_floor": REACH_FLOOR,
         "performer_seconds": result.performer_seconds,
+        "performer_neutral": result.neutral,
         "heads": [
             {
                 "head": head.head,
