@@ -24,8 +24,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from facesynth.runtime.profiles.learned import PolyRidge, unpack
-from facesynth.runtime.profiles.learned_predict import poly_factors
+from facesynth.runtime.profiles.learned import PolyRidge
+from facesynth.services.translator.self_model_face import PolyFace
 
 #: Levenberg-Marquardt damping added to every step (standardized face units²).
 DAMPING = 1e-3
@@ -44,29 +44,22 @@ class SelfModelPlanner:
     ) -> None:
         """``low`` / ``high``: each servo's bounds (normalized; default -1 / +1), e.g. its
         responsive range."""
-        self.coef = unpack(forward.coef)  # (inputs, terms)
-        self.intercept = unpack(forward.intercept)
-        self.n_servos = unpack(forward.powers).shape[1]
-        # Each term as the servos it multiplies (index n_servos: the constant 1).
-        self.factors = poly_factors(forward)
-        self.degree = self.factors.shape[1]
-        self.rows = np.arange(len(self.factors))
+        #: The forward model's face and Jacobian (:mod:`.self_model_face`).
+        self.model = PolyFace(forward)
+        self.coef, self.intercept = self.model.coef, self.model.intercept
+        self.n_servos = self.model.n_servos
         self.steps, self.prior = steps, prior
         self.eye = np.eye(self.n_servos) * (prior + DAMPING)
         self.low = -np.ones(self.n_servos) if low is None else np.asarray(low, dtype=np.float64)
         self.high = np.ones(self.n_servos) if high is None else np.asarray(high, dtype=np.float64)
+        self._frees: dict[
+            bytes, tuple[PolyFace, np.ndarray, int, np.ndarray, np.ndarray, np.ndarray]
+        ] = {}
 
     def face(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The predicted standardized face for commands ``u`` (S,) and its Jacobian (F, S)."""
-        values = np.append(u, 1.0)[self.factors]  # (T, degree)
-        terms = values.prod(axis=1)
-        d_terms = np.zeros((len(self.factors), self.n_servos + 1))
-        for column in range(self.degree):
-            others = np.delete(values, column, axis=1).prod(axis=1)
-            np.add.at(d_terms, (self.rows, self.factors[:, column]), others)
-        face: np.ndarray = self.coef @ terms + self.intercept
-        jacobian: np.ndarray = self.coef @ d_terms[:, : self.n_servos]
-        return face, jacobian
+        face, jacobian = self.model.at(np.append(u, 1.0))
+        return face, np.array(jacobian)  # its own array, not a view into the model's
 
     def plan(
         self,
@@ -78,37 +71,57 @@ class SelfModelPlanner:
         """Commands within the bounds for the standardized target face ``x``, from ``u0``;
         ``weights`` (one per face feature, >= 0; None: all 1) weigh each feature's squared
         error (0: the feature takes no part in the plan); ``fixed`` (one bool per servo; None:
-        none) servos stay at ``u0`` (clipped), the others planned around them."""
-        u = np.clip(u0, self.low, self.high)
-        free = None if fixed is None else np.where(fixed, 0.0, 1.0)
-        for _ in range(self.steps):
-            step = self._step(x, u, u0, weights, free)
-            if step is None:
-                break  # the self-model overflows here (extreme coefficients): keep this plan
-            u = np.clip(u + step, self.low, self.high)
-        return u
+        none) servos stay at ``u0`` (clipped), the others planned around them.
 
-    def _step(
-        self,
-        x: np.ndarray,
-        u: np.ndarray,
-        u0: np.ndarray,
-        weights: np.ndarray | None = None,
-        free: np.ndarray | None = None,
-    ) -> np.ndarray | None:
-        """One damped Gauss-Newton step from ``u`` (None: not computable in finite numbers);
-        ``free``: 1 per servo the step may move, 0 per servo it leaves (None: all 1)."""
+        Each step solves for the free servos only: a fixed servo's Jacobian column is out, so
+        the damped normal equations split into the free servos' block and the fixed ones'
+        (whose step is nought). The plan runs on the model with the free servos first
+        (:meth:`.PolyFace.reordered`, kept per pattern), so they are a slice of ``v``. A normal
+        matrix or a step that is not finite (the self-model overflows: extreme coefficients)
+        ends the plan at the last finite commands; a gradient that is not finite gives a step
+        that is not finite (the solve's substitutions carry it), so it needs no check of its
+        own."""
+        model, order, moving, eye, low, high = self._free(fixed)
+        v = np.append(np.minimum(np.maximum(u0[order], low), high), 1.0)  # [u, 1], reordered
+        free = slice(0, moving)
+        start = u0[order[free]]
+        bottom, top = low[free], high[free]
+        column = None if weights is None else weights[:, None]
         with np.errstate(all="ignore"):
-            face, jacobian = self.face(u)
-            if free is not None:  # a fixed servo's column out: its step is 0
-                jacobian = jacobian * free
-            weighted = jacobian if weights is None else jacobian * weights[:, None]
-            gradient = weighted.T @ (x - face) - self.prior * (u - u0)
-            normal = weighted.T @ jacobian + self.eye
-            if not (np.isfinite(gradient).all() and np.isfinite(normal).all()):
-                return None
-            try:
-                step: np.ndarray = np.linalg.solve(normal, gradient)
-            except np.linalg.LinAlgError:  # the damping lost among huge numbers: singular
-                return None
-        return step if np.isfinite(step).all() else None
+            for _ in range(self.steps):
+                face, jacobian = model.at(v)
+                jacobian = jacobian[:, free]
+                weighted = jacobian if column is None else jacobian * column
+                u = v[free]
+                gradient = np.dot(weighted.T, x - face) - self.prior * (u - start)
+                normal = np.dot(weighted.T, jacobian) + eye
+                if not np.isfinite(normal).all():
+                    break
+                try:
+                    step = np.linalg.solve(normal, gradient)
+                except np.linalg.LinAlgError:  # the damping lost among huge numbers: singular
+                    break
+                if not np.isfinite(step).all():
+                    break
+                v[free] = np.minimum(np.maximum(u + step, bottom), top)  # np.clip's
+        out = np.empty(self.n_servos)
+        out[order] = v[: self.n_servos]
+        return out
+
+    def _free(
+        self, fixed: np.ndarray | None
+    ) -> tuple[PolyFace, np.ndarray, int, np.ndarray, np.ndarray, np.ndarray]:
+        """For ``fixed``: the model with the free servos first, that order, how many are free,
+        their damping, and the bounds in that order; kept per pattern (a profile plans with
+        one: its regional outputs)."""
+        key = b"" if fixed is None else np.asarray(fixed, dtype=bool).tobytes()
+        known = self._frees.get(key)
+        if known is None:
+            held = np.zeros(self.n_servos, dtype=bool) if not key else np.asarray(fixed, bool)
+            order = np.concatenate([np.flatnonzero(~held), np.flatnonzero(held)])
+            moving = int(np.count_nonzero(~held))
+            model = self.model if not held.any() else self.model.reordered(order)
+            eye = self.eye[:moving, :moving]  # a multiple of the identity: any order
+            known = (model, order, moving, eye, self.low[order], self.high[order])
+            self._frees[key] = known
+        return known

@@ -42,8 +42,12 @@ class FitOptions:
     #: T's planning through the forward model (``Learned.plan_steps``, ``plan_prior``). On
     #: simhead16 (600 poses babbled in real time; ``facesynth bench robot``), performer → robot
     #: mean ρ over the moved features: 0.44 with the inverse model alone, 0.49 with a prior of
-    #: 0.02, 0.53-0.54 with priors of 0.5-5 (6 steps; 3 or 12 steps: no better).
-    plan_steps: int = 6
+    #: 0.02, 0.53-0.54 with priors of 0.5-5 (6 steps; 3 or 12 steps: no better). 4 steps
+    #: since 2026-11-27: lead ρ / ratio / in reach over the whole video 0.59 / 0.54 / 0.68 on
+    #: simhead16 and 0.20 / 0.52 / 0.68 on simhead16_stiff, against 0.59 / 0.50 / 0.67 and
+    #: 0.20 / 0.53 / 0.67 with 6 (the steps do not converge: they alternate between two
+    #: plans), for a third less of T's time (docs/learning.md).
+    plan_steps: int = 4
     plan_prior: float = 1.0
     #: Fit even when some servos were not moved both ways (they stay at neutral).
     partial: bool = False
