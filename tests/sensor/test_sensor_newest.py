@@ -123,7 +123,8 @@ async def fast_camera(period_s: float) -> AsyncIterator[str]:
                 body = numbered(index)
                 head = f"--frame\r\nContent-Type: image/jpeg\r\nContent-Length: {len(body)}\r\n\r\n"
                 await response.write(head.encode() + body + b"\r\n")
-                await asyncio.sleep(period_s)
+                with contextlib.suppress(TimeoutError):  # woken at once when the camera stops
+                    await asyncio.wait_for(stop.wait(), period_s)
         return response
 
     app = web.Application()
