@@ -25,7 +25,7 @@ from collections.abc import Awaitable, Mapping
 
 from facesynth.runtime import codec
 from facesynth.runtime.bus.base import SubscriptionClosed
-from facesynth.runtime.clock import Clock
+from facesynth.runtime.clock import Clock, wall_offset_ns
 from facesynth.runtime.clock_host import clock_host
 from facesynth.runtime.profiles import Profile
 from facesynth.runtime.rig_view import RigView
@@ -157,8 +157,9 @@ class ControlService:
             if move.kind == "start" or (move.kind == "stop" and at_neutral):
                 await self._guarded(self.driver.neutral(move.positions))
             else:
-                # The wall-clock instant of the step (not of this call, which may come later).
-                offset = ctx.clock.time_ns() - ctx.clock.monotonic_ns()
+                # The wall-clock instant of the step (not of this call, which may come later),
+                # by an offset a pause between two clock readings cannot skew.
+                offset = wall_offset_ns(ctx.clock)
                 info = dataclasses.replace(move.info, t_ns=move.t_ns + offset)
                 if move.command:  # the last moment before the write: is it still young?
                     self.core.hand_over(move, ctx.clock.time_ns())

@@ -4,12 +4,23 @@ from __future__ import annotations
 
 import asyncio
 import time
+from collections.abc import Awaitable
+from typing import TypeVar
 
 import pytest
 
-from facesynth.runtime.clock import FAKE_EPOCH_NS, FakeClock, IdleTimeout, SystemClock
+from facesynth.runtime.clock import (
+    FAKE_EPOCH_NS,
+    OFFSET_READ_NS,
+    OFFSET_TRIES,
+    FakeClock,
+    IdleTimeout,
+    SystemClock,
+    wall_offset_ns,
+)
 
 MS = 1_000_000
+T = TypeVar("T")
 
 
 # --- SystemClock -------------------------------------------------------------------------------
@@ -215,3 +226,51 @@ async def test_settle_refuses_a_loop_that_never_rests() -> None:
     with pytest.raises(RuntimeError, match="still busy"):
         await clock.settle()
     task.cancel()
+
+
+class _ScriptedClock:
+    """A clock whose readings come from scripts (monotonic and wall, ns)."""
+
+    def __init__(self, monotonic: list[int], wall: list[int]) -> None:
+        self._monotonic, self._wall = iter(monotonic), iter(wall)
+
+    def time_ns(self) -> int:
+        return next(self._wall)
+
+    def monotonic_ns(self) -> int:
+        return next(self._monotonic)
+
+    async def sleep(self, seconds: float) -> None:  # pragma: no cover - not read
+        raise AssertionError
+
+    async def wait_for(self, awaitable: Awaitable[T], timeout: float) -> T:  # pragma: no cover
+        raise AssertionError
+
+
+def test_the_wall_offset_is_read_again_when_a_pause_fell_between_the_readings() -> None:
+    offset = 1_000 * MS  # wall = monotonic + 1 s
+    # First try: preempted 2 ms right after reading the wall clock (at monotonic 10 ms).
+    # Second try: tight. Read once (wall - monotonic after the pause), it is 2 ms short.
+    clock = _ScriptedClock(
+        monotonic=[10 * MS, 12 * MS, 13 * MS, 13 * MS + 4_000],
+        wall=[10 * MS + offset, 13 * MS + 2_000 + offset],
+    )
+    assert wall_offset_ns(clock) == offset
+
+
+def test_the_wall_offset_keeps_the_tightest_reading_when_none_is_tight() -> None:
+    offset = 5 * MS
+    widths = [3 * MS, 1 * MS, 2 * MS]  # each bracket's pause, after the wall reading
+    monotonic, wall, now = [], [], 0
+    for width in widths:
+        monotonic += [now, now + width]
+        wall.append(now + offset)
+        now += width + MS
+    # The midpoint pairing is off by half the bracket: 0.5 ms for the tightest (1 ms) one.
+    assert wall_offset_ns(_ScriptedClock(monotonic, wall)) == offset - MS // 2
+    assert len(widths) == OFFSET_TRIES and OFFSET_READ_NS < MS
+
+
+def test_the_system_clock_offset_matches_the_clocks_to_within_a_millisecond() -> None:
+    offset = wall_offset_ns(SystemClock())
+    assert abs(time.time_ns() - time.monotonic_ns() - offset) < MS
