@@ -46,7 +46,7 @@ class SelfModelPlanner:
         responsive range."""
         #: The forward model's face and Jacobian (:mod:`.self_model_face`).
         self.model = PolyFace(forward)
-        self.coef, self.intercept = self.model.coef, self.model.intercept
+        self.intercept = self.model.intercept  # (the closed loop reads its feature count)
         self.n_servos = self.model.n_servos
         self.steps, self.prior = steps, prior
         self.eye = np.eye(self.n_servos) * (prior + DAMPING)
