@@ -682,6 +682,16 @@ CASES = [
         ["bench", "robot", "--calibration", "{bad.json}"],
         "bad.json: JSON is malformed",
     ),
+    (
+        "bench fidelity calibration",
+        ["bench", "fidelity", "--calibration", "alice"],
+        "--calibration: bench fidelity does not read it (its faces are synthetic",
+    ),
+    (
+        "bench smoothing calibration",
+        ["bench", "smoothing", "--calibration", "alice"],
+        "--calibration: bench smoothing does not read it (it feeds T synthetic features",
+    ),
     ("render robot head", ["render", "--robot-head", "robo9", "--out", "x.mp4"], "'robo9'"),
     (
         "render robot bars",

@@ -1,7 +1,7 @@
 """``facesynth calibrate NAME``: guide a performer through the face-section expressions.
 
 Live camera: prompts on the terminal, ``--seconds`` per step (10 steps x 4 s = 40 s by default).
-Video: ``--schedule "neutral=9.6-10.4,smile=14-15,…"`` says when each step happens. Frames go
+Video: ``--schedule "neutral=7.0-9.2,smile=14-15,…"`` says when each step happens. Frames go
 straight through the tracker (P of :class:`facesynth.app.engine.stepped.SteppedChain`) and the
 feature maths in this process (no bus needed); the result
 is written atomically to ``~/.config/facesynth/calibrations/NAME.json`` (or ``--out``), where

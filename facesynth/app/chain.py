@@ -36,6 +36,7 @@ from facesynth.runtime.service import (
     run_service,
     until_signalled,
 )
+from facesynth.runtime.tasks import cancel_and_wait
 from facesynth.schemas.messages import ServoCommands
 from facesynth.services.points.backends.base import PointsBackend
 from facesynth.services.sensor.service import SensorService
@@ -248,12 +249,9 @@ async def run_chain(
         interrupted = True
     finally:
         progress.close()
-        for task in tasks:
-            task.cancel()
-        outcomes = await asyncio.gather(*tasks, return_exceptions=True)
-    for outcome in outcomes:
-        if isinstance(outcome, BaseException) and not isinstance(outcome, asyncio.CancelledError):
-            raise outcome
+        errors = await cancel_and_wait(tasks)
+    if errors:
+        raise errors[0]
     controls = [contexts[p.name] for p in others if p.stage in _appliers()]
     return ChainResult(
         frames=sensor.last_seq + 1,
@@ -306,14 +304,11 @@ async def serve_nodes(
         for part in parts
     ]
     outcome = await until_signalled(asyncio.wait(tasks, return_when=asyncio.FIRST_EXCEPTION))
-    for task in tasks:
-        task.cancel()
-    results = await asyncio.gather(*tasks, return_exceptions=True)
+    errors = await cancel_and_wait(tasks)
     watch.stop()
     log.info("%s after start-up", watch.summary())
-    for result in results:
-        if isinstance(result, BaseException) and not isinstance(result, asyncio.CancelledError):
-            raise result
+    if errors:
+        raise errors[0]
     controls = [contexts[p.name] for p in parts if p.stage in _appliers()]
     return ChainResult(
         frames=0,

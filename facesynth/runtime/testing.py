@@ -30,7 +30,7 @@ import msgspec
 from facesynth.runtime import codec, keys
 from facesynth.runtime.bus.base import Subscription
 from facesynth.runtime.bus.memory import MemoryNetwork
-from facesynth.runtime.clock import FakeClock, IdleTimeout
+from facesynth.runtime.clock import FakeClock, IdleTimeout, wall_offset_ns
 from facesynth.runtime.service import Body, ServiceContext, run_service
 from facesynth.schemas.messages import Features, Frame, Points, ServiceStats, ServoCommands
 
@@ -220,7 +220,7 @@ class StageRun:
     def _drain(self) -> None:
         if self._recorder is None:
             return
-        offset = self.clock.time_ns() - self.clock.monotonic_ns()
+        offset = wall_offset_ns(self.clock)  # the bus stamps receipt in wall time
         while (sample := self._recorder.receive_nowait()) is not None:
             topic = _topic(self.rig, sample.key)
             kind = TOPIC_TYPES.get(topic)

@@ -1,12 +1,12 @@
 """The paper's face-section expressions on the bundled video move the servos the right way.
 
 The video (see facesynth/app/data/PROVENANCE.md) shows, by time: looking down (0-0.9 s), a sad
-frown (2-3.5 s), looking up (7-8.8 s), a calm face (9.75-10.35 s, the calibration's neutral), a
-smile (10.6-11.9 s) and a laugh with the mouth open (13.5-15.5 s). No moment of it is a clean
-neutral, so the checks compare segments whose difference is plain to see (looking up vs down,
-smiling or laughing vs the sad frown, brows raised while looking up vs the frown). paper16's brows
-follow Table 1's nose distances, which get that last one wrong on this video (head16 and virtual
-use the signed named features), so it is checked on those two.
+frown (2-3.5 s), looking up (7-8.8 s), a calm look with a soft closed-mouth smile (9.75-10.35 s,
+the calibration's neutral), a smile (10.6-11.9 s) and a laugh with the mouth open (13.5-15.5 s).
+No moment of it is a clean neutral, so the checks compare segments whose difference is plain to
+see (looking up vs down, smiling or laughing vs the sad frown, brows raised while looking up vs
+the frown). paper16's brows follow Table 1's nose distances, which get that last one wrong on
+this video (head16 and virtual use the signed named features), so it is checked on those two.
 
 Both tracker models run it: ``fast`` with paper16, head16 and virtual; ``full`` (the default)
 with those and the blendshape-brow variants head16_bs and virtual_bs, except the vertical gaze

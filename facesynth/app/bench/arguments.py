@@ -170,7 +170,7 @@ def add_bench_arguments(p: argparse.ArgumentParser) -> None:
         metavar="NAME|PATH",
         help="robot: the performer's calibration (facesynth calibrate: its neutral step, e.g. "
         "her face at rest) for her F and T, as run --calibration takes it (default: her "
-        "neutral from her first second with a face)",
+        "neutral from her first second with a face); the other benchmarks refuse it",
     )
     p.add_argument(
         "--track", help="smoothing: a facesynth track file to measure tracking noise from"

@@ -23,6 +23,7 @@ import numpy as np
 from facesynth.app.bench.processes import TICKS
 from facesynth.runtime import codec, keys
 from facesynth.runtime.bus.base import Bus, Sample, Subscription, SubscriptionClosed
+from facesynth.runtime.tasks import cancel_and_wait
 from facesynth.schemas.messages import Features, Points, ServiceStats, ServoCommands
 
 #: The keys whose arrival times split the chain into hops, in chain order.
@@ -128,9 +129,7 @@ class RigObserver:
         """Stop following."""
         for subscription in self._subscriptions:
             subscription.close()
-        for task in self._tasks:
-            task.cancel()
-        await asyncio.gather(*self._tasks, return_exceptions=True)
+        await cancel_and_wait(self._tasks)
 
     def hop_latencies(self, from_seq: int = 0) -> dict[str, np.ndarray]:
         """Per hop, the milliseconds of each frame (``from_seq`` on) seen on both of its ends."""

@@ -33,6 +33,7 @@ from facesynth.runtime.bus.base import Bus
 from facesynth.runtime.profiles import load_profile
 from facesynth.runtime.rig_view import RigView
 from facesynth.runtime.service import ServiceContext, run_service
+from facesynth.runtime.tasks import cancel_and_wait, stop_tasks
 from facesynth.schemas.messages import Frame, Points, ServiceStats, ServoCommands
 
 log = logging.getLogger("facesynth.console")
@@ -102,11 +103,7 @@ class ConsoleSession:
     async def stop(self) -> None:
         """Stop commanding, then stop C (which returns the face to neutral)."""
         self.core.release()
-        for task in self._tasks:
-            task.cancel()
-        for task in self._tasks:
-            with contextlib.suppress(asyncio.CancelledError, Exception):
-                await task
+        await cancel_and_wait(self._tasks)
         await self._stop_control()
 
     # --- requests -------------------------------------------------------------------------
@@ -182,9 +179,7 @@ class ConsoleSession:
     async def _stop_control(self) -> None:
         task, self._c = self._c, None
         if task is not None and not task.done():
-            task.cancel()
-            with contextlib.suppress(asyncio.CancelledError, Exception):
-                await task
+            await cancel_and_wait([task])
 
     # --- the console's service ------------------------------------------------------------------
 
@@ -219,10 +214,7 @@ class ConsoleSession:
                 self.listener("state", self.state())
                 await ctx.clock.sleep(1 / RATE_HZ)
         finally:
-            for follower in followers:
-                follower.cancel()
-                with contextlib.suppress(asyncio.CancelledError):
-                    await follower
+            await stop_tasks(followers)
 
     async def _follow_states(self, subscription: Any) -> None:
         async for sample in subscription:

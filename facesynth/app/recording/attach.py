@@ -16,6 +16,7 @@ from collections.abc import AsyncIterator
 from typing import Any
 
 from facesynth.app.recording import RECORDABLE
+from facesynth.runtime.tasks import stop_tasks
 
 log = logging.getLogger("facesynth")
 
@@ -77,11 +78,7 @@ async def attached(bus: Any, rig: str, args: argparse.Namespace) -> AsyncIterato
         if recorder is not None:
             await asyncio.sleep(0.3)  # the chain's last messages reach the recorder
     finally:
-        for task in tasks:
-            task.cancel()
-        for task in tasks:
-            with contextlib.suppress(asyncio.CancelledError):
-                await task
+        await stop_tasks(tasks)
         if recorder is not None:
             recorder.writer.close()
             log.info("recorded %d messages into %s", sum(recorder.recorded.values()), record)

@@ -11,7 +11,6 @@ subscribed to it, and drops the oldest for a client that falls behind.
 from __future__ import annotations
 
 import asyncio
-import contextlib
 from dataclasses import dataclass
 
 import foxglove
@@ -30,6 +29,7 @@ from facesynth.app.recording.views import annotations_schema, compressed_image_s
 from facesynth.runtime import keys
 from facesynth.runtime.bus.base import Subscription
 from facesynth.runtime.service import ServiceContext
+from facesynth.runtime.tasks import stop_tasks
 
 DEFAULT_ADDRESS = "127.0.0.1:8765"
 
@@ -175,11 +175,7 @@ class FoxgloveBridge:
         try:
             await asyncio.gather(*tasks)
         finally:
-            for task in tasks:
-                task.cancel()
-            for task in tasks:
-                with contextlib.suppress(asyncio.CancelledError):
-                    await task
+            await stop_tasks(tasks)
 
     def stop(self) -> None:
         """Close the channels and the server."""

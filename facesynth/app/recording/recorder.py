@@ -19,6 +19,7 @@ from facesynth.app.recording.writer import SessionWriter, WriterThread
 from facesynth.runtime import keys
 from facesynth.runtime.bus.base import Subscription
 from facesynth.runtime.service import ServiceContext
+from facesynth.runtime.tasks import cancel_and_wait
 
 
 class RecordOptionError(ValueError):
@@ -156,9 +157,7 @@ class Recorder:
             else:
                 await cutter  # runs until cancelled, or raises the writer's error
         finally:
-            for task in tasks:
-                task.cancel()
-            await asyncio.gather(*tasks, return_exceptions=True)
+            await cancel_and_wait(tasks)
             try:
                 self._take_pending(ctx)
             finally:

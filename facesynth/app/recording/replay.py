@@ -23,7 +23,6 @@ replay short.
 from __future__ import annotations
 
 import asyncio
-import contextlib
 import time
 from dataclasses import dataclass, field
 
@@ -36,6 +35,7 @@ from facesynth.runtime import codec, keys
 from facesynth.runtime.bus.link import LinkFigures
 from facesynth.runtime.clock_host import clock_host
 from facesynth.runtime.service import ServiceContext
+from facesynth.runtime.tasks import stop_tasks
 from facesynth.schemas.messages import ServoCommands
 from facesynth.services.sensor.core import Pacer
 from facesynth.services.sensor.credit import CreditGate, ack_stage
@@ -287,7 +287,5 @@ class Replayer:
         finally:
             self.link.observe(ctx.bus.link(), time.monotonic() - started)
             if ack_task is not None:
-                ack_task.cancel()
-                with contextlib.suppress(asyncio.CancelledError):
-                    await ack_task
+                await stop_tasks([ack_task])
         return self.published

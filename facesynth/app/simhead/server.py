@@ -30,6 +30,7 @@ import cv2
 import numpy as np
 from aiohttp import web
 
+from facesynth.runtime.tasks import stop_tasks
 from facesynth.runtime.web_app import serve_app
 
 from .head import SimHead
@@ -234,11 +235,7 @@ class SimHeadServer:
         if self._runner is not None:
             await self._runner.cleanup()
             self._runner = None
-        for task in self._tasks:
-            task.cancel()
-        for task in self._tasks:
-            with contextlib.suppress(asyncio.CancelledError):
-                await task
+        await stop_tasks(self._tasks)
         self._tasks.clear()
         if self._port is not None:
             self._port.close()

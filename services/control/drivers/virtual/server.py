@@ -21,6 +21,7 @@ from aiohttp import WSCloseCode, WSMsgType, web
 from facesynth.runtime import codec, keys
 from facesynth.runtime.bus.base import Subscription
 from facesynth.runtime.rig_view import RigView
+from facesynth.runtime.tasks import stop_tasks
 from facesynth.runtime.web_app import add_page_files, close_sockets, serve_app, static_files
 from facesynth.schemas.messages import Frame, Points, ServiceStats
 from facesynth.services.control.drivers.virtual import wire
@@ -98,11 +99,7 @@ class PageServer:
 
     async def stop(self) -> None:
         """Close every page's connection (they reconnect to the next server) and stop."""
-        for task in self._tasks:
-            task.cancel()
-        for task in self._tasks:
-            with contextlib.suppress(asyncio.CancelledError):
-                await task
+        await stop_tasks(self._tasks)
         self._tasks.clear()
         await close_sockets(self._sockets, b"server stopping")
         if self._runner is not None:
