@@ -54,6 +54,9 @@ async def test_service_logs_losing_and_regaining_its_router(
         _until(lambda: "connected to router" in caplog.text, 5, "no 'connected' line")
         figures = bus.link()
         assert figures is not None and figures.connected and figures.losses == 0
+        bus.publish("test/router-link/unheard", b"")  # a publisher nobody subscribes to
+        outlet = bus._outlets["test/router-link/unheard"]
+        assert outlet._redeclare_ns is None
 
         router.close()  # type: ignore[attr-defined]
         _until(lambda: "lost router" in caplog.text, 5, "no 'lost router' line")
@@ -72,6 +75,8 @@ async def test_service_logs_losing_and_regaining_its_router(
         back = bus.link()
         assert back is not None and back.connected and back.losses == 1
         assert back.offline_s >= 1.0
+        # The publisher was told: its gate opens for a grace, then it looks again (issue #28).
+        assert outlet._redeclare_ns is not None
     finally:
         await bus.close()
         router.close()  # type: ignore[attr-defined]

@@ -94,6 +94,42 @@ def test_the_longest_gap_per_fault_kind() -> None:
     assert found["none"].seconds == pytest.approx(0.0333)
 
 
+def test_a_gap_is_put_down_to_the_fault_near_when_it_began_not_when_it_ended() -> None:
+    # The soak of 2026-11-27: the stream stopped 5 s after a link cut had ended, with no fault
+    # under way, and came back only at the next router kill, 57 s later: a gap of its own.
+    lines = [
+        *stream(0, 1000),
+        *stream(1100, 2000),  # silent from ~1000 ms, during the cut (to 1500 ms)
+        *stream(5000, 6000),  # silent from ~2000 ms, 0.5 s after the cut: the cut's
+        line(12_000),  # silent from ~6000 ms, 3 s after the stall, until the kill at 11 s
+        line(14_000),  # silent from 12 s, during the flood; it lasts past the kill at 13.5 s
+    ]
+    faults = [
+        Fault("cut", "board", T0 + 1000 * MS, T0 + 1500 * MS),
+        Fault("stall", "points", T0 + 2500 * MS, T0 + 2900 * MS),
+        Fault("kill", "router", T0 + 11_000 * MS, T0 + 12_500 * MS),
+        Fault("flood", "input", T0 + 11_900 * MS, T0 + 12_100 * MS),
+        Fault("kill", "points", T0 + 13_500 * MS, T0 + 13_600 * MS),
+    ]
+    found = gaps(lines, faults)
+    assert set(found) == {"none", "cut", "flood"}
+    assert (found["none"].start_ns, found["none"].end_ns) == (lines[-3].t_sent_ns, T0 + 12_000 * MS)
+    assert found["none"].target == ""
+    assert found["cut"].end_ns == T0 + 5000 * MS and found["cut"].target == "board"
+    assert (found["flood"].start_ns, found["flood"].end_ns) == (T0 + 12_000 * MS, T0 + 14_000 * MS)
+
+
+def test_a_fault_that_begins_just_after_the_last_command_caused_the_gap() -> None:
+    lines = [line(0), line(1000), line(4000), line(6000)]
+    faults = [
+        Fault("kill", "router", T0 + 1400 * MS, T0 + 1500 * MS),  # 0.4 s after the command
+        Fault("stall", "points", T0 + 4600 * MS, T0 + 5000 * MS),  # 0.6 s after: too late
+    ]
+    found = gaps(lines, faults)
+    assert found["kill"].start_ns == T0 + 1000 * MS
+    assert "stall" not in found and found["none"].start_ns == T0 + 4000 * MS
+
+
 def test_counts_of_executed_commands() -> None:
     assert executed([line(0), line(33, frame=None), line(66)]) == (2, 1)
 

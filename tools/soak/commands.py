@@ -10,8 +10,11 @@ carry none.
   the fastest way through seen in the soak (as C ages a command: how much later than the
   fastest way it arrived).
 - **Gaps**: the intervals between consecutive commands that carry a frame, each put down to
-  the fault that began last before it ended (``"none"`` before the first fault); the longest
-  per fault kind.
+  the fault that was under way, or had just ended, when it *began* (:class:`Causes`; the latest
+  to begin of those), or to ``"none"`` when no fault was near: a gap of its own, the kind worth
+  a look. A gap is put down to its beginning, not its end, so one that lasts until a later
+  fault (a router kill that makes every stage join anew) is not filed under that fault.
+  The longest per fault kind.
 
 The largest step against its speed limit is ``tests/motion_check.py``'s (every session of the
 record file, each pair of lines); :func:`motion` runs it.
@@ -45,6 +48,35 @@ def _followed(faults: Sequence[Fault], t_ns: int) -> Fault | None:
     starts = [fault.start_ns for fault in faults]
     index = bisect.bisect_right(starts, t_ns) - 1
     return faults[index] if index >= 0 else None
+
+
+#: A fault may begin this long after the last command before a gap and still have caused it:
+#: the next command was due one frame later (33 ms at 30 fps, more on a loaded machine).
+LEAD_NS = 500_000_000
+#: A gap beginning this long after a fault ended is still put down to it (the rig settling:
+#: stages reconnecting, a stage catching up); later, the stream had recovered from it.
+AFTER_NS = 2_000_000_000
+
+
+class Causes:
+    """Which fault a gap is put down to, by when it began (:meth:`of`)."""
+
+    def __init__(self, faults: Sequence[Fault]) -> None:
+        self.faults = sorted(faults, key=lambda fault: fault.start_ns)
+        self.starts = [fault.start_ns for fault in self.faults]
+        #: The latest end among the faults up to each one (they may overlap).
+        self.reach = list(itertools.accumulate((f.end_ns for f in self.faults), max))
+
+    def of(self, t_ns: int) -> Fault | None:
+        """Of the faults under way when a gap began at ``t_ns`` (begun at most
+        :data:`LEAD_NS` later, ended at most :data:`AFTER_NS` before), the one that began
+        last; ``None`` when no fault was near."""
+        index = bisect.bisect_right(self.starts, t_ns + LEAD_NS) - 1
+        while index >= 0 and self.reach[index] + AFTER_NS >= t_ns:
+            if self.faults[index].end_ns + AFTER_NS >= t_ns:
+                return self.faults[index]
+            index -= 1
+        return None
 
 
 def _kind(fault: Fault | None) -> str:
@@ -110,7 +142,8 @@ def stale(lines: Sequence[RecordLine], faults: Sequence[Fault], limit_s: float) 
 
 @dataclass(frozen=True)
 class Gap:
-    """No command carrying a frame from ``start_ns`` to ``end_ns`` (wall), after a fault."""
+    """No command carrying a frame from ``start_ns`` to ``end_ns`` (wall), and the fault it
+    is put down to (``kind`` ``"none"``, ``target`` empty: none was near)."""
 
     start_ns: int
     end_ns: int
@@ -123,13 +156,13 @@ class Gap:
 
 
 def gaps(lines: Sequence[RecordLine], faults: Sequence[Fault]) -> dict[str, Gap]:
-    """The longest gap between commands carrying a frame, per fault kind (``"none"``: before
-    the first fault)."""
+    """The longest gap between commands carrying a frame, per fault kind it is put down to
+    (:class:`Causes`; ``"none"``: no fault was near when it began)."""
     times = sorted(line.t_sent_ns for line in lines if line.frame is not None)
-    ordered = sorted(faults, key=lambda f: f.start_ns)
+    causes = Causes(faults)
     longest: dict[str, Gap] = {}
     for start, end in itertools.pairwise(times):
-        fault = _followed(ordered, end)
+        fault = causes.of(start)
         kind = _kind(fault)
         gap = Gap(start, end, kind, fault.target if fault else "")
         if kind not in longest or gap.seconds > longest[kind].seconds:

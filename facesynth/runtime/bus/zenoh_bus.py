@@ -42,6 +42,8 @@ from facesynth.runtime.bus.base import Bus, Parcel, Sample, Subscription, Token
 from facesynth.runtime.bus.link import LinkFigures, RouterLink, short_id
 from facesynth.runtime.bus.zenoh_outlet import Outlet
 from facesynth.runtime.bus.zenoh_routes import SessionRoutes, ZenohSubscription
+from facesynth.runtime.bus.zenoh_selfcheck import router_holds, watch
+from facesynth.runtime.bus.zenoh_token import ZenohToken
 
 #: Where services look for a router when given no --connect (``facesynth router``'s default).
 DEFAULT_ROUTER = "tcp/127.0.0.1:7447"
@@ -203,17 +205,6 @@ def router_locators(session: zenoh.Session, timeout: float = 2.0) -> list[str]:
     return []
 
 
-class _ZenohToken(Token):
-    def __init__(self, token: Any) -> None:
-        self._token: Any = token
-
-    def close(self) -> None:
-        token, self._token = self._token, None
-        if token is not None:
-            with contextlib.suppress(Exception):  # the session is already closed
-                token.undeclare()
-
-
 class _TransportWatch:
     """Logs the session's transports opening and closing, and follows its link to routers.
 
@@ -221,9 +212,17 @@ class _TransportWatch:
     :class:`RouterLink` and logs. A router's own session logs the sessions it serves instead.
     """
 
-    def __init__(self, session: zenoh.Session, *, is_router: bool) -> None:
+    def __init__(
+        self,
+        session: zenoh.Session,
+        *,
+        is_router: bool,
+        on_regained: Callable[[], None] | None = None,
+    ) -> None:
         self.link = RouterLink()
         self.is_router = is_router
+        #: Called (on Zenoh's thread) when a router is gained after none.
+        self.on_regained = on_regained
         self._listener: Any = None
         try:
             self._listener = session.info.declare_transport_events_listener(
@@ -245,9 +244,12 @@ class _TransportWatch:
         if whatami != "router":
             log.debug("%s %s %s", whatami, short_id(zid), "opened" if opened else "closed")
             return
+        gained = opened and not self.link.figures(now).connected
         line = self.link.opened(zid, now) if opened else self.link.closed(zid, now)
         if line:
             log.log(logging.INFO if opened else logging.WARNING, "%s", line)
+        if gained and self.on_regained is not None:
+            self.on_regained()
 
     def close(self) -> None:
         listener, self._listener = self._listener, None
@@ -271,15 +273,27 @@ class ZenohBus(Bus):
         self._routes = SessionRoutes.attach(session)
         self._outlets: dict[str, Outlet] = {}
         self._subscriptions: list[Subscription] = []
-        self._tokens: list[Token] = []
+        self._tokens: list[ZenohToken] = []
         self._closed = False
-        self._watch = _TransportWatch(session, is_router=mode == "router")
+        self._selfcheck: asyncio.Task[None] | None = None
+        self._client = mode == "client"  # the self-check's question holds for clients only
+        self._watch = _TransportWatch(
+            session, is_router=mode == "router", on_regained=self._regained
+        )
 
     def link(self, now_ns: int | None = None) -> LinkFigures | None:
         """The link to the router (``None`` for a router's own session); monotonic time."""
         if self._watch.is_router:
             return None
         return self._watch.link.figures(time.monotonic_ns() if now_ns is None else now_ns)
+
+    def _regained(self) -> None:
+        """A router again after none (Zenoh's thread): every publisher looks again at who
+        subscribes (:meth:`Outlet.regained`), and every subscription checks it hears
+        (:meth:`SessionRoutes.regained`)."""
+        for outlet in list(self._outlets.values()):
+            outlet.regained()
+        self._routes.regained()
 
     @classmethod
     def open(cls, options: ZenohOptions) -> ZenohBus:
@@ -320,9 +334,27 @@ class ZenohBus(Bus):
         return subscription
 
     def declare_token(self, key: str) -> Token:
-        token = _ZenohToken(self.session.liveliness().declare_token(key))
+        token = ZenohToken(self.session, key)
         self._tokens.append(token)
+        if self._selfcheck is None and self._client:
+            with contextlib.suppress(RuntimeError):  # no event loop: nobody to check
+                self._selfcheck = asyncio.get_running_loop().create_task(
+                    watch(
+                        lambda: router_holds(self.session, token.key) if token.declared else None,
+                        lambda: bool((figures := self.link()) and figures.connected),
+                        self.declare_anew,
+                    )
+                )
         return token
+
+    def declare_anew(self) -> None:
+        """Declare every token, subscription and publisher of this bus again (its router has
+        lost them: :mod:`~facesynth.runtime.bus.zenoh_selfcheck`)."""
+        for token in list(self._tokens):
+            token.declare_anew()  # a closed one stays closed
+        self._routes.declare_anew()
+        for outlet in list(self._outlets.values()):
+            outlet.declare_anew()
 
     async def alive(self, key_expr: str, timeout: float = 1.0) -> list[str]:
         def query() -> list[str]:
@@ -335,6 +367,8 @@ class ZenohBus(Bus):
         if self._closed:
             return
         self._closed = True
+        if self._selfcheck is not None:
+            self._selfcheck.cancel()
         for subscription in self._subscriptions:
             subscription.close()
         for token in self._tokens:

@@ -5,17 +5,26 @@ One Zenoh subscriber per key expression and session (a :class:`Feed`), however m
 (size limit before the payload is copied, then the mailbox's screen), so refused payloads never
 reach an event loop. A session's own publications skip Zenoh (``allowed_destination=REMOTE``)
 and are delivered to its feeds directly (:meth:`SessionRoutes.targets`).
+
+A feed that has heard nothing :data:`REDECLARE_S` after its session regained a router declares
+its Zenoh subscriber anew, once per regain (issue #28: whatever left a rejoined session's
+subscription unknown to its router, the new declaration tells it again).
 """
 
 from __future__ import annotations
 
 import asyncio
 import contextlib
+import logging
+import time
 from typing import Any, ClassVar
 
 import zenoh
 
 from facesynth.runtime.bus.base import Sample, Subscription
+from facesynth.runtime.bus.zenoh_outlet import REDECLARE_S
+
+log = logging.getLogger("facesynth.link")
 
 
 class ZenohSubscription(Subscription):
@@ -42,8 +51,12 @@ class Feed:
         self.pattern = zenoh.KeyExpr(key_expr)
         self.loop = loop
         self.mailboxes: list[Subscription] = []
+        #: When a sample last came from Zenoh (monotonic ns); 0: never.
+        self.heard_ns = 0
+        self._check_pending = False
 
         def on_sample(sample: zenoh.Sample) -> None:
+            self.heard_ns = time.monotonic_ns()
             # Screened here, on Zenoh's thread, by each mailbox (its size limit before the
             # payload is copied out of Zenoh, then its screen), so refused payloads never
             # reach the event loop.
@@ -58,9 +71,50 @@ class Feed:
                     data = payload.to_bytes()
                 mailbox.deliver_threadsafe(key, data)
 
-        self._subscriber: Any = routes.session.declare_subscriber(
-            key_expr, on_sample, allowed_origin=zenoh.Locality.REMOTE
+        self._on_sample = on_sample
+        self._subscriber: Any = self._declare()
+
+    def _declare(self) -> Any:
+        return self.routes.session.declare_subscriber(
+            self.key_expr, self._on_sample, allowed_origin=zenoh.Locality.REMOTE
         )
+
+    def regained(self) -> None:
+        """The session has a router again (after none; any thread): unless a sample comes
+        within :data:`REDECLARE_S`, declare the Zenoh subscriber anew."""
+        if self._check_pending:
+            return
+        self._check_pending = True
+        since = time.monotonic_ns()
+        with contextlib.suppress(RuntimeError):  # the loop is closed: nobody listens
+            self.loop.call_soon_threadsafe(self.loop.call_later, REDECLARE_S, self._check, since)
+
+    def _check(self, since_ns: int) -> None:
+        self._check_pending = False
+        if self._subscriber is None or self.heard_ns >= since_ns:
+            return
+        if not self.declare_anew():
+            return
+        log.info(
+            "subscription %s: nothing heard %.1f s after regaining the router; declared it anew",
+            self.key_expr,
+            REDECLARE_S,
+        )
+
+    def declare_anew(self) -> bool:
+        """Undeclare the Zenoh subscriber and declare it again; whether it was (call on the
+        feed's loop; not after the last mailbox left)."""
+        old, self._subscriber = self._subscriber, None
+        if old is None:
+            return False
+        with contextlib.suppress(Exception):  # the session is already closed
+            old.undeclare()
+        try:
+            self._subscriber = self._declare()
+        except Exception as exc:  # the session is closing
+            log.debug("subscription %s not declared anew: %s", self.key_expr, exc)
+            return False
+        return True
 
     def add(self, mailbox: Subscription) -> None:
         self.mailboxes.append(mailbox)
@@ -116,6 +170,24 @@ class SessionRoutes:
         self.users -= 1
         if self.users <= 0:
             self._by_session.pop(id(self.session), None)
+
+    def regained(self) -> None:
+        """The session has a router again: each feed checks it hears (:meth:`Feed.regained`)."""
+        for feed in list(self.feeds.values()):
+            feed.regained()
+
+    def declare_anew(self) -> None:
+        """Every feed's subscriber declared again (:meth:`Feed.declare_anew`; on their loop)."""
+        for feed in list(self.feeds.values()):
+            try:
+                running = asyncio.get_running_loop()
+            except RuntimeError:
+                running = None
+            if running is feed.loop:
+                feed.declare_anew()
+            else:
+                with contextlib.suppress(RuntimeError):  # its loop is closed
+                    feed.loop.call_soon_threadsafe(feed.declare_anew)
 
     def feed(self, key_expr: str) -> Feed:
         """The feed of ``key_expr`` on the running loop (declared on first use)."""

@@ -1,0 +1,97 @@
+"""Whether the router still holds a session's declarations, and declaring them anew if not.
+
+Issue #28, seen in the lab (real stages, loopback router, the deploy/ settings, a machine at a
+load average of 25): a stage connected to a live router, its link up and keep-alives flowing
+both ways, whose router held none of its declarations (no subscription, no liveliness token).
+It received nothing and nobody heard it, for as long as that link lasted (57 s in a soak, until
+the next router kill), and no transport event told it. Cutting that link made the stage rejoin
+with everything and its stream came back at once.
+
+A Zenoh bus of a client session holding a liveliness token (every service does; the deploy/
+configs are clients) asks for it every :data:`CHECK_S`: a client's liveliness query answers
+twice for its own token, once from the session itself and once from the router (measured with
+eclipse-zenoh 1.10.2; a peer's, once, so peers are not checked); once means the router has
+lost it, unless the router's admin space still lists a subscription of the session (a second
+opinion). Two such answers in a row and the bus declares every subscription,
+publisher and token anew (:meth:`facesynth.runtime.bus.zenoh_bus.ZenohBus.declare_anew`); if the
+router still does not answer for the token after that, the check trusts itself no more and stops.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import logging
+import time
+from collections.abc import Callable
+from typing import Any, Final
+
+log = logging.getLogger("facesynth.link")
+
+#: How often a bus asks whether its router holds its liveliness token.
+CHECK_S: Final = 2.0
+#: How long one question waits for its answers (a timeout gives no verdict).
+QUERY_TIMEOUT_S: Final = 1.0
+#: A router's admin space entries listing the sessions subscribed to each key expression.
+ADMIN_SUBSCRIBERS: Final = "@/*/router/subscriber/**"
+#: Declared anew at most this often, whatever the answers (a router that keeps saying no).
+ANEW_EVERY_S: Final = 30.0
+
+
+def router_holds(session: Any, key: str, timeout: float = QUERY_TIMEOUT_S) -> bool | None:
+    """Whether the router holds ``session``'s declarations: it answers for ``key``, a
+    liveliness token of the session, or else its admin space lists a subscription of the
+    session (a second opinion before declaring everything anew). ``None`` when a question
+    timed out (no verdict). Blocks up to twice ``timeout``."""
+    answers = 0
+    try:
+        for reply in session.liveliness().get(key, timeout=timeout):
+            if reply.ok is None:
+                return None
+            if str(reply.ok.key_expr) == key:
+                answers += 1
+        if answers >= 2:
+            return True
+        zid = str(session.info.zid())
+        for reply in session.get(ADMIN_SUBSCRIBERS, timeout=timeout):
+            if reply.ok is not None and zid in json.loads(reply.ok.payload.to_bytes()).get(
+                "clients", []
+            ):
+                return True
+    except Exception:  # the session is closing, or an admin answer is not JSON: no verdict
+        return None
+    return False
+
+
+async def watch(
+    ask: Callable[[], bool | None],
+    connected: Callable[[], bool],
+    declare_anew: Callable[[], None],
+) -> None:
+    """Every :data:`CHECK_S`, while ``connected()``: ``ask()`` whether the router holds the
+    session's token (in a worker thread); after two noes in a row, ``declare_anew()``, at most
+    once every :data:`ANEW_EVERY_S`."""
+    noes = 0
+    last_ns: int | None = None
+    while True:
+        await asyncio.sleep(CHECK_S)
+        if not connected():
+            noes = 0
+            continue
+        held = await asyncio.to_thread(ask)
+        if held is None:
+            continue
+        if held:
+            noes = 0
+            continue
+        noes += 1
+        now = time.monotonic_ns()
+        if noes < 2 or (last_ns is not None and now - last_ns < ANEW_EVERY_S * 1e9):
+            continue
+        log.warning(
+            "the router holds none of this session's declarations (its liveliness token is "
+            "unknown there) though the link is up: declaring every subscription, publisher "
+            "and token anew"
+        )
+        declare_anew()
+        noes, last_ns = 0, now
