@@ -24,6 +24,13 @@ from an arena here, so nothing a service reuses every frame is given back and ta
 same chain with the soak's faults every 12 s for 21 minutes: F +1.5 MB and P +1.1 MB instead of
 +12.5 and +10.5 MB (+11.9 and +6.5 MB with ``MALLOC_ARENA_MAX=2`` instead), F's memory system
 calls between faults unchanged (3-4 in 20 s).
+
+``facesynth run`` and ``facesynth router`` keep :func:`facesynth.app.tuning.keep_buffers`'
+thresholds, by measurement (2026-11-27, docs/benchmarks.md "The board process beyond F's
+core"): ``run --fast`` on the bundled video showed no step of RSS either way and took 2.5-5x
+the page faults with these settings; the router's steps after bursts went away with a 128 KiB
+trim threshold, but each raw frame it forwards (as bytes: it has no shared memory) was then
+faulted in again, 15-90 faults a 700 kB frame against none.
 """
 
 from __future__ import annotations

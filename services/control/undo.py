@@ -15,7 +15,8 @@ from typing import TYPE_CHECKING, Literal
 from facesynth.schemas.messages import ServoCommands
 
 if TYPE_CHECKING:
-    from facesynth.services.control.core import ControlCore, Ramp
+    from facesynth.services.control.core import ControlCore
+    from facesynth.services.control.neutral_return import Ramp
 
 
 @dataclass(frozen=True, slots=True)

@@ -1,6 +1,6 @@
-"""facesynth.services.control.core: which commands reach the servos (checks), and the watchdog that
-returns them to neutral. Motion, freshness and the core's own moves: test_control_motion.py,
-test_control_freshness.py, test_control_moves.py."""
+"""facesynth.services.control.core: which commands reach the servos (checks). The watchdog and
+the ramp that return them to neutral: test_control_neutral_return.py; motion, freshness and the
+core's own moves: test_control_motion.py, test_control_freshness.py, test_control_moves.py."""
 
 from __future__ import annotations
 
@@ -17,7 +17,6 @@ from facesynth.services.control.core import (
     CommandError,
     CommandInfo,
     ControlCore,
-    Watchdog,
 )
 
 PROFILE = Profile(
@@ -179,40 +178,3 @@ def test_command_info_is_frozen() -> None:
     info = CommandInfo(frame=3, t_capture_ns=4, face=True)
     with pytest.raises(AttributeError):
         info.frame = 5  # type: ignore[misc]
-
-
-# --- Watchdog ---------------------------------------------------------------------------------
-
-
-def test_watchdog_is_quiet_before_the_first_command() -> None:
-    dog = Watchdog(0.5)
-    assert [dog.expired(t * 1000 * MS) for t in range(10)] == [False] * 10
-
-
-def test_watchdog_fires_exactly_once_per_silence() -> None:
-    dog = Watchdog(0.5)
-    dog.feed(1000 * MS)
-    assert dog.expired(1000 * MS) is False
-    assert dog.expired(1499 * MS) is False
-    assert dog.expired(1500 * MS) is True  # exactly the timeout
-    assert [dog.expired((1500 + i * 100) * MS) for i in range(1, 20)] == [False] * 19
-    dog.feed(5000 * MS)  # commands are back
-    assert dog.expired(5400 * MS) is False
-    assert dog.expired(5600 * MS) is True  # the next silence fires again, once
-    assert dog.expired(9000 * MS) is False
-
-
-def test_feeding_keeps_the_watchdog_quiet() -> None:
-    dog = Watchdog(0.1)
-    fired = []
-    for i in range(50):  # a command every 40 ms
-        dog.feed(i * 40 * MS)
-        fired.append(dog.expired(i * 40 * MS + 39 * MS))
-    assert not any(fired)
-    assert dog.expired(49 * 40 * MS + 100 * MS) is True
-
-
-@pytest.mark.parametrize("timeout", [0.0, -1.0, math.nan], ids=["zero", "negative", "nan"])
-def test_watchdog_timeout_must_be_positive(timeout: float) -> None:
-    with pytest.raises(ValueError, match="the watchdog timeout must be positive"):
-        Watchdog(timeout)

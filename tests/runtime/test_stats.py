@@ -6,8 +6,11 @@ import math
 import os
 import subprocess
 import sys
+from pathlib import Path
 from subprocess import PIPE
+from typing import Any
 
+import numpy as np
 import pytest
 
 from facesynth.runtime import codec, stats
@@ -150,3 +153,49 @@ def test_memory_mb_of_another_process_without_proc(monkeypatch: pytest.MonkeyPat
 
     monkeypatch.setattr("builtins.open", no_proc)
     assert all(math.isnan(v) for v in stats.memory_mb(os.getpid()))
+
+
+@pytest.mark.parametrize("size", [1, 2, 3, 4, 7, 100, 101, 599, 600])
+def test_percentiles_are_numpys_to_the_bit(size: int) -> None:
+    rng = np.random.default_rng(size)
+    windows = [
+        rng.gamma(2.0, 3.0, size) * 10.0,  # latencies: skewed, no two alike
+        np.round(rng.normal(20.0, 5.0, size), 1),  # many ties
+        rng.uniform(0.0, 1e-3, size),
+        np.full(size, 12.5),
+    ]
+    for window in windows:
+        values = [float(v) for v in window]
+        quantiles = (0, 1, 25, 33, 50, 66.6, 75, 90, 99, 99.9, 100)
+        assert stats.percentiles(values, quantiles) == [
+            float(v) for v in np.percentile(window, quantiles)
+        ]
+
+
+def test_memory_mb_reads_the_two_lines_of_the_status_table() -> None:
+    with open("/proc/self/status", encoding="ascii") as handle:
+        fields = dict(line.split(":", 1) for line in handle if ":" in line)
+    rss, peak = stats.memory_mb()
+    assert peak == int(fields["VmHWM"].split()[0]) / 1024  # the peak only grows
+    assert abs(rss - int(fields["VmRSS"].split()[0]) / 1024) < 2  # read a moment later
+
+
+@pytest.mark.parametrize(
+    "status",
+    [b"Name:\tpython\nVmHWM:\t  10 kB\n", b"Name:\tpython\nVmRSS:\t\nVmHWM:\t10 kB\n", b""],
+    ids=["no-rss-line", "no-number", "empty"],
+)
+def test_memory_mb_of_a_status_table_without_the_figures(
+    status: bytes, monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    fake = tmp_path / "status"
+    fake.write_bytes(status)
+    real_open = open
+
+    def fake_open(path: object, *args: Any, **kwargs: Any) -> Any:
+        return real_open(fake if str(path).startswith("/proc/") else path, *args, **kwargs)  # type: ignore[call-overload]
+
+    monkeypatch.setattr("builtins.open", fake_open)
+    assert all(math.isnan(v) for v in stats.memory_mb(os.getpid()))  # another's: no figures
+    rss, peak = stats.memory_mb()  # this process's: its peak from getrusage
+    assert rss == peak > 1

@@ -1,6 +1,6 @@
-"""runtime.codec's bound on numbers: finite and within ±limit, checked in one pass over a list or
-table (the largest magnitude), and still refused at the first bad number, named as before,
-whether the message was decoded or handed over within a process (:func:`codec.check`)."""
+"""runtime.message_checks' bound on numbers: finite and within ±limit, checked in one pass over a
+list or table (the largest magnitude), and still refused at the first bad number, named as
+before, whether the message was decoded or handed over within a process (:func:`codec.check`)."""
 
 from __future__ import annotations
 
@@ -11,8 +11,8 @@ import msgspec
 import numpy as np
 import pytest
 
-from facesynth.runtime import codec
-from facesynth.runtime.codec import MAX_COORD, MAX_PULSE_US, MessageError
+from facesynth.runtime import codec, message_checks
+from facesynth.runtime.message_checks import MAX_COORD, MAX_PULSE_US, SMALL, MessageError
 from facesynth.schemas.messages import Features, Points, PointSet, ServoCommands
 
 ABOVE_COORD = float(np.nextafter(MAX_COORD, math.inf))
@@ -123,9 +123,41 @@ def test_positions_up_to_the_largest_pulse_and_negative_zero_pass() -> None:
 
 
 def test_an_infinite_limit_still_refuses_infinities_and_nan() -> None:
-    within = codec._within  # the one-pass bound itself, for a limit no caller passes today
+    within = message_checks._within  # the one-pass bound itself, for a limit no caller passes today
     assert within(np.array([1e308, -1e308]), math.inf)
     assert not within(np.array([0.0, math.inf]), math.inf)
     assert not within(np.array([math.nan, 0.0]), math.inf)
     assert not within(np.array([2.0, 0.0]), 1.0)
     assert within(np.array([1.0, -1.0]), 1.0)
+
+
+@pytest.mark.parametrize(
+    "size", [4, SMALL, SMALL + 2, 900], ids=["few", "small", "small+2", "many"]
+)
+@pytest.mark.parametrize("value", [ABOVE_COORD, -math.inf, math.nan], ids=["above", "-inf", "nan"])
+def test_the_loop_for_few_numbers_and_numpy_for_many_refuse_alike(size: int, value: float) -> None:
+    values = [float(i % 50) for i in range(size)]
+
+    def points(coords: list[float]) -> Points:
+        mesh = PointSet(scheme="mesh478", dims=2, coords=coords)
+        return msgspec.structs.replace(_points(), sets=[mesh])
+
+    assert _refusals(points(values)) == []
+    shown = repr(value) if math.isfinite(value) else str(value)
+    named = f"a coordinate of 'mesh478' is {shown}: must be a finite number within ±1e+06"
+    assert _refusals(points([*values[:-1], value])) == [named] * 2  # the last one, found
+    table = {f"n{i}": v for i, v in enumerate(values[: min(size, 250)])}
+    feature = Features(seq=1, t_capture_ns=1, t_media_ns=1, face=True, named=table)
+    assert _refusals(feature) == []
+    bad = msgspec.structs.replace(feature, named={**table, "n1": value})
+    assert _refusals(bad) == [f"feature 'n1' is {shown}: must be a finite number within ±1e+06"] * 2
+
+
+def test_the_loop_takes_numbers_within_the_bounds_and_nothing_else() -> None:
+    small_within = message_checks._small_within
+    assert small_within([0, 1.0, True, -0.0, 10**5], 0.0, MAX_PULSE_US)
+    assert not small_within([10**5 + 1], 0.0, MAX_PULSE_US)
+    assert not small_within([1.0, math.nan], -1.0, 1.0)
+    assert not small_within(["1.0"], -1.0, 1.0)  # left to numpy's path, which names it
+    assert not small_within([None], -1.0, 1.0)
+    assert small_within([], 0.0, 0.0)
