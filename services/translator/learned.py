@@ -4,8 +4,9 @@ robot's, then run the inverse model (:mod:`facesynth.runtime.profiles.learned`).
 Per frame, for each of the mapping's inputs ``i`` (a key of ``Features.raw``):
 
 1. **Retarget.** A file fitted with retargeting options (``retarget``, file version 2) goes
-   through :mod:`services.translator.retarget`: 0.9 of the performer's change, scaled into the
-   robot's reach and clipped into it, features the robot cannot show held at its neutral, and
+   through :mod:`services.translator.retarget`: ``gain`` (0.9; 1.1 in new fits) of the
+   performer's change, scaled into the robot's reach and clipped into it, features the robot
+   cannot show held at its neutral, and
    each feature weighted in the plan by how much the performer moves it. A file without
    (version 1) is retargeted as follows.
    ``r`` is the performer's raw value (relative to the performer's neutral) and

@@ -8,7 +8,8 @@ performer's change ``d`` (``Features.raw``: relative to her own neutral, the sam
 robot's):
 
 * **Targets** (:meth:`Retargeter.targets`): ``t = clip(gain · s · d, reach_low, reach_high)``,
-  Emo's retargeting (0.9 × the performer's change, clipped into the box the babbling spanned),
+  Emo's retargeting (``gain`` × the performer's change, clipped into the box the babbling
+  spanned; Emo's gain is 0.9, a new fit writes 1.1, ``learned_retarget.FIT_GAIN``),
   scaled to the robot's reach first: ``s = min(1, reach / extent)``, the performer's extent
   being ``extent`` times her running root mean square change (the weights' estimate below)
   and ``reach`` the robot's on that side, so a feature she moves beyond what the robot can

@@ -4,10 +4,12 @@ each feature weighted by how much the performer moves it (time as data)."""
 
 from __future__ import annotations
 
+import msgspec
 import numpy as np
 import pytest
 
 from facesynth.runtime.profiles.learned import Retarget
+from facesynth.runtime.profiles.learned_retarget import fitted_retarget
 from facesynth.services.translator.retarget import MovementWeights, Retargeter, region, showable
 
 S = 1_000_000_000  # ns a second
@@ -69,6 +71,19 @@ def test_a_feature_alone_is_0_9_of_the_change_clipped_into_the_box(
 ) -> None:
     target = retargeter(["jaw_open"], [-0.05], [0.1]).targets(np.array([change]))
     assert target == pytest.approx([expected])
+
+
+def test_a_new_fit_asks_for_more_than_her_change_within_the_robots_reach() -> None:
+    # The plan, T's smoothing and the head's lag keep about three quarters of the target's
+    # amplitude: a new fit asks for 1.1 of her change, still clipped into the box; a file
+    # fitted before carries Emo's 0.9 and keeps it
+    new = retargeter(["jaw_open"], [-0.05], [0.1], **msgspec.structs.asdict(fitted_retarget()))
+    assert new.targets(np.array([0.05])) == pytest.approx([0.055])
+    assert new.targets(np.array([-0.02])) == pytest.approx([-0.022])
+    assert new.targets(np.array([0.095])) == pytest.approx([0.1])  # 0.1045: the box's edge
+    assert new.targets(np.array([-0.5])) == pytest.approx([-0.05])
+    old = retargeter(["jaw_open"], [-0.05], [0.1], gain=0.9)
+    assert old.targets(np.array([0.05])) == pytest.approx([0.045])
 
 
 def test_by_default_each_feature_is_clipped_on_its_own() -> None:
