@@ -31,11 +31,12 @@ robot's observed face tells how far the real face is from what ``f`` predicted. 
   is expected to make, ``ŷ``; damped least squares through ``g``'s Jacobian
   ``J`` gives the change ``Δ* = (JᵀWJ + damping·I)⁻¹ JᵀW (x - ŷ)`` toward the target (``W``:
   each feature's weight in the plan, 0 for features the robot cannot show), bounded to
-  ``±max_correction`` per servo. **Regions** (``regional``, off by default: it cost lead ρ
-  on simhead18_neck; with a regional inverse's ``regions``): a servo given from its region's
-  features alone takes its share of that solve on the error of its region's features only
-  (the weights outside it 0, every servo in ``J``), so an error in the gaze never moves the
-  neck; a servo of the whole face takes the whole face's (one solve per distinct region).
+  ``±max_correction`` per servo. **Regions**: each servo's column of ``J`` is kept on the
+  features it owns in the babbled self-model at neutral alone (``region_share``, 0: the
+  whole face; :mod:`~facesynth.services.translator.loop_regions`), so the blinks' error
+  never turns the neck. With ``regional`` (off: it cost lead ρ on simhead18_neck) a servo a
+  regional inverse gives from its region's features (``regions``) takes its share of a solve
+  on the error of those features only (one solve per distinct region).
   With ``integral_gain``, the integral of the observed error (each face against the target
   of the frame that made it, ``delay_s`` earlier:
   :mod:`facesynth.services.translator.loop_integral`, bounded, leaking, no wind-up at a
@@ -58,6 +59,7 @@ used as it is, so the loop adds no latency of its own (its age is bounded by ``m
 
 from __future__ import annotations
 
+import math
 from collections import deque
 from dataclasses import dataclass
 
@@ -66,9 +68,10 @@ import numpy as np
 
 from facesynth.services.translator.lead import PhaseLead
 from facesynth.services.translator.loop_integral import IntegralAction
+from facesynth.services.translator.loop_regions import owned_regions, region_groups
 from facesynth.services.translator.self_model import SelfModelPlanner
 
-__all__ = ["MAX_ERROR", "ClosedLoop", "LoopOptions", "LoopState"]
+__all__ = ["MAX_ERROR", "ClosedLoop", "LoopOptions", "LoopState", "region_groups"]
 
 #: An observed feature's error against the refined model counts for at most this much
 #: (standardized units: times the robot's own spread of it while babbling).
@@ -95,6 +98,7 @@ class LoopOptions(msgspec.Struct, forbid_unknown_fields=True, kw_only=True):
     delay_s: float = 0.125
     lead_s: float = 0.08
     regional: bool = False
+    region_share: float = 0.5
 
     def problems(self) -> list[str]:
         """What is wrong with these options (empty: nothing)."""
@@ -112,6 +116,7 @@ class LoopOptions(msgspec.Struct, forbid_unknown_fields=True, kw_only=True):
             "integral_leak": (0.0, 1.0),
             "delay_s": (-1e-12, 10.0),
             "lead_s": (-1e-12, 1.0),
+            "region_share": (-1e-12, 1.0),
         }
         out = []
         for name, (low, high) in bounds.items():
@@ -138,27 +143,6 @@ class LoopState:
             weights=np.zeros((n_features, n_servos + 1)),
             covariance=np.diag(prior_diagonal(options, n_servos)),
         )
-
-
-def region_groups(
-    regions: np.ndarray | None, n_servos: int, n_features: int, enabled: bool
-) -> tuple[np.ndarray, np.ndarray] | None:
-    """The regions the correction solves for: each distinct row of ``regions`` (servos,
-    features) as a 0/1 mask of features, (regions, features), and each servo's region's index;
-    None when every servo reads the whole face (one solve), ``regions`` is None or not
-    ``enabled``; ValueError for ``regions`` of another shape."""
-    if regions is None:
-        return None
-    regions = np.asarray(regions, dtype=bool)
-    if regions.shape != (n_servos, n_features):
-        raise ValueError(
-            f"closed loop: regions of shape {regions.shape} do not fit {n_servos} servos and "
-            f"{n_features} features"
-        )
-    if not enabled or regions.all():
-        return None
-    masks, index = np.unique(regions, axis=0, return_inverse=True)
-    return masks.astype(np.float64), index.reshape(-1)
 
 
 def prior_diagonal(options: LoopOptions, n_servos: int) -> np.ndarray:
@@ -204,7 +188,11 @@ class ClosedLoop:
                 f"{n_features} features and {n_servos} servos"
             )
         self.eye = np.eye(n_servos)
+        self.damped = self.options.damping * self.eye
+        self._v = np.ones(n_servos + 1)  # [u, 1]: the self-model's input, reused
+        self._phi = np.ones(n_servos + 1)  # [1, u]: the refinement's regressors, reused
         self.groups = region_groups(regions, n_servos, n_features, self.options.regional)
+        self.mask = self._mask()
         self.bound = np.maximum(prior_diagonal(self.options, n_servos), 1e-300)
         # (sent at, the commands' response then, the commands sent)
         self.history: deque[tuple[int, np.ndarray, np.ndarray]] = deque(maxlen=HISTORY)
@@ -221,6 +209,17 @@ class ClosedLoop:
         self.face: np.ndarray | None = None  # the latest observed face (standardized)
         self.face_u: np.ndarray | None = None  # the commands that were out when it was seen
         self.face_ns: int | None = None
+
+    def _mask(self) -> np.ndarray | None:
+        """(features, servos) 0/1: the features each servo's correction reads, those it owns
+        in the babbled self-model at neutral (``region_share``,
+        :mod:`~facesynth.services.translator.loop_regions`); None: the whole face."""
+        with np.errstate(all="ignore"):
+            _, jacobian = self._babbled(np.zeros(self.planner.n_servos))
+        if self.options.region_share <= 0 or not np.isfinite(jacobian).all():
+            return None
+        owned = owned_regions(jacobian, self.options.region_share)
+        return None if owned.all() else owned.T.astype(np.float64)
 
     def reset(self) -> None:
         """Forget the frames (commands sent, the latest face, the correction), keep what was
@@ -249,14 +248,21 @@ class ClosedLoop:
             if sent_ns <= t_ns:
                 if tau_ns <= 0:
                     return u
-                share = 1.0 - np.exp(-(t_ns - sent_ns) / tau_ns)
+                share = 1.0 - math.exp(-(t_ns - sent_ns) / tau_ns)
                 out: np.ndarray = response + share * (u - response)
                 return out
         return None
 
+    def _babbled(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The babbled self-model's face ``f(u)`` and its Jacobian (which may be a view into
+        the model's own arrays: not to be written to), without copies."""
+        v = self._v
+        v[:-1] = u
+        return self.planner.model.at(v)
+
     def model(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The refined self-model's face ``g(u)`` and its Jacobian (features, servos)."""
-        face, jacobian = self.planner.face(u)
+        face, jacobian = self._babbled(u)
         weights = self.state.weights
         out: np.ndarray = face + weights[:, 0] + weights[:, 1:] @ u
         return out, jacobian + weights[:, 1:]
@@ -273,10 +279,10 @@ class ClosedLoop:
             return  # no command to pair it with yet: not a face this loop can use
         face = np.asarray(face, dtype=np.float64)
         with np.errstate(all="ignore"):
-            predicted, _ = self.planner.face(u)
-        if not np.isfinite(predicted).all():
-            return  # the self-model overflows here: nothing to learn from it
-        self._learn(u, face - predicted)
+            predicted, _ = self._babbled(u)
+            if not np.isfinite(predicted).all():
+                return  # the self-model overflows here: nothing to learn from it
+            self._learn(u, face - predicted)
         self.face, self.face_u, self.face_ns = face, u, t_ns
         if self.integral.gain > 0:
             with np.errstate(all="ignore"):
@@ -285,25 +291,28 @@ class ClosedLoop:
             self.integral.update(face, t_ns, jacobian, options.damping, u, self.low, self.high)
 
     def _learn(self, u: np.ndarray, error: np.ndarray) -> None:
-        """One recursive least squares step of ``error ≈ weights · [1, u]``; a step that
-        cannot be computed in finite numbers (a state loaded with extreme values) starts the
-        fit afresh instead."""
+        """One recursive least squares step of ``error ≈ weights · [1, u]`` (floating-point
+        errors ignored by the caller); a step that cannot be computed in finite numbers (a
+        state loaded with extreme values) starts the fit afresh instead."""
         state, forgetting = self.state, self.options.forgetting
-        phi = np.append(1.0, u)
+        phi = self._phi
+        phi[1:] = u
         present = np.isfinite(error)
-        with np.errstate(all="ignore"):
-            p_phi = state.covariance @ phi
-            gain = p_phi / (forgetting + phi @ p_phi)
-            residual = np.clip(error - state.weights @ phi, -MAX_ERROR, MAX_ERROR)
+        p_phi = state.covariance @ phi
+        gain = p_phi / (forgetting + phi @ p_phi)
+        residual = np.minimum(np.maximum(error - state.weights @ phi, -MAX_ERROR), MAX_ERROR)
+        if present.all():
+            weights = state.weights + np.outer(residual, gain)
+        else:
             weights = state.weights.copy()
             weights[present] += np.outer(residual[present], gain)
-            covariance = (state.covariance - np.outer(gain, p_phi)) / forgetting
-            covariance = (covariance + covariance.T) / 2.0
-            # Bounded per regressor (a direction the performance does not excite would wind
-            # up), scaled as a whole so that it stays a covariance (positive semi-definite).
-            excess = float(np.max(np.diag(covariance) / self.bound))
-            if excess > 1.0:
-                covariance /= excess
+        covariance = (state.covariance - np.outer(gain, p_phi)) / forgetting
+        covariance = (covariance + covariance.T) / 2.0
+        # Bounded per regressor (a direction the performance does not excite would wind
+        # up), scaled as a whole so that it stays a covariance (positive semi-definite).
+        excess = float((covariance.diagonal() / self.bound).max())
+        if excess > 1.0:
+            covariance /= excess
         if not (np.isfinite(weights).all() and np.isfinite(covariance).all()):
             n_features, n_regressors = state.weights.shape
             self.state = LoopState.fresh(n_features, n_regressors - 1, self.options)
@@ -332,23 +341,28 @@ class ClosedLoop:
                 )
                 expected = expected + options.observation_gain * missed
             error = x - expected
+            if self.mask is not None:  # each servo through the features it owns alone
+                jacobian = jacobian * self.mask
             weighted = (jacobian if weights is None else jacobian * weights[:, None]).T
             if self.groups is not None:  # per region: its features' error alone, all servos
                 weighted = weighted[None] * self.groups[0][:, None, :]  # (regions, S, F)
-            normal = weighted @ jacobian + options.damping * self.eye
+            normal = weighted @ jacobian + self.damped
             gradient = weighted @ error
-            if not (np.isfinite(normal).all() and np.isfinite(gradient).all()):
+            # (a gradient that is not finite gives a step that is not finite: checked below)
+            if not np.isfinite(normal).all():
                 return np.zeros_like(u0)
             try:
-                steps = np.linalg.solve(normal, gradient[..., None])[..., 0]
+                if self.groups is None:
+                    step = np.linalg.solve(normal, gradient)
+                else:
+                    steps = np.linalg.solve(normal, gradient[..., None])[..., 0]
+                    step = steps[self.groups[1], np.arange(len(u0))]
             except np.linalg.LinAlgError:
                 return np.zeros_like(u0)
-        step: np.ndarray = (
-            steps if self.groups is None else steps[self.groups[1], np.arange(len(u0))]
-        )
         if not np.isfinite(step).all():
             return np.zeros_like(u0)
-        bounded: np.ndarray = np.clip(step, -options.max_correction, options.max_correction)
+        bound = options.max_correction
+        bounded: np.ndarray = np.minimum(np.maximum(step, -bound), bound)  # np.clip's
         return bounded
 
     def correct(
@@ -368,10 +382,14 @@ class ClosedLoop:
             self.lead.reset()
         else:
             bound = self.options.max_correction
-            target = self.wanted(u0, x, weights) + self.integral.z
+            target = self.wanted(u0, x, weights)
+            if self.integral.gain > 0:
+                target = target + self.integral.z
             planned = u0 + target
-            target = np.clip(target + self.lead(planned, now_ns) - planned, -bound, bound)
+            led = target + self.lead(planned, now_ns) - planned
+            target = np.minimum(np.maximum(led, -bound), bound)  # np.clip's, as below
         limit = self.options.max_step
-        self.correction = self.correction + np.clip(target - self.correction, -limit, limit)
-        out: np.ndarray = np.clip(u0 + self.correction, self.low, self.high)
+        change = np.minimum(np.maximum(target - self.correction, -limit), limit)
+        self.correction = self.correction + change
+        out: np.ndarray = np.minimum(np.maximum(u0 + self.correction, self.low), self.high)
         return out
