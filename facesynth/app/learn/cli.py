@@ -33,6 +33,7 @@ from facesynth.app.learn.core import BabbleOptions, Babbler, Budget
 from facesynth.app.learn.coverage import UnsweptError
 from facesynth.app.learn.dataset import BabbleSet
 from facesynth.app.learn.fit import FitOptions, fit_learned_profile, format_report
+from facesynth.app.learn.models import MLP_MEMBERS
 from facesynth.app.learn.plan import BabblePlan, Plan, PlanOptions
 from facesynth.app.learn.plan_options import PlanChoice, choose
 from facesynth.app.learn.progress import Progress
@@ -227,7 +228,8 @@ def fit(babble: BabbleSet, profile: Profile, out: Path, *, partial: bool = False
     return the held-out report to print: the one call into the fitting
     (:mod:`facesynth.app.learn.fit`, which needs the ``learn`` extra). ``partial``: fit even
     if some servos were not swept yet (kept at neutral; logged)."""
-    learned = fit_learned_profile(babble, profile, FitOptions(partial=partial))
+    options = FitOptions(partial=partial, mlp_members=MLP_MEMBERS)
+    learned = fit_learned_profile(babble, profile, options)
     report = learned.learned.report if learned.learned is not None else None
     if report is not None and (report.not_exercised or report.one_way):
         log.warning(

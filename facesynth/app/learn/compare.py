@@ -12,7 +12,8 @@ each:
 
 Every profile is measured on the same separate babbling of ``--test`` uniform random poses
 (:func:`~facesynth.app.learn.inprocess.held_out_error`): the command error, raw and effective,
-with each fit's own held-out figures and seconds beside it.
+with each fit's own held-out figures and seconds beside it. Every fit averages
+:data:`~facesynth.app.learn.models.MLP_MEMBERS` MLPs a candidate, as ``facesynth learn``'s.
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ import numpy as np
 from facesynth.app.learn.adaptive import AdaptiveOptions, AdaptivePlan
 from facesynth.app.learn.fit import FitOptions, fit_learned_profile
 from facesynth.app.learn.inprocess import SimBabbler, babble, held_out_error, uniform_poses
+from facesynth.app.learn.models import MLP_MEMBERS
 from facesynth.app.learn.plan import Plan, PlanOptions
 from facesynth.runtime.feature_names import NAMES
 from facesynth.runtime.profiles import Profile, load_profile
@@ -50,7 +52,7 @@ def run(
     test = babble(babbler, uniform_poses(len(profile.servos), test_poses, seed + 1000))
     rows = []
     for way in ways:
-        options = FitOptions(seed=seed, recombined=0)
+        options = FitOptions(seed=seed, recombined=0, mlp_members=MLP_MEMBERS)
         if way == "uniform":
             data = babble(babbler, uniform_poses(len(profile.servos), poses, seed))
         elif way == "plan":

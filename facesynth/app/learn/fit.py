@@ -22,8 +22,8 @@ hardware profile it was babbled with and returns that profile with its
    fitted servos only.
 3. **Inverse model.** Candidates (ridge on degree-2 polynomial features with a per-servo
    penalty by generalized cross-validation, k nearest neighbours, a small tanh MLP at each
-   penalty of ``mlp_alphas``; fitted on one BLAS thread: on these small matrices more threads
-   only fight over the cores) are trained on the
+   penalty of ``mlp_alphas``, the mean of ``mlp_members`` seeded ones; fitted on one BLAS
+   thread: on these small matrices more threads only fight over the cores) are trained on the
    poses of a seeded split by pose (a pose visited twice, e.g. the neutral, is on one side only)
    and compared by their command error on the held-out poses: the mean absolute error in µs, as
    a fraction of each servo's range (``max_us - min_us``). The best is refitted on every pose.
@@ -95,7 +95,8 @@ from facesynth.app.learn.responsive import clip_commands, responsive_range
 from facesynth.app.learn.unexplained import unexplained
 from facesynth.runtime.feature_names import BY_NAME
 from facesynth.runtime.profiles import Learned, Profile
-from facesynth.runtime.profiles.learned import Model, Report, Retarget, pack
+from facesynth.runtime.profiles.learned import Model, Report, pack
+from facesynth.runtime.profiles.learned_retarget import fitted_retarget
 
 __all__ = [
     "CANDIDATES",
@@ -351,7 +352,7 @@ def _fit(babble: BabbleSet, profile: Profile, options: FitOptions) -> Profile:
         command_low=pack(u_low),
         command_high=pack(u_high),
         noise=pack(noise),
-        retarget=Retarget(),
+        retarget=fitted_retarget(),
         report=report,
     )
     return msgspec.structs.replace(profile, learned=learned)

@@ -24,6 +24,13 @@ from facesynth.schemas.messages import BabbleSample
 POSES = 240
 
 
+@pytest.fixture(autouse=True)
+def _one_mlp_a_candidate(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The command's plumbing is tested here: one MLP a candidate keeps it fast (that the
+    command fits with the averaged MLPs is tested in test_mlp_members.py)."""
+    monkeypatch.setattr(cli, "MLP_MEMBERS", 1)
+
+
 def test_the_fitting_is_called_and_its_profile_saved(tmp_path: Path) -> None:
     babble = synthetic_babble(POSES)
     out = tmp_path / "head.learned"
