@@ -122,8 +122,7 @@ class ServiceContext:
 
         def refused(count: int, reason: str) -> None:
             self.stats.received += count  # received, and refused at once
-            self.stats.rejected += count - 1  # reject() counts one
-            self.reject(f"{key}: {count} message(s) refused on arrival, the last: {reason}")
+            self.reject(f"{key}: {count} message(s) refused on arrival, the last: {reason}", count)
 
         screen = take = None
         if message is not None:
@@ -151,10 +150,12 @@ class ServiceContext:
         self.bus.publish_message(self.key(stage), message, codec.encode)
         self.stats.record_published(getattr(message, "t_capture_ns", 0), self.clock.time_ns())
 
-    def reject(self, reason: str) -> None:
-        """Count and log an unusable input; logs the first ten, then every hundredth."""
-        self.stats.rejected += 1
-        if self._reject_logged < 10 or self.stats.rejected % 100 == 0:
+    def reject(self, reason: str, count: int = 1) -> None:
+        """Count ``count`` unusable inputs and log them: the first ten times, then each time
+        the count passes a hundred more (a batch of refusals is one call)."""
+        before = self.stats.rejected
+        self.stats.rejected += count
+        if self._reject_logged < 10 or before // 100 != self.stats.rejected // 100:
             self._reject_logged += 1
             self.log.warning("dropped a message (%d so far): %s", self.stats.rejected, reason)
 

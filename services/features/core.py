@@ -64,7 +64,7 @@ from facesynth.services.features.point_sets import (
     mesh_points,
     optional_points,
 )
-from facesynth.services.features.pose import N_MESH, MeshReference
+from facesynth.services.features.pose import N_MESH, MeshReference, PoseError, Similarity
 
 __all__ = [
     "MIN_IOD_PX",
@@ -230,31 +230,34 @@ class FeatureProcessor:
             )
         ibug = ibug_points(points)
         mesh = mesh_points(points)
-        frame = paper_frame(ibug, mesh, self.reference)
+        fits = self._fits(mesh)
+        frame = paper_frame(ibug, mesh, self.reference, fits[0] if fits else None)
         iris = optional_points(points, IRIS10, N_IRIS, 2)
         scores = blendshape_scores(points)
         distances = nose_distances(frame)
         t = points.t_media_ns
         ready = self.estimator.add(t, distances)
-        sample = Sample(ibug, frame, mesh, iris, scores)
-        if self.frame_neutral is None and self.window.add(t, sample):
-            self._complete_neutral()
-            if self.reference is not None:  # this frame was read before the neutral mesh
-                frame = paper_frame(ibug, mesh, self.reference)
-                distances = nose_distances(frame)
-        elif self.brows is not None:
-            found = self.brows.add(t, sample)
-            if found is not None:
-                if found.samples:
-                    self._rebase_brows(found.samples)
-                self.notes.append(found.note(t))
-                if found.final:
-                    self.brows = None
+        if self.frame_neutral is None or self.brows is not None:  # a neutral being learned
+            sample = Sample(ibug, frame, mesh, iris, scores)
+            if self.frame_neutral is None and self.window.add(t, sample):
+                self._complete_neutral()
+                fits = self._fits(mesh)
+                if self.reference is not None:  # this frame was read before the neutral mesh
+                    frame = paper_frame(ibug, mesh, self.reference, fits[0] if fits else None)
+                    distances = nose_distances(frame)
+            elif self.brows is not None:
+                found = self.brows.add(t, sample)
+                if found is not None:
+                    if found.samples:
+                        self._rebase_brows(found.samples)
+                    self.notes.append(found.note(t))
+                    if found.final:
+                        self.brows = None
         distance_neutral = self.estimator.neutral if ready else None
         frame_neutral = self.frame_neutral
         named: dict[str, float] = {}
         rel: dict[str, float] = {}
-        raw = self._raw(ibug, mesh, iris, scores)
+        raw = self._raw(ibug, mesh, iris, scores, fits[1] if fits else None)
         if raw is not None and self.named_neutral is not None:
             named_neutral = self.named_neutral if self.auto is None else self.auto.named
             self.gaze.observe(raw, named_neutral)
@@ -310,22 +313,34 @@ class FeatureProcessor:
             self.estimator.neutral = self.estimator.neutral.copy()
             self.estimator.neutral[BROW_POINTS] = distances[BROW_POINTS]
 
+    def _fits(self, mesh: np.ndarray | None) -> tuple[Similarity, Similarity] | None:
+        """This frame's mesh fitted onto the neutral mesh, both ways at once (``paper_frame``'s
+        and ``raw_features``' fits: ``MeshReference.fits``); None without a mesh or a neutral
+        mesh, or for a mesh the fit cannot use (the two then find that out as before)."""
+        if mesh is None or self.reference is None:
+            return None
+        try:
+            return self.reference.fits(mesh)
+        except PoseError:
+            return None
+
     def _raw(
         self,
         ibug: np.ndarray,
         mesh: np.ndarray | None,
         iris: np.ndarray | None,
         scores: np.ndarray | None,
+        transform: Similarity | None = None,
     ) -> dict[str, float] | None:
         """Absolute named values (geometry and blendshapes), or None when the neutral cannot
-        place them."""
+        place them. ``transform``: the mesh's fit onto the neutral's face frame, if known."""
         if self.use_mesh is None:
             return None
         try:
             if self.use_mesh:
                 if mesh is None or self.reference is None:
                     return None  # the neutral is in the mesh's frame: 2D values would not match
-                raw = raw_features(ibug, mesh, iris, self.reference)
+                raw = raw_features(ibug, mesh, iris, self.reference, transform)
             else:
                 raw = raw_features(ibug, None, iris)
         except FeatureError:  # a degenerate mesh: this frame has the paper's features only

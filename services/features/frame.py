@@ -7,6 +7,8 @@ As in the image, y points down.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from facesynth.runtime.landmarks import LEFT_EYE_OUTER, RIGHT_EYE_OUTER
@@ -24,12 +26,15 @@ def normalise(points: np.ndarray, frame_of: np.ndarray | None = None) -> np.ndar
     is set by the outer eye corners of ``points``, or of ``frame_of`` (68 points of another
     face, e.g. the neutral's, when ``points`` were already moved to its pose)."""
     corners = points if frame_of is None else frame_of
-    right, left = corners[RIGHT_EYE_OUTER], corners[LEFT_EYE_OUTER]
-    axis = left - right
-    iod = float(np.hypot(axis[0], axis[1]))
-    if not np.isfinite(iod) or iod < MIN_IOD_PX:
+    # the corners as plain floats: the same arithmetic as on numpy scalars, for less
+    rx, ry = corners[RIGHT_EYE_OUTER].tolist()
+    lx, ly = corners[LEFT_EYE_OUTER].tolist()
+    ax, ay = lx - rx, ly - ry
+    iod = float(np.hypot(ax, ay))
+    if not math.isfinite(iod) or iod < MIN_IOD_PX:
         raise FeatureError(f"outer eye corners are {iod:.3g} px apart: no face frame")
-    cos, sin = axis / iod
+    cos, sin = ax / iod, ay / iod
     rotation = np.array([[cos, sin], [-sin, cos]])
-    result: np.ndarray = ((points - (right + left) / 2.0) @ rotation.T) / iod
+    centre = np.array([(rx + lx) / 2.0, (ry + ly) / 2.0])
+    result: np.ndarray = ((points - centre) @ rotation.T) / iod
     return result

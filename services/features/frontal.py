@@ -33,6 +33,7 @@ from facesynth.services.features.pose import (
     STABLE_VERTICES,
     MeshReference,
     PoseError,
+    Similarity,
     apply,
     similarity_fit,
     unturned,
@@ -43,29 +44,43 @@ __all__ = ["frontalized", "paper_frame"]
 _STABLE = np.asarray(STABLE_VERTICES)
 
 
-def frontalized(ibug: np.ndarray, mesh: np.ndarray, reference: MeshReference) -> np.ndarray:
+def frontalized(
+    ibug: np.ndarray,
+    mesh: np.ndarray,
+    reference: MeshReference,
+    transform: Similarity | None = None,
+) -> np.ndarray:
     """The 68 image points (68, 2) moved rigidly from the head's pose in ``mesh`` (468, 3) to
     its pose in the neutral mesh of ``reference`` (image coordinates): the head's rotation,
-    position and distance since the neutral taken out. Raise
+    position and distance since the neutral taken out. ``transform``: that fit when the
+    caller has it (``reference.fits(mesh)[0]``). Raise
     :class:`~facesynth.services.features.pose.PoseError` for a mesh the fit cannot use."""
-    transform = similarity_fit(mesh[_STABLE], reference.mesh[_STABLE])
-    moved: np.ndarray = apply(transform, np.column_stack([ibug, ibug68_depth(mesh)]))[:, :2]
-    if not np.all(np.isfinite(moved)):
+    if transform is None:
+        transform = similarity_fit(mesh[_STABLE], reference.stable_target)
+    lifted = np.empty((len(ibug), 3))  # the points with their depth
+    lifted[:, :2] = ibug
+    lifted[:, 2] = ibug68_depth(mesh)
+    moved: np.ndarray = apply(transform, lifted)[:, :2]
+    if not np.isfinite(moved).all():
         raise PoseError("the frontalised points are not finite")
     return moved
 
 
 def paper_frame(
-    ibug: np.ndarray, mesh: np.ndarray | None = None, reference: MeshReference | None = None
+    ibug: np.ndarray,
+    mesh: np.ndarray | None = None,
+    reference: MeshReference | None = None,
+    transform: Similarity | None = None,
 ) -> np.ndarray:
     """The 68 points in the eye-corner face frame (:func:`normalise`), the head's rotation taken
     out first when there is a mesh: against the neutral mesh ``reference`` when known
-    (:func:`frontalized`, in the neutral's eye-corner frame), else its yaw alone
-    (``pose.unturned``, in the points' own). A mesh with no usable pose leaves the points as
-    they are."""
+    (:func:`frontalized`, in the neutral's eye-corner frame; ``transform``: its fit, if known),
+    else its yaw alone (``pose.unturned``, in the points' own). A mesh with no usable pose
+    leaves the points as they are."""
     if mesh is not None:
         with contextlib.suppress(PoseError):
             if reference is not None:
-                return normalise(frontalized(ibug, mesh, reference), reference.ibug68)
+                moved = frontalized(ibug, mesh, reference, transform)
+                return normalise(moved, reference.ibug68)
             ibug = unturned(np.column_stack([ibug, ibug68_depth(mesh)]), mesh)
     return normalise(ibug)

@@ -94,26 +94,36 @@ def iris_depth(
     Args: (n, 3) corners and contour means, (3,) unit directions, (n, 2) iris centres.
     """
     middle = (corner_a + corner_b) / 2.0
-    origin = middle + ((contour_mean - middle) @ forward)[:, None] * forward
-    axis = corner_b - corner_a
-    # normal = axis × up, written out (np.cross is slow on small arrays)
-    nx = axis[:, 1] * up[2] - axis[:, 2] * up[1]
-    ny = axis[:, 2] * up[0] - axis[:, 0] * up[2]
-    nz = axis[:, 0] * up[1] - axis[:, 1] * up[0]
-    offset = nx * (centre[:, 0] - origin[:, 0]) + ny * (centre[:, 1] - origin[:, 1])
-    edge_on = np.abs(nz) < 1e-3 * np.sqrt(nx * nx + ny * ny + nz * nz)
-    depth: np.ndarray = origin[:, 2] - np.where(edge_on, 0.0, offset / np.where(edge_on, 1.0, nz))
-    return depth
+    along = ((contour_mean - middle) @ forward).tolist()
+    # The rest row by row in plain floats: numpy's operations on two rows cost more than they
+    # compute (the same operations in the same order: the same values, bit for bit).
+    ux, uy, uz = up.tolist()
+    fx, fy, fz = forward.tolist()
+    depth = []
+    for (mx, my, mz), (ax, ay, az), (bx, by, bz), seen, k in zip(
+        middle.tolist(), corner_a.tolist(), corner_b.tolist(), centre.tolist(), along, strict=True
+    ):
+        ox, oy, oz = mx + k * fx, my + k * fy, mz + k * fz
+        dx, dy, dz = bx - ax, by - ay, bz - az
+        # normal = axis × up
+        nx = dy * uz - dz * uy
+        ny = dz * ux - dx * uz
+        nz = dx * uy - dy * ux
+        offset = nx * (seen[0] - ox) + ny * (seen[1] - oy)
+        if abs(nz) < 1e-3 * math.sqrt(nx * nx + ny * ny + nz * nz):
+            depth.append(oz)  # edge-on
+        else:
+            depth.append(oz - offset / nz if nz != 0.0 else math.nan)  # no normal: no plane
+    return np.array(depth, dtype=np.float64)
 
 
 #: Rows: eyes (right, left); (2, 468) matrix giving each eye contour's mean from the mesh.
 _CONTOUR_MEAN = np.zeros((2, 468))
 for _row, _side in enumerate(SIDES):
     _CONTOUR_MEAN[_row, list(MESH_EYE_CONTOUR[_side])] = 1.0 / len(MESH_EYE_CONTOUR[_side])
-_CORNER_A = [MESH_EYE_CORNERS[side][0] for side in SIDES]
-_CORNER_B = [MESH_EYE_CORNERS[side][1] for side in SIDES]
-_CENTRES = [IRIS_CENTRE[side] for side in SIDES]
-_UP = np.array([0.0, 1.0, 0.0])
+_CORNER_A = np.array([MESH_EYE_CORNERS[side][0] for side in SIDES])
+_CORNER_B = np.array([MESH_EYE_CORNERS[side][1] for side in SIDES])
+_CENTRES = np.array([IRIS_CENTRE[side] for side in SIDES])
 
 
 def gaze_features_3d(
@@ -135,28 +145,50 @@ def gaze_features_3d(
     corner_a, corner_b = mesh[_CORNER_A], mesh[_CORNER_B]
     centres = iris[_CENTRES]
     # the face frame's y and z in mesh coordinates are the rotation's rows
-    depth = iris_depth(corner_a, corner_b, _CONTOUR_MEAN @ mesh, rotation[1], rotation[2], centres)
-    centre = apply(transform, np.column_stack([centres, depth]))
+    lifted = np.empty((2, 3))
+    lifted[:, :2] = centres
+    lifted[:, 2] = iris_depth(
+        corner_a, corner_b, _CONTOUR_MEAN @ mesh, rotation[1], rotation[2], centres
+    )
+    centre = apply(transform, lifted).tolist()
     if aligned is None:
-        aligned = apply(transform, np.concatenate([corner_a, corner_b]))
-        a, b = aligned[:2], aligned[2:]
+        ends = apply(transform, np.concatenate([corner_a, corner_b])).tolist()
+        a, b = ends[:2], ends[2:]
     else:
-        a, b = aligned[_CORNER_A], aligned[_CORNER_B]
-    axis = b - a
-    width = np.sqrt((axis * axis).sum(axis=1))
-    ex = axis / width[:, None]
-    ey = _UP - ex[:, 1:2] * ex
-    ey /= np.sqrt((ey * ey).sum(axis=1))[:, None]
-    offset = centre - (a + b) / 2.0
-    x = (offset * ex).sum(axis=1) / width
-    y = (offset * ey).sum(axis=1) / width
+        a, b = aligned[_CORNER_A].tolist(), aligned[_CORNER_B].tolist()
     out: dict[str, float] = {}
-    for row, side in enumerate(SIDES):
-        gx, gy = float(x[row]), float(y[row])
+    for side, (ax, ay, az), (bx, by, bz), (cx, cy, cz) in zip(SIDES, a, b, centre, strict=True):
+        gx, gy = _eye_frame_gaze(
+            bx - ax,
+            by - ay,
+            bz - az,
+            cx - (ax + bx) / 2.0,
+            cy - (ay + by) / 2.0,
+            cz - (az + bz) / 2.0,
+        )
         if math.isfinite(gx) and math.isfinite(gy):
             out[f"gaze_{side}_x"] = gx
             out[f"gaze_{side}_y"] = gy
     return out
+
+
+def _eye_frame_gaze(
+    ax: float, ay: float, az: float, ox: float, oy: float, oz: float
+) -> tuple[float, float]:
+    """Gaze of one eye in the face frame: the offset ``o`` of its iris centre from the eye's
+    corners' midpoint along the eye's axis ``a`` (corner to corner) and along the face's up
+    direction made orthogonal to it, over the eye's width (plain floats, one eye)."""
+    width = math.sqrt(ax * ax + ay * ay + az * az)
+    if width == 0.0:  # no eye: no gaze (as numpy's NaN of 0 / 0 was)
+        return math.nan, math.nan
+    ex, ey, ez = ax / width, ay / width, az / width
+    # up (0, 1, 0) less its part along the axis, then made unit
+    ux, uy, uz = 0.0 - ey * ex, 1.0 - ey * ey, 0.0 - ey * ez
+    norm = math.sqrt(ux * ux + uy * uy + uz * uz)
+    if norm == 0.0:  # the eye's axis is the face's up
+        return math.nan, math.nan
+    ux, uy, uz = ux / norm, uy / norm, uz / norm
+    return (ox * ex + oy * ey + oz * ez) / width, (ox * ux + oy * uy + oz * uz) / width
 
 
 def gaze_features(

@@ -97,8 +97,21 @@ def neutral_face(
         for name, value in raw.items():
             values.setdefault(name, []).append(value)
     frame = np.median(np.stack([s.frame for s in samples]), axis=0)
-    named = {name: float(np.median(v)) for name, v in values.items()}
-    return NeutralFace(frame=frame, named=named, reference=reference)
+    return NeutralFace(frame=frame, named=medians(values), reference=reference)
+
+
+def medians(values: dict[str, list[float]]) -> dict[str, float]:
+    """``float(np.median(v))`` of each list, bit for bit. The lists as long as the longest (as
+    a rule, every name has a value in every frame) are taken as one matrix, one median call for
+    all ~80 names instead of one each (numpy's overhead per call was most of a neutral's cost);
+    any shorter list on its own."""
+    longest = max((len(v) for v in values.values()), default=0)
+    whole = [name for name, v in values.items() if len(v) == longest]
+    out: dict[str, float] = {}
+    if whole:
+        matrix = np.array([values[name] for name in whole], dtype=np.float64)
+        out = dict(zip(whole, np.median(matrix, axis=1).tolist(), strict=True))
+    return {name: out[name] if name in out else float(np.median(v)) for name, v in values.items()}
 
 
 class NeutralWindow(Generic[T]):

@@ -45,7 +45,7 @@ def optional_points(points: Points, scheme: str, count: int, dims: int) -> np.nd
             if len(point_set.coords) != count * point_set.dims:
                 raise FeatureError(f"{scheme} set has {len(point_set.coords)} values")
             array = float64_array(point_set.coords)
-            if not np.all(np.isfinite(array)):
+            if not np.isfinite(array).all():
                 raise FeatureError(f"{scheme} set has a value that is not a finite number")
             return array.reshape(count, point_set.dims)[:, :dims]
     return None
@@ -75,7 +75,8 @@ def blendshape_scores(points: Points) -> np.ndarray | None:
             values = float64_array(score_set.values)
             if values.shape != (blendshapes.COUNT,):
                 raise FeatureError(f"blendshapes52 set has {values.size} values")
-            if not (np.all(np.isfinite(values)) and values.min() >= 0.0 and values.max() <= 1.0):
+            # NaN fails both comparisons, an infinity one: finite numbers in 0..1 pass
+            if not ((values >= 0.0) & (values <= 1.0)).all():
                 raise FeatureError("blendshapes52 set has a value that is not a number in 0..1")
             return values
     return None

@@ -21,8 +21,9 @@ performer's left shoulder. They are intrinsic yaw (about y), then pitch (about x
 from __future__ import annotations
 
 import functools
+import importlib
 import math
-from typing import Final
+from typing import Any, Final
 
 import numpy as np
 
@@ -118,41 +119,98 @@ def own_frame(mesh: np.ndarray) -> Similarity:
 
 def _det3(m: np.ndarray) -> float:
     """Determinant of a 3x3 matrix (cheaper than np.linalg.det for one small matrix)."""
-    return float(
-        m[0, 0] * (m[1, 1] * m[2, 2] - m[1, 2] * m[2, 1])
-        - m[0, 1] * (m[1, 0] * m[2, 2] - m[1, 2] * m[2, 0])
-        + m[0, 2] * (m[1, 0] * m[2, 1] - m[1, 1] * m[2, 0])
-    )
+    (a, b, c), (d, e, f), (g, h, i) = m.tolist()
+    return a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g)
 
 
-def similarity_fit(source: np.ndarray, target: np.ndarray) -> Similarity:
-    """Scale, rotation and translation with ``target ≈ scale * source @ rotation.T + shift``.
+def _lapack_svd() -> Any:
+    """The LAPACK gufunc behind ``np.linalg.svd`` (numpy 1.26 and 2.x), or None elsewhere."""
+    try:
+        return importlib.import_module("numpy.linalg._umath_linalg").svd_f
+    except (ImportError, AttributeError):
+        return None
 
-    Least squares (Umeyama 1991); the rotation is proper (no reflection).
-    """
-    mean_s, mean_t = source.mean(axis=0), target.mean(axis=0)
-    cs, ct = source - mean_s, target - mean_t
-    var_s = float((cs * cs).sum())
-    if not np.isfinite(var_s) or var_s < MIN_SCALE:
+
+_SVD_F = _lapack_svd()
+
+
+def svd3(matrix: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``np.linalg.svd`` of a real (3, 3) float64 matrix (or a stack of them), bit for bit: the
+    same LAPACK call without the wrapper's checks, which cost more than the decomposition of
+    so small a matrix. A decomposition that does not converge (a matrix that is not finite)
+    gives NaN here where numpy raises: the fits' scale check turns it into a
+    :class:`PoseError`."""
+    if _SVD_F is None:
+        u, sigma, vt = np.linalg.svd(matrix)
+    else:
+        with np.errstate(all="ignore"):  # numpy's own svd ignores all but non-convergence
+            u, sigma, vt = _SVD_F(matrix, signature="d->ddd")
+    return u, sigma, vt
+
+
+def _centred(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The mean of (n, 3) points (bit for bit ``points.mean(axis=0)``, without its wrapper's
+    cost) and the points less it."""
+    mean: np.ndarray = np.add.reduce(points, axis=0) / len(points)
+    return mean, points - mean
+
+
+class FitTarget:
+    """Points a similarity fit maps onto, centred once: a neutral's stable vertices are the
+    target of every frame's fit, so their mean is not taken again each frame."""
+
+    __slots__ = ("centred", "mean")
+
+    def __init__(self, target: np.ndarray) -> None:
+        self.mean, self.centred = _centred(target)
+
+
+def _fit_source(source: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+    """A fit's source points: their mean, the points less it, their variance (checked)."""
+    mean, centred = _centred(source)
+    variance = float((centred * centred).sum())
+    if not math.isfinite(variance) or variance < MIN_SCALE:
         raise PoseError("the stable mesh vertices are collapsed: no pose")
-    u, sigma, vt = np.linalg.svd(ct.T @ cs)
+    return mean, centred, variance
+
+
+def _similarity(
+    svd: tuple[np.ndarray, np.ndarray, np.ndarray],
+    source: tuple[np.ndarray, np.ndarray, float],
+    target: FitTarget,
+) -> Similarity:
+    """The fit from the SVD of the target's centred points (transposed) times the source's."""
+    u, sigma, vt = svd
+    mean_s, _, var_s = source
     rotation = u @ vt
-    d = np.ones(3)
     if _det3(rotation) < 0:  # a reflection: flip the least significant axis
-        d[2] = -1.0
+        d = np.array([1.0, 1.0, -1.0])
         rotation = (u * d) @ vt
-    scale = float((sigma * d).sum()) / var_s
+        sigma = sigma * d
+    scale = float(sigma.sum()) / var_s
     if not scale > MIN_SCALE:
         raise PoseError("the fitted mesh scale is not positive: no pose")
-    return scale, rotation, mean_t - scale * mean_s @ rotation.T
+    return scale, rotation, target.mean - scale * mean_s @ rotation.T
+
+
+def similarity_fit(source: np.ndarray, target: np.ndarray | FitTarget) -> Similarity:
+    """Scale, rotation and translation with ``target ≈ scale * source @ rotation.T + shift``.
+
+    Least squares (Umeyama 1991); the rotation is proper (no reflection). ``target`` may be
+    given centred already (:class:`FitTarget`): the same fit, bit for bit.
+    """
+    if not isinstance(target, FitTarget):
+        target = FitTarget(target)
+    points = _fit_source(source)
+    return _similarity(svd3(target.centred.T @ points[1]), points, target)
 
 
 def euler_degrees(rotation: np.ndarray) -> tuple[float, float, float]:
     """(yaw, pitch, roll) in degrees of a rotation of the face frame (see the module doc)."""
-    r = rotation
-    yaw = math.atan2(r[0, 2], r[2, 2])
-    about_x = math.asin(max(-1.0, min(1.0, -r[1, 2])))
-    about_z = math.atan2(r[1, 0], r[1, 1])
+    r = rotation.tolist()
+    yaw = math.atan2(r[0][2], r[2][2])
+    about_x = math.asin(max(-1.0, min(1.0, -r[1][2])))
+    about_z = math.atan2(r[1][0], r[1][1])
     # Positive rotation about x turns the face down and about z tilts the top toward -x (the
     # performer's right): the contract's pitch and roll are the opposite.
     return math.degrees(yaw), -math.degrees(about_x), -math.degrees(about_z)
@@ -179,7 +237,11 @@ class MeshReference:
         origin, self.axes, self.iod = face_axes(mesh)
         self.canonical: np.ndarray = (mesh - origin) @ self.axes.T / self.iod
         self._stable = np.asarray(STABLE_VERTICES)
-        self._target = self.canonical[self._stable]
+        self._target = FitTarget(self.canonical[self._stable])
+        #: The neutral mesh's own stable vertices, the target of ``frontal.frontalized``'s fit.
+        self.stable_target = FitTarget(mesh[self._stable])
+        #: Both targets' centred points, transposed and stacked, for :meth:`fits`.
+        self._targets_t = np.stack([self.stable_target.centred.T, self._target.centred.T])
 
     @functools.cached_property
     def ibug68(self) -> np.ndarray:
@@ -190,6 +252,18 @@ class MeshReference:
     def fit(self, mesh: np.ndarray) -> Similarity:
         """The transform from a mesh's coordinates onto the neutral's face frame."""
         return similarity_fit(mesh[self._stable], self._target)
+
+    def fits(self, mesh: np.ndarray) -> tuple[Similarity, Similarity]:
+        """Both fits of a mesh: onto the neutral mesh's own coordinates (``frontal``'s,
+        ``similarity_fit(mesh[STABLE_VERTICES], self.stable_target)``) and onto its face frame
+        (:meth:`fit`), each bit for bit as alone, from one centring of the mesh's stable
+        vertices and one SVD call for the two (F needs both every frame)."""
+        source = _fit_source(mesh[self._stable])
+        u, sigma, vt = svd3(self._targets_t @ source[1])
+        return (
+            _similarity((u[0], sigma[0], vt[0]), source, self.stable_target),
+            _similarity((u[1], sigma[1], vt[1]), source, self._target),
+        )
 
     def head_rotation(self, transform: Similarity) -> np.ndarray:
         """The head rotation from the neutral, in the face frame, of a :meth:`fit` result

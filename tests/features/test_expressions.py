@@ -395,3 +395,17 @@ def test_ranges_come_from_the_calibration_where_given() -> None:
     assert scale({"jaw_open": 0.25, "head_yaw": -15.0}, ranges) == pytest.approx(
         {"jaw_open": 0.5, "head_yaw": -0.5}
     )
+
+
+def test_scale_is_scale_value_of_every_feature() -> None:
+    """``scale`` writes ``scale_value`` out in its loop: the same value for every input, the
+    ends, both signs of zero, infinities and NaN included (bit for bit, NaN as NaN's min/max)."""
+    values = [0.0, -0.0, 0.04, -0.015, 0.08, -0.03, 0.5, -0.5, math.inf, -math.inf, math.nan]
+    rel = {f"f{i}": value for i, value in enumerate(values)}
+    ranges = {name: (-0.03, 0.08) for name in rel}
+    scaled = scale(rel, ranges)
+    assert list(scaled) == list(rel)
+    for name, value in rel.items():
+        want = scale_value(value, -0.03, 0.08)
+        assert math.copysign(1.0, scaled[name]) == math.copysign(1.0, want), name
+        assert scaled[name] == want or (math.isnan(scaled[name]) and math.isnan(want)), name

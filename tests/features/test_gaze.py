@@ -11,6 +11,7 @@ from synthetic_face import IRIS, MESH, ibug_of, look, look_3d, transform
 from facesynth.services.features.gaze import (
     CLOSED_BELOW,
     GazeHold,
+    _eye_frame_gaze,
     eye_gaze,
     gaze_features,
     gaze_features_3d,
@@ -203,3 +204,37 @@ def test_unknown_openness_counts_as_open() -> None:
     hold.eye_open("right", 0.01, 0.3)
     assert hold.eye_open("right", None, 0.3)
     assert hold.eye_open("right", math.nan, 0.3)
+
+
+def test_iris_depth_without_a_normal_is_nan() -> None:
+    """Corners on one point have no plane to read depth in: NaN, never a ZeroDivisionError."""
+    corner = np.array([[1.0, 2.0, 3.0]])
+    depth = iris_depth(
+        corner,
+        corner,
+        np.array([[1.0, 2.0, 2.0]]),
+        np.array([0.0, -1.0, 0.0]),
+        np.array([0.0, 0.0, -1.0]),
+        np.array([[1.5, 2.0]]),
+    )
+    assert depth.shape == (1,) and math.isnan(depth[0])
+
+
+def test_3d_gaze_of_an_eye_without_corners_is_left_out() -> None:
+    """An eye whose corners meet has no frame: its gaze is left out (as NaN was before), the
+    other eye's is read, nothing raises."""
+    mesh = MESH.copy()
+    mesh[133] = mesh[33]  # the right eye's inner corner on its outer one
+    frame = own_frame(MESH)
+    gaze = gaze_features_3d(IRIS, mesh, frame)
+    assert set(gaze) == {"gaze_left_x", "gaze_left_y"}
+    assert gaze == {k: v for k, v in gaze_features_3d(IRIS, MESH, frame).items() if "left" in k}
+
+
+@pytest.mark.parametrize(
+    "axis", [(0.0, 0.0, 0.0), (0.0, 2.0, 0.0), (0.0, -1e-200, 0.0)], ids=["none", "up", "tiny"]
+)
+def test_eye_frame_without_a_width_or_an_up_gives_no_gaze(axis) -> None:
+    """No width, or an eye axis along the face's up (no vertical left): NaN, no exception."""
+    x, y = _eye_frame_gaze(*axis, 0.1, 0.2, 0.3)
+    assert math.isnan(x) and math.isnan(y)

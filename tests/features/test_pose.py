@@ -8,9 +8,11 @@ import numpy as np
 import pytest
 from synthetic_face import IRIS, MESH, ibug_of, rotation_from_euler, to_face_frame, transform
 
+from facesynth.services.features import pose
 from facesynth.services.features.frame import FeatureError
 from facesynth.services.features.pose import (
     STABLE_VERTICES,
+    FitTarget,
     MeshReference,
     PoseError,
     camera_pose,
@@ -19,6 +21,7 @@ from facesynth.services.features.pose import (
     median_mesh,
     roll_2d,
     similarity_fit,
+    svd3,
 )
 
 ANGLES = [
@@ -137,6 +140,47 @@ def test_similarity_fit(scale, angles, shift) -> None:
     assert s == pytest.approx(scale)
     np.testing.assert_allclose(r, rotation, atol=1e-9)
     np.testing.assert_allclose(t, shift, atol=1e-9)
+
+
+def test_svd3_is_numpys_svd_bit_for_bit() -> None:
+    """The fits' SVD calls numpy's own LAPACK routine: the same three arrays, bit for bit, for
+    general, reflecting, rank-deficient and zero matrices."""
+    assert pose._SVD_F is not None  # numpy 1.26 and 2.x have the call (else: np.linalg.svd)
+    rng = np.random.default_rng(5)
+    matrices = [rng.normal(size=(3, 3)) for _ in range(200)]
+    matrices += [np.diag([2.0, 1.0, -1.0]), np.outer([1.0, 2, 3], [4.0, 5, 6]), np.zeros((3, 3))]
+    for matrix in matrices:
+        for ours, numpys in zip(svd3(matrix), np.linalg.svd(matrix), strict=True):
+            assert ours.tobytes() == numpys.tobytes()
+
+
+def test_a_centred_target_gives_the_same_fit() -> None:
+    """A target centred once (``FitTarget``, as a neutral's are) fits as the plain array does."""
+    rng = np.random.default_rng(6)
+    source, target = rng.normal(size=(25, 3)), rng.normal(size=(25, 3)) * 40.0 + 300.0
+    plain, centred = similarity_fit(source, target), similarity_fit(source, FitTarget(target))
+    assert plain[0] == centred[0]
+    assert plain[1].tobytes() == centred[1].tobytes()
+    assert plain[2].tobytes() == centred[2].tobytes()
+
+
+@pytest.mark.parametrize(("yaw", "pitch", "roll"), ANGLES[:5], ids=ANGLE_IDS[:5])
+def test_both_fits_at_once_are_each_fit_alone(yaw: float, pitch: float, roll: float) -> None:
+    """``MeshReference.fits``: one centring, one SVD call for two targets, and still each fit
+    bit for bit as computed alone."""
+    reference = MeshReference(transform(MESH, IRIS, yaw=5.0, shift=(4.0, -2.0, 1.0))[0])
+    mesh = transform(MESH, IRIS, yaw=yaw, pitch=pitch, roll=roll, scale=1.2)[0]
+    frontal, face = reference.fits(mesh)
+    alone = (
+        similarity_fit(mesh[np.asarray(STABLE_VERTICES)], reference.mesh[list(STABLE_VERTICES)]),
+        reference.fit(mesh),
+    )
+    for both, single in zip((frontal, face), alone, strict=True):
+        assert both[0] == single[0]
+        assert both[1].tobytes() == single[1].tobytes()
+        assert both[2].tobytes() == single[2].tobytes()
+    with pytest.raises(PoseError):
+        reference.fits(np.zeros_like(MESH))
 
 
 def test_similarity_fit_never_reflects() -> None:

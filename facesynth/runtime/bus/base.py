@@ -22,6 +22,7 @@ import abc
 import asyncio
 import collections
 import contextlib
+import math
 import threading
 import time
 from collections.abc import AsyncIterator, Callable
@@ -29,6 +30,12 @@ from types import TracebackType
 from typing import Any, Self
 
 from facesynth.runtime.bus.link import LinkFigures
+
+#: Refusals on arrival are reported to a mailbox's ``on_refused`` at most this often (seconds;
+#: the first at once): a flood of refused messages wakes the event loop about ten times a
+#: second, not once a message (issue #28: at 10,000 a second those wake-ups were a third of
+#: the receiving stage's CPU, and on a loaded machine the stream's frames went stale behind them).
+REFUSAL_REPORT_S = 0.1
 
 
 class Parcel:
@@ -112,6 +119,8 @@ class Subscription:
         self._refusals = 0  # refused since the last report to ``on_refused``
         self._reason = ""
         self._report_pending = False
+        self._reported_at = -math.inf  # loop time of the last report to ``on_refused``
+        self._refusal_lock = threading.Lock()  # the count is kept by two threads
         #: Polled (see :meth:`poll_only`): samples are stored under this lock, nobody is woken.
         self._polled: threading.Lock | None = None
 
@@ -141,8 +150,9 @@ class Subscription:
         cannot crowd out the stream.
 
         ``on_refused(count, reason)`` is called on the event loop with how many were refused
-        since its last call and why the latest was; at most one call is pending at a time, so
-        a flood costs the loop nothing per message.
+        since its last call and why the latest was, on the loop's next turn; from a transport's
+        thread, whose every report wakes the loop, after a quiet :data:`REFUSAL_REPORT_S` at
+        once, else that long after the last call: a flood costs the loop a few wake-ups a second.
 
         With ``take``, the mailbox takes messages published in this process as they are
         (:meth:`Bus.publish_message`): ``take(message)`` checks the object as ``screen`` checks
@@ -160,37 +170,54 @@ class Subscription:
         """Refuse payloads over ``max_bytes`` on arrival (see :meth:`guard`)."""
         self.guard(max_bytes, self._screen, self._on_refused, self._take)
 
-    def too_big(self, size: int) -> bool:
-        """Whether a payload of ``size`` bytes is refused (and count it); any thread."""
+    def too_big(self, size: int, *, transport: bool = True) -> bool:
+        """Whether a payload of ``size`` bytes is refused (and count it); any thread
+        (``transport``: a transport's thread, whose reports are spaced, see :meth:`guard`)."""
         if self.max_bytes is None or size <= self.max_bytes:
             return False
-        self._refuse(f"{size} bytes, over the limit of {self.max_bytes}")
+        self._refuse(f"{size} bytes, over the limit of {self.max_bytes}", transport)
         return True
 
-    def _admit(self, payload: bytes) -> tuple[bool, Any]:
+    def _admit(self, payload: bytes, transport: bool) -> tuple[bool, Any]:
         """Whether ``payload`` may enter the mailbox, and its screened message; any thread."""
-        if self.too_big(len(payload)):
+        if self.too_big(len(payload), transport=transport):
             return False, None
         if self._screen is None:
             return True, None
         try:
             return True, self._screen(payload)
         except ValueError as exc:
-            self._refuse(str(exc))
+            self._refuse(str(exc), transport)
             return False, None
 
-    def _refuse(self, reason: str) -> None:
-        self.refused += 1
-        self._refusals += 1
-        self._reason = reason
-        if self._on_refused is not None and not self._report_pending:
+    def _refuse(self, reason: str, transport: bool) -> None:
+        """Count a refusal and see it reported: on the loop's next turn, or, from a
+        transport's thread, at most every :data:`REFUSAL_REPORT_S` (each report wakes the
+        loop; a refusal on the loop's own path, an in-process publish, wakes nobody)."""
+        with self._refusal_lock:
+            self.refused += 1
+            self._refusals += 1
+            self._reason = reason
+            if self._on_refused is None or self._report_pending:
+                return
             self._report_pending = True
-            with contextlib.suppress(RuntimeError):  # the loop is closed: nobody to tell
-                self._loop.call_soon_threadsafe(self._report_refusals)
+        report = self._report_when_due if transport else self._report_refusals
+        with contextlib.suppress(RuntimeError):  # the loop is closed: nobody to tell
+            self._loop.call_soon_threadsafe(report)
+
+    def _report_when_due(self) -> None:
+        """Report now, or :data:`REFUSAL_REPORT_S` after the last report (on the loop)."""
+        wait = self._reported_at + REFUSAL_REPORT_S - self._loop.time()
+        if wait > 0:
+            self._loop.call_later(wait, self._report_refusals)
+        else:
+            self._report_refusals()
 
     def _report_refusals(self) -> None:
-        count, reason = self._refusals, self._reason
-        self._refusals, self._report_pending = 0, False
+        with self._refusal_lock:
+            count, reason = self._refusals, self._reason
+            self._refusals, self._report_pending = 0, False
+        self._reported_at = self._loop.time()
         if count and self._on_refused is not None:
             self._on_refused(count, reason)
 
@@ -205,11 +232,11 @@ class Subscription:
             try:
                 message = self._take(parcel.message)
             except ValueError as exc:
-                self._refuse(str(exc))
+                self._refuse(str(exc), transport=False)
                 return
             sample = Sample(sample.key, parcel, sample.t_received_ns, message)
         elif sample.message is None and (self.max_bytes is not None or self._screen is not None):
-            admitted, message = self._admit(sample.payload)
+            admitted, message = self._admit(sample.payload, transport=False)
             if not admitted:
                 return
             if message is not None:
@@ -238,7 +265,7 @@ class Subscription:
     def deliver_threadsafe(self, key: str, payload: bytes) -> None:
         """Screen a sample on the calling (transport) thread, then hand it over without
         blocking."""
-        admitted, message = self._admit(payload)
+        admitted, message = self._admit(payload, transport=True)
         if not admitted:
             return
         sample = Sample(key, payload, time.time_ns(), message)
