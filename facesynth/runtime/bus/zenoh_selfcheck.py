@@ -13,8 +13,9 @@ twice for its own token, once from the session itself and once from the router (
 eclipse-zenoh 1.10.2; a peer's, once, so peers are not checked); once means the router has
 lost it, unless the router's admin space still lists a subscription of the session (a second
 opinion). Two such answers in a row and the bus declares every subscription,
-publisher and token anew (:meth:`facesynth.runtime.bus.zenoh_bus.ZenohBus.declare_anew`); if the
-router still does not answer for the token after that, the check trusts itself no more and stops.
+publisher and token anew (:meth:`facesynth.runtime.bus.zenoh_bus.ZenohBus.declare_anew`), at
+most once every :data:`ANEW_EVERY_S`, so a router that keeps answering no costs a declaration a
+half-minute, not a storm.
 """
 
 from __future__ import annotations
