@@ -22,7 +22,8 @@ import numpy as np
 
 from facesynth.app.bench.processes import TICKS
 from facesynth.runtime import codec, keys
-from facesynth.runtime.bus.base import Bus, Sample, Subscription, SubscriptionClosed
+from facesynth.runtime.bus.base import Bus, Subscription, SubscriptionClosed
+from facesynth.runtime.bus.sample import Sample
 from facesynth.runtime.tasks import cancel_and_wait
 from facesynth.schemas.messages import Features, Points, ServiceStats, ServoCommands
 

@@ -2,13 +2,12 @@
 
 from facesynth.runtime.bus.base import (
     Bus,
-    Parcel,
-    Sample,
     Subscription,
     SubscriptionClosed,
     Token,
 )
 from facesynth.runtime.bus.memory import MemoryBus, MemoryNetwork
+from facesynth.runtime.bus.sample import Parcel, Sample
 
 __all__ = [
     "Bus",

@@ -16,7 +16,8 @@ from typing import Any
 
 import zenoh
 
-from facesynth.runtime.bus.base import Bus, Parcel, Sample, Subscription, Token
+from facesynth.runtime.bus.base import Bus, Subscription, Token
+from facesynth.runtime.bus.sample import Parcel, Sample
 from facesynth.runtime.clock import Clock, SystemClock
 
 

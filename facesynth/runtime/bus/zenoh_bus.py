@@ -38,8 +38,9 @@ from typing import Any, Final
 
 import zenoh
 
-from facesynth.runtime.bus.base import Bus, Parcel, Sample, Subscription, Token
+from facesynth.runtime.bus.base import Bus, Subscription, Token
 from facesynth.runtime.bus.link import LinkFigures, RouterLink, short_id
+from facesynth.runtime.bus.sample import Parcel, Sample
 from facesynth.runtime.bus.zenoh_outlet import Outlet
 from facesynth.runtime.bus.zenoh_routes import SessionRoutes, ZenohSubscription
 from facesynth.runtime.bus.zenoh_selfcheck import router_holds, watch

@@ -21,7 +21,8 @@ from typing import Any, ClassVar
 
 import zenoh
 
-from facesynth.runtime.bus.base import Sample, Subscription
+from facesynth.runtime.bus.base import Subscription
+from facesynth.runtime.bus.sample import Sample
 from facesynth.runtime.bus.zenoh_outlet import REDECLARE_S
 
 log = logging.getLogger("facesynth.link")
