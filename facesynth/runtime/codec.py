@@ -71,9 +71,6 @@ MAX_BYTES: dict[type[Any], int] = {
     ServiceStats: limits.STATS_LIMIT,
     BabbleSample: limits.STAGE_LIMITS["babble"],
 }
-#: Each message type's checks of its values (the same table as the checks module's: a test
-#: that swaps one swaps it for both).
-_VALIDATORS = VALIDATORS
 
 
 @functools.cache
@@ -104,7 +101,7 @@ def decode(payload: bytes | bytearray | memoryview, cls: type[M]) -> M:
     except (msgspec.DecodeError, msgspec.ValidationError, UnicodeDecodeError) as exc:
         # msgspec raises UnicodeDecodeError for a tag string that is not UTF-8
         raise MessageError(f"not a valid {cls.__name__} message: {one_line(str(exc))}") from None
-    _VALIDATORS[cls](message)
+    VALIDATORS[cls](message)
     return message
 
 
@@ -129,7 +126,7 @@ def check(message: object, cls: type[M]) -> M:
         return message
     try:
         _field_types(cls).check(message)
-        _VALIDATORS[cls](message)
+        VALIDATORS[cls](message)
     except MessageError:
         raise
     except msgspec.ValidationError as exc:

@@ -71,7 +71,7 @@ from facesynth.services.translator.loop_integral import IntegralAction
 from facesynth.services.translator.loop_regions import owned_regions, region_groups
 from facesynth.services.translator.self_model import SelfModelPlanner
 
-__all__ = ["MAX_ERROR", "ClosedLoop", "LoopOptions", "LoopState", "region_groups"]
+__all__ = ["MAX_ERROR", "ClosedLoop", "LoopOptions", "LoopState"]
 
 #: An observed feature's error against the refined model counts for at most this much
 #: (standardized units: times the robot's own spread of it while babbling).

@@ -194,13 +194,13 @@ def test_a_numpy_number_is_refused_as_an_object() -> None:
 
 def test_a_message_is_checked_once_however_many_read_it(monkeypatch: pytest.MonkeyPatch) -> None:
     validated: list[object] = []
-    validate = codec._VALIDATORS[ServoCommands]
+    validate = codec.VALIDATORS[ServoCommands]
 
     def counting(message: ServoCommands) -> None:
         validated.append(message)
         validate(message)
 
-    monkeypatch.setitem(codec._VALIDATORS, ServoCommands, counting)
+    monkeypatch.setitem(codec.VALIDATORS, ServoCommands, counting)
     message = _commands(jaw=1500.0)
     for _ in range(3):  # three mailboxes of one process take the same report
         assert codec.check(message, ServoCommands) is message

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 from test_closed_loop import N_FEATURES, N_SERVOS, planner
 
-from facesynth.services.translator.closed_loop import ClosedLoop, LoopOptions, region_groups
+from facesynth.services.translator.closed_loop import ClosedLoop, LoopOptions
+from facesynth.services.translator.loop_regions import region_groups
 from facesynth.services.translator.self_model import SelfModelPlanner
 
 #: Servo 0 (a neck) reads feature 0 alone; servos 1 and 2 read the whole face.

@@ -179,11 +179,11 @@ class SessionRoutes:
 
     def declare_anew(self) -> None:
         """Every feed's subscriber declared again (:meth:`Feed.declare_anew`; on their loop)."""
+        try:
+            running = asyncio.get_running_loop()
+        except RuntimeError:
+            running = None
         for feed in list(self.feeds.values()):
-            try:
-                running = asyncio.get_running_loop()
-            except RuntimeError:
-                running = None
             if running is feed.loop:
                 feed.declare_anew()
             else:
