@@ -304,8 +304,10 @@ async def serve_nodes(
         for part in parts
     ]
     outcome = await until_signalled(asyncio.wait(tasks, return_when=asyncio.FIRST_EXCEPTION))
-    errors = await cancel_and_wait(tasks)
-    watch.stop()
+    try:
+        errors = await cancel_and_wait(tasks)
+    finally:
+        watch.stop()
     log.info("%s after start-up", watch.summary())
     if errors:
         raise errors[0]

@@ -5,13 +5,20 @@ streams, which takes a kill -9 (of the translator, restarted), a stall of points
 an oversized burst, then checks that its JSON report has every section, that the kill shows in
 it (the fault, the killed process's two incarnations in the RSS figures, the gap it made), that
 no other process died, and that no servo stepped faster than its limit.
+
+Ctrl-C: a soak started with SIGINT ignored (as ``nohup ... &`` starts it) and sent SIGINT in the
+middle of a stall ends within seconds, points continued, nothing of its session left, its
+report written and marked ended early.
 """
 
 from __future__ import annotations
 
 import json
+import os
+import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -49,3 +56,66 @@ def test_a_short_soak_reports_every_section_and_its_kill(tmp_path: Path) -> None
     assert report["motion"]["over"] == 0, report["motion"]["over_listed"]
     assert report["exits"]["died"] == [], report["exits"]["died"]
     assert "soak: report" in done.stdout and "largest step:" in done.stdout
+
+
+def _session(leader: int) -> list[str]:
+    """The processes still in ``leader``'s session (pid and command line)."""
+    left = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+            cmdline = (stat.parent / "cmdline").read_bytes().replace(b"\0", b" ").decode()
+        except OSError:
+            continue  # gone meanwhile
+        if int(fields[3]) == leader:
+            left.append(f"{stat.parent.name} {cmdline}")
+    return left
+
+
+def _state(pid: int) -> str:
+    return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+
+
+def test_sigint_ends_a_soak_at_once_mid_stall_with_its_report(tmp_path: Path) -> None:
+    # Started as a script starts it in the background (`nohup python -m tools.soak ... &`):
+    # SIGINT inherited ignored, which Python leaves ignored unless the soak handles it itself.
+    out, log = tmp_path / "soak.json", tmp_path / "soak.out"
+    with open(log, "wb") as printed:
+        soak = subprocess.Popen(
+            ["sh", "-c", 'trap "" INT; exec "$0" "$@"', sys.executable, "-m", "tools.soak",
+             "--hours", "1", "--interval", "3", "--kinds", "stall", "--source", "replay",
+             "--folder", str(tmp_path / "run"), "--out", str(out)],
+            cwd=ROOT, stdout=printed, stderr=subprocess.STDOUT, start_new_session=True,
+        )  # fmt: skip
+    try:
+        deadline = time.monotonic() + 90
+        while "soak: the chain streams" not in log.read_text() and soak.poll() is None:
+            assert time.monotonic() < deadline, log.read_text()[-3000:]
+            time.sleep(0.1)
+        points = [int(line.split()[0]) for line in _session(soak.pid) if " points " in line]
+        assert len(points) == 1, _session(soak.pid)
+        while _state(points[0]) != "T":  # the stall: points stopped (SIGSTOP) for 3 s
+            assert time.monotonic() < deadline and soak.poll() is None, log.read_text()[-3000:]
+            time.sleep(0.05)
+        signalled = time.monotonic()
+        soak.send_signal(signal.SIGINT)
+        code = soak.wait(timeout=30)
+        took = time.monotonic() - signalled
+    finally:
+        if soak.poll() is None:
+            os.killpg(soak.pid, signal.SIGKILL)
+            soak.wait()
+    printed = log.read_text()
+    print(printed[-3000:])
+    assert code == 130, printed[-3000:]
+    assert took < 15, took  # not the hour, nor a stopped points' 10 s before its SIGKILL
+    assert f"pid {points[0]} continued" in printed
+    assert _session(soak.pid) == []
+    report = json.loads(out.read_text())
+    assert tuple(report) == SECTIONS
+    assert report["run"]["ended_early"] == "SIGINT" and report["run"]["hours"] < 0.05
+    last = report["faults"]["list"][-1]
+    assert (last["kind"], last["detail"]) == ("stall", "cut short: Interrupted SIGINT"), last
+    assert report["exits"]["stopped"]["points"] == 0, report["exits"]  # continued, then ended
+    assert report["commands"]["following_frames"] > 0
+    assert "ended early by SIGINT" in printed and "soak: report" in printed

@@ -4,14 +4,18 @@ its link taken down for 4 s as one of the faults in turn.
 Runs the soak for 45 s after the chain streams, a fault every 12 s (a cut, a stall, a cut...),
 and checks that the cuts show in its report: each one a fault, a gap in the commands at least
 as long as most of the cut, no process dead on its own, no servo too fast, and the namespaces
-gone afterwards.
+gone afterwards. And SIGTERM in the middle of a cut: the link up again, the soak ended within
+seconds, its report marked, no namespace or process of its session left.
 """
 
 from __future__ import annotations
 
 import json
+import os
+import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 from netns_hosts import require_root_and_tools
@@ -39,3 +43,57 @@ def test_the_soak_cuts_the_boards_link_and_reports_it(tmp_path: Path) -> None:
     assert report["motion"]["over"] == 0, report["motion"]["over_listed"]
     after = subprocess.run(["ip", "netns", "list"], capture_output=True, text=True).stdout
     assert after == before, "the soak left network namespaces behind"
+
+
+def _namespaces() -> set[str]:
+    listed = subprocess.run(["ip", "netns", "list"], capture_output=True, text=True).stdout
+    return {line.split()[0] for line in listed.splitlines() if line.strip()}
+
+
+def _link_up(namespace: str, link: str) -> bool:
+    shown = subprocess.run(
+        ["ip", "-n", namespace, "-o", "link", "show", link], capture_output=True, text=True
+    ).stdout
+    return "UP" in shown.split("<", 1)[-1].split(">", 1)[0].split(",")
+
+
+def test_sigterm_mid_cut_ends_the_soak_at_once_and_leaves_no_namespace(tmp_path: Path) -> None:
+    require_root_and_tools()
+    before = _namespaces()
+    out, log = tmp_path / "soak.json", tmp_path / "soak.out"
+    with open(log, "wb") as printed:
+        soak = subprocess.Popen(
+            [sys.executable, "-m", "tools.soak", "--link-cuts", "--kinds", "cut",
+             "--hours", "1", "--interval", "5", "--source", "replay",
+             "--folder", str(tmp_path / "run"), "--out", str(out)],
+            cwd=ROOT, stdout=printed, stderr=subprocess.STDOUT, start_new_session=True,
+        )  # fmt: skip
+    try:
+        deadline = time.monotonic() + 120
+        while "soak: the chain streams" not in log.read_text() and soak.poll() is None:
+            assert time.monotonic() < deadline, log.read_text()[-3000:]
+            time.sleep(0.1)
+        (iprouter,) = [ns for ns in _namespaces() - before if ns.endswith("-iprouter")]
+        while _link_up(iprouter, "toboard"):  # the cut: the board's link down for 4 s
+            assert time.monotonic() < deadline and soak.poll() is None, log.read_text()[-3000:]
+            time.sleep(0.05)
+        signalled = time.monotonic()
+        soak.send_signal(signal.SIGTERM)
+        code = soak.wait(timeout=30)
+        took = time.monotonic() - signalled
+    finally:
+        if soak.poll() is None:
+            os.killpg(soak.pid, signal.SIGKILL)
+            soak.wait()
+    printed = log.read_text()
+    print(printed[-3000:])
+    assert code == 143, printed[-3000:]
+    assert took < 15, took
+    assert "the fault under way undone: board link up" in printed
+    assert _namespaces() - before == set(), "the soak left network namespaces behind"
+    stray = subprocess.run(["pgrep", "-s", str(soak.pid)], capture_output=True, text=True).stdout
+    assert stray == "", stray
+    report = json.loads(out.read_text())
+    assert report["run"]["ended_early"] == "SIGTERM"
+    last = report["faults"]["list"][-1]
+    assert (last["kind"], last["detail"]) == ("cut", "cut short: Interrupted SIGTERM"), last

@@ -1,4 +1,5 @@
-"""Stopping a group of tasks: every one cancelled and awaited, failures kept, not swallowed."""
+"""Stopping a group of tasks: every one cancelled and awaited, failures kept, not swallowed, and
+the caller's own cancellation meanwhile raised once they have all ended."""
 
 from __future__ import annotations
 
@@ -78,25 +79,29 @@ def test_nothing_to_stop_and_tasks_already_done() -> None:
     assert asyncio.run(main()) == []
 
 
-def test_the_callers_cancellation_meanwhile_does_not_cut_the_stop_short() -> None:
-    # What follows a stop (closing a file, stopping C) runs even when the stopper is cancelled
-    # while a helper is still cleaning up: the stop waits for every helper first.
-    async def main() -> list[str]:
+async def _slow_to_stop(name: str, events: list[str]) -> None:
+    try:
+        await asyncio.Event().wait()
+    except asyncio.CancelledError:
+        await asyncio.sleep(0.01)  # still cleaning up when its stopper is cancelled
+    finally:
+        events.append(f"{name} ended")
+
+
+def test_the_callers_cancellation_meanwhile_waits_for_the_stop_then_goes_through() -> None:
+    # What follows a stop in a finally (closing a file, stopping C) runs even when the stopper
+    # is cancelled while a helper is still cleaning up: the stop waits for every helper first.
+    # Then the stopper ends cancelled, as asyncio asks of a cancelled task.
+    async def main() -> tuple[list[str], bool]:
         events: list[str] = []
-
-        async def slow_to_stop(name: str) -> None:
-            try:
-                await asyncio.Event().wait()
-            except asyncio.CancelledError:
-                await asyncio.sleep(0.01)  # still cleaning up when its stopper is cancelled
-            finally:
-                events.append(f"{name} ended")
-
-        helpers = [asyncio.create_task(slow_to_stop(name)) for name in ("a", "b")]
+        helpers = [asyncio.create_task(_slow_to_stop(name, events)) for name in ("a", "b")]
 
         async def owner() -> None:
-            await stop_tasks(helpers)
-            events.append("after the stop")
+            try:
+                await stop_tasks(helpers)
+                events.append("went on as if not cancelled")
+            finally:
+                events.append("after the stop")
 
         task = asyncio.create_task(owner())
         await asyncio.sleep(0)
@@ -104,6 +109,42 @@ def test_the_callers_cancellation_meanwhile_does_not_cut_the_stop_short() -> Non
         task.cancel()
         await asyncio.wait([task])
         assert all(helper.done() for helper in helpers)
+        return events, task.cancelled()
+
+    assert asyncio.run(main()) == (["a ended", "b ended", "after the stop"], True)
+
+
+def test_a_timeout_around_a_stop_fires_once_the_stop_is_done() -> None:
+    async def main() -> list[str]:
+        events: list[str] = []
+        helper = asyncio.create_task(_slow_to_stop("helper", events))
+        await asyncio.sleep(0)
+        with pytest.raises(TimeoutError):
+            async with asyncio.timeout(0.001):
+                await cancel_and_wait([helper])
         return events
 
-    assert asyncio.run(main()) == ["a ended", "b ended", "after the stop"]
+    assert asyncio.run(main()) == ["helper ended"]
+
+
+def test_a_stop_in_the_finally_of_a_cancelled_task_adds_no_cancellation_of_its_own() -> None:
+    # The owner's own cancellation is under way when it stops its helpers: the stop returns
+    # (what they raised), and that one cancellation goes on.
+    async def main() -> tuple[list[object], bool, int]:
+        events: list[object] = []
+        helpers = [asyncio.create_task(_fail("broken"))]
+
+        async def owner() -> None:
+            try:
+                await asyncio.Event().wait()
+            finally:
+                errors = await cancel_and_wait(helpers)
+                events.append([str(error) for error in errors])
+
+        task = asyncio.create_task(owner())
+        await asyncio.sleep(0)
+        task.cancel()
+        await asyncio.wait([task])
+        return events, task.cancelled(), task.cancelling()
+
+    assert asyncio.run(main()) == ([["broken"]], True, 1)

@@ -58,6 +58,30 @@ def test_commands_older_than_the_limit_from_capture_are_stale_and_put_down_to_a_
     assert figures.checked == len(lines) - 1 and figures.unstamped == 0
 
 
+def test_a_stale_command_is_put_down_by_the_gaps_rule_at_its_capture() -> None:
+    # Not "the fault that began last before C sent it": a frame caught in a stall and sent just
+    # after a kill began is the stall's; one captured long after every fault ended is "none",
+    # as its gap would be; one captured just before a flood began is the flood's.
+    lines = [
+        *stream(0, 1000),
+        line(4100, frame=100, latency_ms=2900),  # captured at 1.2 s, in the stall
+        line(20_400, frame=500, latency_ms=400),  # captured at 20 s, 15.7 s after the kill
+        line(30_200, frame=800, latency_ms=500),  # captured 0.3 s before the flood began
+    ]
+    faults = [
+        Fault("stall", "points", T0 + 1000 * MS, T0 + 4000 * MS),
+        Fault("kill", "router", T0 + 4050 * MS, T0 + 4300 * MS),
+        Fault("flood", "input", T0 + 30_000 * MS, T0 + 34_000 * MS),
+    ]
+    figures = stale(lines, faults, 0.25)
+    assert [(c.frame, c.after) for c in figures.listed] == [
+        (100, "stall"),
+        (500, "none"),
+        (800, "flood"),
+    ]
+    assert figures.by_kind == {"stall": 1, "none": 1, "flood": 1}
+
+
 def test_commands_without_a_capture_stamp_are_counted_not_aged() -> None:
     figures = stale([line(0, latency_ms=None), line(33, latency_ms=None)], [], 0.25)
     assert (figures.checked, figures.unstamped, figures.count, figures.fastest_s) == (0, 2, 0, None)

@@ -8,7 +8,8 @@ carry none.
 - **Stale commands**: executed commands whose age from capture is over the profile's
   ``max_command_age_s``. One host stamps both times, so the age is ``t_sent - t_capture`` less
   the fastest way through seen in the soak (as C ages a command: how much later than the
-  fastest way it arrived).
+  fastest way it arrived). Each is put down to a fault by the gaps' rule (:class:`Causes`),
+  at its *capture*, when its way through began.
 - **Gaps**: the intervals between consecutive commands that carry a frame, each put down to
   the fault that was under way, or had just ended, when it *began* (:class:`Causes`; the latest
   to begin of those), or to ``"none"`` when no fault was near: a gap of its own, the kind worth
@@ -39,19 +40,14 @@ LISTED = 20
 
 
 def motion(path: Path, profile: Profile) -> MotionReport:
-    """Every step of every session of the record file against ``profile``'s speed limits."""
-    return check_motion(path, profile)
+    """Every step of every session of the record file against ``profile``'s speed limits
+    (none when C recorded nothing: a soak ended before the chain streamed)."""
+    return check_motion(path, profile) if path.exists() else MotionReport()
 
 
-def _followed(faults: Sequence[Fault], t_ns: int) -> Fault | None:
-    """The fault that began last at or before ``t_ns``."""
-    starts = [fault.start_ns for fault in faults]
-    index = bisect.bisect_right(starts, t_ns) - 1
-    return faults[index] if index >= 0 else None
-
-
-#: A fault may begin this long after the last command before a gap and still have caused it:
-#: the next command was due one frame later (33 ms at 30 fps, more on a loaded machine).
+#: A fault may begin this long after the last command before a gap (or a stale command's
+#: capture) and still have caused it: the next command was due one frame later (33 ms at
+#: 30 fps, more on a loaded machine).
 LEAD_NS = 500_000_000
 #: A gap beginning this long after a fault ended is still put down to it (the rig settling:
 #: stages reconnecting, a stage catching up); later, the stream had recovered from it.
@@ -59,7 +55,8 @@ AFTER_NS = 2_000_000_000
 
 
 class Causes:
-    """Which fault a gap is put down to, by when it began (:meth:`of`)."""
+    """Which fault a gap or a stale command is put down to, by when it began (:meth:`of`): a
+    gap at its last command, a stale command at its capture."""
 
     def __init__(self, faults: Sequence[Fault]) -> None:
         self.faults = sorted(faults, key=lambda fault: fault.start_ns)
@@ -68,8 +65,8 @@ class Causes:
         self.reach = list(itertools.accumulate((f.end_ns for f in self.faults), max))
 
     def of(self, t_ns: int) -> Fault | None:
-        """Of the faults under way when a gap began at ``t_ns`` (begun at most
-        :data:`LEAD_NS` later, ended at most :data:`AFTER_NS` before), the one that began
+        """Of the faults under way when a gap or a stale command began at ``t_ns`` (begun at
+        most :data:`LEAD_NS` later, ended at most :data:`AFTER_NS` before), the one that began
         last; ``None`` when no fault was near."""
         index = bisect.bisect_right(self.starts, t_ns + LEAD_NS) - 1
         while index >= 0 and self.reach[index] + AFTER_NS >= t_ns:
@@ -86,7 +83,8 @@ def _kind(fault: Fault | None) -> str:
 @dataclass(frozen=True)
 class StaleCommand:
     """An executed command older than the limit: its frame, when C decided it (wall ns), its
-    age (s, over the fastest way through), and the fault it followed."""
+    age (s, over the fastest way through), and the kind of fault it is put down to
+    (:class:`Causes`, at its capture; ``"none"``: no fault was near)."""
 
     frame: int
     t_sent_ns: int
@@ -118,12 +116,12 @@ def stale(lines: Sequence[RecordLine], faults: Sequence[Fault], limit_s: float) 
     fastest = min(latencies, default=None)
     old: list[StaleCommand] = []
     oldest = 0.0
-    ordered = sorted(faults, key=lambda f: f.start_ns)
+    causes = Causes(faults)
     for line, latency in zip(stamped, latencies, strict=True):
         age_s = (latency - (fastest or 0)) / 1e9
         oldest = max(oldest, age_s)
         if age_s > limit_s:
-            after = _kind(_followed(ordered, line.t_sent_ns))
+            after = _kind(causes.of(line.t_capture_ns or 0))
             old.append(StaleCommand(line.frame or 0, line.t_sent_ns, age_s, after))
     by_kind: dict[str, int] = {}
     for command in old:

@@ -4,7 +4,8 @@
 Each injection returns the :class:`~tools.soak.schedule.Fault` it made, with its wall-clock
 start and end. The flood and the oversized burst are the fault suite's own publishers
 (tests/faults/flooder.py, tests/faults/big_sender.py), run as processes against the rig's
-router.
+router. A soak ended in the middle of a fault (:mod:`tools.soak.interrupt`) calls
+:meth:`Injector.undo`: the stalled process continued, the cut link up again.
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ import signal
 import subprocess
 import sys
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 from facesynth.runtime import keys
@@ -43,17 +44,42 @@ class Injector:
     hosts: Any = None
     #: What runs the flooder and the big-message sender where the router is (``ip netns exec``).
     prefix: tuple[str, ...] = ()
+    #: The fault an exception (the soak ending early) cut short, ending when it was cut.
+    cut_short: Fault | None = field(default=None, init=False)
+    #: A process stopped by a stall not yet continued; the link of a cut not yet up again.
+    _stopped: subprocess.Popen[bytes] | None = field(default=None, init=False, repr=False)
+    _link_down: bool = field(default=False, init=False, repr=False)
 
     def inject(self, kind: str, target: str) -> Fault:
         start = time.time_ns()
-        detail = {
-            "kill": self.kill,
-            "stall": self.stall,
-            "flood": self.flood,
-            "oversized": self.oversized,
-            "cut": self.cut,
-        }[kind](target)
+        try:
+            detail = {
+                "kill": self.kill,
+                "stall": self.stall,
+                "flood": self.flood,
+                "oversized": self.oversized,
+                "cut": self.cut,
+            }[kind](target)
+        except BaseException as exc:
+            why = type(exc).__name__ + (f" {exc}" if str(exc) else "")
+            self.cut_short = Fault(kind, target, start, time.time_ns(), f"cut short: {why}")
+            raise
         return Fault(kind, target, start, time.time_ns(), detail)
+
+    def undo(self) -> list[str]:
+        """Put back what a fault cut short left: the stalled process continued, the board's
+        link up; what it did (nothing when no fault was under way)."""
+        done = []
+        if self._stopped is not None:
+            if self._stopped.poll() is None:
+                self._stopped.send_signal(signal.SIGCONT)
+                done.append(f"pid {self._stopped.pid} continued")
+            self._stopped = None
+        if self._link_down:
+            self.hosts.link_up()
+            self._link_down = False
+            done.append("board link up")
+        return done
 
     def kill(self, name: str) -> str:
         """SIGKILL ``name``, wait ``dead_s``, start it again and wait until it is ready."""
@@ -64,13 +90,13 @@ class Injector:
         return f"pid {pid} killed, pid {self.rig.live[name].pid} ready"
 
     def stall(self, name: str) -> str:
-        """SIGSTOP ``name`` for ``stall_s``, then SIGCONT (always)."""
+        """SIGSTOP ``name`` for ``stall_s``, then SIGCONT (cut short: :meth:`undo`)."""
         proc = self.rig.live[name]
+        self._stopped = proc  # before the signal: undone however early the soak ends
         proc.send_signal(signal.SIGSTOP)
-        try:
-            time.sleep(self.stall_s)
-        finally:
-            proc.send_signal(signal.SIGCONT)
+        time.sleep(self.stall_s)
+        proc.send_signal(signal.SIGCONT)
+        self._stopped = None
         return f"pid {proc.pid} stopped {self.stall_s:g} s"
 
     def _key(self, stage: str) -> str:
@@ -108,12 +134,12 @@ class Injector:
         return f"{self.burst} x {size / 1e6:.1f} MB"
 
     def cut(self, target: str) -> str:
-        """Take the board's link down for ``cut_s``, then up again (always)."""
+        """Take the board's link down for ``cut_s``, then up again (cut short: :meth:`undo`)."""
         if self.hosts is None:
             raise ValueError("a link cut needs the hosts of --link-cuts")
+        self._link_down = True  # before the cut: undone however early the soak ends
         self.hosts.link_down()
-        try:
-            time.sleep(self.cut_s)
-        finally:
-            self.hosts.link_up()
+        time.sleep(self.cut_s)
+        self.hosts.link_up()
+        self._link_down = False
         return f"{target} link down {self.cut_s:g} s"

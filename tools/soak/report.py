@@ -1,6 +1,7 @@
 """A soak's report, pure: the figures as JSON and as the lines printed at the end.
 
-Sections (each a key of the JSON): ``run`` (when, how long, the options), ``faults`` (every
+Sections (each a key of the JSON): ``run`` (when, how long, the options, and the signal that
+ended it early, if one did), ``faults`` (every
 fault injected, and how many of each kind), ``commands`` (how many executed), ``rss`` (per
 process: its incarnations' steps and slopes, and its RSS per hour), ``motion`` (the largest step
 against its speed limit), ``stale`` (commands executed older than the profile's limit),
@@ -58,6 +59,9 @@ class SoakResult:
     stopped: Mapping[str, int] = field(default_factory=dict)
     #: Log lines worth a look (a Python traceback, a C++ abort), per process log.
     log_findings: Mapping[str, list[str]] = field(default_factory=dict)
+    #: The signal that ended the soak before its hours were up (``"SIGINT"``); ``None``: it ran
+    #: its hours.
+    ended_early: str | None = None
 
 
 def _iso(t_ns: int) -> str:
@@ -94,6 +98,7 @@ def as_json(result: SoakResult) -> dict[str, Any]:
             "started": _iso(start),
             "ended": _iso(result.ended_ns),
             "hours": round((result.ended_ns - start) / 3.6e12, 4),
+            "ended_early": result.ended_early,
             "options": dict(result.options),
         },
         "faults": {
@@ -196,8 +201,9 @@ def summary(result: SoakResult) -> list[str]:
     report = as_json(result)
     run, faults = report["run"], report["faults"]
     kinds = ", ".join(f"{kind} {n}" for kind, n in faults["by_kind"].items())
+    early = f", ended early by {result.ended_early}" if result.ended_early else ""
     lines = [
-        f"soak {run['started']} -> {run['ended']} ({run['hours']:.2f} h): "
+        f"soak {run['started']} -> {run['ended']} ({run['hours']:.2f} h{early}): "
         f"{faults['count']} faults ({kinds}); {result.executed[0]:,} commands following frames, "
         f"{result.executed[1]:,} of C's own",
         "RSS (MB): process  first -> last (peak); steps; slope after the last step",

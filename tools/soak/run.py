@@ -4,7 +4,9 @@
 fault suite's :class:`Rig` (tests/faults/conftest.py) with the bundled video looped in real time
 through the live tracker (``--source replay``: the OpenFace sample replayed, the fault suite's
 own, lighter chain). A process that dies without being killed is noted and started again.
-Ctrl-C ends the soak early, with its report.
+Ctrl-C (SIGINT) or SIGTERM ends the soak early, even started in the background with SIGINT
+ignored: the fault under way undone, the processes stopped, the report written for the time
+it ran (marked ended early; exit code 130 or 143).
 """
 
 from __future__ import annotations
@@ -23,6 +25,7 @@ from facesynth_processes import Processes
 from facesynth.runtime.profiles import load_profile
 from tools.soak import ROOT, commands, report, rss, schedule
 from tools.soak.faults import Injector
+from tools.soak.interrupt import EndSignals, Interrupted
 from tools.soak.rig import ORDER, Rig
 
 #: Log lines worth a look after a soak: a Python traceback, a C++ or Rust abort.
@@ -213,11 +216,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         from tools.soak import netns
 
         hosts = netns.Hosts()
-        hosts.create()
-        processes: Processes = netns.NsProcesses(folder, hosts)
-        rig = SoakRig(processes, folder, router=netns.ROUTER)
+        on_hosts = netns.NsProcesses(folder, hosts)
+        rig = SoakRig(on_hosts, folder, router=netns.ROUTER)
         rig.settings = netns.zenoh_config
-        injector = Injector(rig, hosts=hosts, prefix=processes.on_tracker())
+        injector = Injector(rig, hosts=hosts, prefix=on_hosts.on_tracker())
     else:
         rig = SoakRig(Processes(folder), folder)
         injector = Injector(rig)
@@ -227,7 +229,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     died: list[report.Exit] = []
     started_ns = time.time_ns()
     sampler = Sampler(rig, started_ns, args.rss_every)
+    ending = EndSignals()
+    early: Interrupted | None = None
     try:
+        ending.install()
+        if hosts is not None:
+            hosts.create()
         for name in ORDER:
             rig.start(name)
         rig.wait_for_commands(0, 60, timeout=120)
@@ -239,26 +246,28 @@ def main(argv: Sequence[str] | None = None) -> int:
         sampler.sample()
         sampler.start()
         next_fault, next_progress, counted = t0 + args.interval, t0 + args.progress_every, [0, 0]
-        try:
-            while (now := time.monotonic()) < end:
-                revive(rig, died)
-                if now >= next_fault:
-                    kind, target = next(turns)
-                    fault = injector.inject(kind, target)
-                    faults.append(fault)
-                    print(f"soak: {kind} {target}: {fault.detail}", flush=True)
-                    # Behind (a restart under load took long): the next one after a pause.
-                    next_fault = max(
-                        next_fault + args.interval, time.monotonic() + args.interval / 2
-                    )
-                if now >= next_progress:
-                    lines = _count_lines(rig.record, counted)
-                    print(progress(now - t0, faults, lines, sampler, len(died)), flush=True)
-                    next_progress += args.progress_every
-                time.sleep(0.5)
-        except KeyboardInterrupt:
-            print("soak: interrupted; reporting what ran")
+        while (now := time.monotonic()) < end:
+            revive(rig, died)
+            if now >= next_fault:
+                kind, target = next(turns)
+                fault = injector.inject(kind, target)
+                faults.append(fault)
+                print(f"soak: {kind} {target}: {fault.detail}", flush=True)
+                # Behind (a restart under load took long): the next one after a pause.
+                next_fault = max(next_fault + args.interval, time.monotonic() + args.interval / 2)
+            if now >= next_progress:
+                lines = _count_lines(rig.record, counted)
+                print(progress(now - t0, faults, lines, sampler, len(died)), flush=True)
+                next_progress += args.progress_every
+            time.sleep(0.5)
+    except Interrupted as signalled:
+        early = signalled
+        if injector.cut_short is not None:
+            faults.append(injector.cut_short)
     finally:
+        ending.disarm()  # a second Ctrl-C does not cut the clean-up short
+        if undone := injector.undo():
+            print(f"soak: the fault under way undone: {', '.join(undone)}", flush=True)
         sampler.done.set()
         ended_ns = time.time_ns()
         rig.processes.stop()
@@ -280,7 +289,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         died=died,
         stopped=stopped,
         log_findings=findings(folder),
+        ended_early=early.signal if early is not None else None,
     )
     print("\n".join(report.summary(result)))
-    print(f"soak: report {report.write(result, out)}")
-    return 0
+    print(f"soak: report {report.write(result, out)}", flush=True)
+    ending.restore()
+    return early.exit_code if early is not None else 0

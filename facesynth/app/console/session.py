@@ -103,8 +103,10 @@ class ConsoleSession:
     async def stop(self) -> None:
         """Stop commanding, then stop C (which returns the face to neutral)."""
         self.core.release()
-        await cancel_and_wait(self._tasks)
-        await self._stop_control()
+        try:
+            await cancel_and_wait(self._tasks)
+        finally:
+            await self._stop_control()  # C too when this stop is cancelled meanwhile
 
     # --- requests -------------------------------------------------------------------------
 

@@ -78,9 +78,11 @@ async def attached(bus: Any, rig: str, args: argparse.Namespace) -> AsyncIterato
         if recorder is not None:
             await asyncio.sleep(0.3)  # the chain's last messages reach the recorder
     finally:
-        await stop_tasks(tasks)
-        if recorder is not None:
-            recorder.writer.close()
-            log.info("recorded %d messages into %s", sum(recorder.recorded.values()), record)
-        if bridge is not None:
-            bridge.stop()
+        try:
+            await stop_tasks(tasks)
+        finally:  # the file complete, the bridge closed, even when this stop is cancelled
+            if recorder is not None:
+                recorder.writer.close()
+                log.info("recorded %d messages into %s", sum(recorder.recorded.values()), record)
+            if bridge is not None:
+                bridge.stop()

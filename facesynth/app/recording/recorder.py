@@ -157,12 +157,14 @@ class Recorder:
             else:
                 await cutter  # runs until cancelled, or raises the writer's error
         finally:
-            await cancel_and_wait(tasks)
             try:
-                self._take_pending(ctx)
+                await cancel_and_wait(tasks)  # cancelled meanwhile: raised once all have ended
             finally:
-                self._sink = None
-                sink.close()  # writes what is queued, completes the file, raises a write error
+                try:
+                    self._take_pending(ctx)
+                finally:
+                    self._sink = None
+                    sink.close()  # writes what is queued, completes the file, raises its error
 
     def _take_pending(self, ctx: ServiceContext) -> None:
         """Record what already arrived but was not taken yet when recording stopped."""

@@ -235,11 +235,13 @@ class SimHeadServer:
         if self._runner is not None:
             await self._runner.cleanup()
             self._runner = None
-        await stop_tasks(self._tasks)
-        self._tasks.clear()
-        if self._port is not None:
-            self._port.close()
-            self._port = None
+        try:
+            await stop_tasks(self._tasks)
+        finally:  # the port closed even when this stop is cancelled
+            self._tasks.clear()
+            if self._port is not None:
+                self._port.close()
+                self._port = None
 
     async def _dynamics(self) -> None:
         while True:

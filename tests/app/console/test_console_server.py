@@ -1,7 +1,8 @@
 """The console's server with C on an in-memory bus: a page with the token jogs servos through
 C (clamped, speed-limited, back to neutral when the page goes), one page holds the servos at a
-time, other origins and host names are refused, bad messages get clear errors, and a save
-writes a profile that reloads identically and restarts C with it."""
+time, other origins and host names are refused, bad messages get clear errors, a save
+writes a profile that reloads identically and restarts C with it, and a stop cancelled
+meanwhile stops C all the same."""
 
 from __future__ import annotations
 
@@ -350,3 +351,17 @@ async def test_http_save_with_the_token(console: ConsoleServer, tmp_path: Path) 
     assert load_profile(saved["path"]).servos[2].max_us == 1900.0
     assert load_profile(saved["path"]) == console.session.core.active
     assert not console.session.core.dirty
+
+
+async def test_a_stop_cancelled_meanwhile_still_stops_c_then_ends_cancelled(
+    console: ConsoleServer,
+) -> None:
+    # A second Ctrl-C while the console stops: C is stopped all the same (it returns the face
+    # to neutral), and the stop ends cancelled, so that Ctrl-C reaches asyncio.run.
+    (control,) = [task for task in asyncio.all_tasks() if task.get_name() == "control"]
+    stopper = asyncio.create_task(console.session.stop())
+    await asyncio.sleep(0)  # the stop waits for the console's own tasks
+    stopper.cancel()
+    await asyncio.wait([stopper])
+    assert stopper.cancelled()
+    assert control.done()

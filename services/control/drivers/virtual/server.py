@@ -99,12 +99,14 @@ class PageServer:
 
     async def stop(self) -> None:
         """Close every page's connection (they reconnect to the next server) and stop."""
-        await stop_tasks(self._tasks)
-        self._tasks.clear()
-        await close_sockets(self._sockets, b"server stopping")
-        if self._runner is not None:
-            await self._runner.cleanup()
-            self._runner = None
+        try:
+            await stop_tasks(self._tasks)
+        finally:  # the pages told and the server stopped even when this stop is cancelled
+            self._tasks.clear()
+            await close_sockets(self._sockets, b"server stopping")
+            if self._runner is not None:
+                await self._runner.cleanup()
+                self._runner = None
 
     def publish_face(self, message: str) -> None:
         """Offer one command to every page (never waits)."""
