@@ -270,6 +270,7 @@ async def _watch(
         busy, total = busy1[0] - busy0[0], busy1[1] - busy0[1]
         ours = sum(cpu.used.values())
         if total > 0:  # /proc/stat counts every core: ``total`` is cores x seconds
-            run.machine_busy = busy / total
-            run.others_busy = max(0.0, busy - ours) / total
+            # busy <= total in ticks; the float differences can round past 1 on a full machine
+            run.machine_busy = min(1.0, busy / total)
+            run.others_busy = min(run.machine_busy, max(0.0, busy - ours) / total)
     return run
