@@ -9,6 +9,10 @@ from __future__ import annotations
 
 import asyncio
 import logging
+import os
+import signal
+import subprocess
+import sys
 import time
 from collections.abc import Callable
 
@@ -16,7 +20,8 @@ import pytest
 
 from facesynth.runtime.bus import zenoh_selfcheck
 from facesynth.runtime.bus.zenoh_bus import ZenohBus, ZenohOptions
-from facesynth.runtime.bus.zenoh_selfcheck import router_holds, watch
+from facesynth.runtime.bus.zenoh_selfcheck import SILENT_LIMIT, router_holds, watch
+from tests.facesynth_processes import free_port
 
 TIMEOUT = 5.0
 
@@ -49,6 +54,14 @@ def quick(monkeypatch: pytest.MonkeyPatch) -> None:
 async def test_two_noes_in_a_row_declare_anew_once_and_a_timeout_is_no_verdict() -> None:
     assert (await _run_watch([False, None, True, False, True]))[1] == 0
     assert (await _run_watch([False, None, False]))[1] == 1  # no verdict breaks no run
+
+
+@pytest.mark.usefixtures("quick")
+async def test_questions_without_a_verdict_count_as_one_no_only_so_many_in_a_row() -> None:
+    silent = [None] * SILENT_LIMIT
+    assert (await _run_watch([*silent[:-1], True, *silent[:-1], False]))[1] == 0
+    assert (await _run_watch([*silent, False]))[1] == 1  # a router that stopped answering
+    assert (await _run_watch(silent + silent))[1] == 1
 
 
 @pytest.mark.usefixtures("quick")
@@ -101,3 +114,34 @@ async def test_a_bus_whose_router_lost_its_token_declares_everything_anew(
     finally:
         await stage.close()
         await other.close()
+
+
+async def test_a_router_answering_late_gives_no_verdict_not_a_lost_token(key_prefix: str) -> None:
+    """The router's answer held back past the question's timeout (its process paused, as a
+    busy stage on a loaded machine saw it): no verdict, where it used to read as lost."""
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    router = subprocess.Popen(
+        [sys.executable, "-m", "facesynth", "router", "--listen", endpoint],
+        stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True,
+    )  # fmt: skip
+    try:
+        assert router.stdout is not None and "listening on" in router.stdout.readline()
+        stage = ZenohBus.open(ZenohOptions(mode="client", connect=[endpoint]))
+        try:
+            health = f"{key_prefix}/health/p"
+            stage.declare_token(health)
+            stage.subscribe_queued(f"{key_prefix}/frames", 8)
+            await asyncio.sleep(0.3)
+            assert await asyncio.to_thread(router_holds, stage.session, health, 2.0) is True
+            os.kill(router.pid, signal.SIGSTOP)
+            try:
+                late = await asyncio.to_thread(router_holds, stage.session, health, 0.3)
+            finally:
+                os.kill(router.pid, signal.SIGCONT)
+            assert late is None
+            assert await asyncio.to_thread(router_holds, stage.session, health, 2.0) is True
+        finally:
+            await stage.close()
+    finally:
+        router.terminate()
+        router.wait(10)
