@@ -54,18 +54,14 @@ def _annotated(
     field_type: msgspec.inspect.Type,
 ) -> tuple[msgspec.inspect.Type, str, dict[str, Any]]:
     """The field's base type, description and extra metadata (Meta on it or on an Optional)."""
-    description: str = ""
-    extra: dict[str, Any] = {}
     if isinstance(field_type, msgspec.inspect.UnionType):  # `X | None`: look inside X
         inner = [t for t in field_type.types if not isinstance(t, msgspec.inspect.NoneType)]
         if len(inner) == 1:
-            base, description, extra = _annotated(inner[0])
-            return base, description, extra
+            return _annotated(inner[0])
     if isinstance(field_type, msgspec.inspect.Metadata):
         description = (field_type.extra_json_schema or {}).get("description", "")
-        extra = dict(field_type.extra or {})
-        return field_type.type, description, extra
-    return field_type, description, extra
+        return field_type.type, description, dict(field_type.extra or {})
+    return field_type, "", {}
 
 
 def struct_flags(struct: type[msgspec.Struct], skip: Iterable[str] = ()) -> list[Flag]:

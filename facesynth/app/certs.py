@@ -88,14 +88,14 @@ def make_certs(request: CertRequest) -> list[Path]:
             raise CertError(f"{out} holds another CA ({found}), not rig {request.rig!r}'s")
     else:
         ca_key = _new_key()
-        ca_cert = _ca_certificate(request.rig, ca_key)
+        ca_cert = _certificate(ca_name(request.rig), ca_key, days=3650)
         written += _write_pair(out, "ca", ca_cert, ca_key)
     for identity in request.identities:
         if (out / f"{identity}.pem").exists() and not request.force:
             continue
         key = _new_key()
         names = [*DEFAULT_ROUTER_NAMES, *request.router_names] if identity == "router" else []
-        cert = _leaf_certificate(identity, key, ca_cert, ca_key, names, request.days)
+        cert = _certificate(identity, key, request.days, (ca_cert, ca_key), names)
         written += _write_pair(out, identity, cert, key)
     paths = CertPaths(request.cert_dir or str(out.resolve()))
     for name, text in rig_configs(
@@ -115,75 +115,61 @@ def _now() -> datetime.datetime:
     return datetime.datetime.now(datetime.UTC)
 
 
-def _key_usage(*, ca: bool) -> Any:
-    from cryptography import x509
-
-    return x509.KeyUsage(
-        digital_signature=True,
-        content_commitment=False,
-        key_encipherment=False,
-        data_encipherment=False,
-        key_agreement=False,
-        key_cert_sign=ca,
-        crl_sign=ca,
-        encipher_only=False,
-        decipher_only=False,
-    )
-
-
-def _ca_certificate(rig: str, key: Any) -> Any:
-    from cryptography import x509
-    from cryptography.hazmat.primitives import hashes
-    from cryptography.x509.oid import NameOID
-
-    name = x509.Name([x509.NameAttribute(NameOID.COMMON_NAME, ca_name(rig))])
-    now = _now()
-    return (
-        x509.CertificateBuilder()
-        .subject_name(name)
-        .issuer_name(name)
-        .public_key(key.public_key())
-        .serial_number(x509.random_serial_number())
-        .not_valid_before(now - datetime.timedelta(minutes=5))
-        .not_valid_after(now + datetime.timedelta(days=3650))
-        .add_extension(x509.BasicConstraints(ca=True, path_length=0), critical=True)
-        .add_extension(_key_usage(ca=True), critical=True)
-        .add_extension(x509.SubjectKeyIdentifier.from_public_key(key.public_key()), critical=False)
-        .sign(key, hashes.SHA256())
-    )
-
-
-def _leaf_certificate(
-    identity: str, key: Any, ca_cert: Any, ca_key: Any, names: Iterable[str], days: int
+def _certificate(
+    common_name: str,
+    key: Any,
+    days: int,
+    issuer: tuple[Any, Any] | None = None,
+    names: Iterable[str] = (),
 ) -> Any:
+    """A certificate of ``key`` for ``common_name``, valid ``days``: the rig's CA, self-signed,
+    without an ``issuer``; else a leaf signed by ``issuer`` (the CA's certificate and key), for
+    clients (and servers: the router) at the host ``names``."""
     from cryptography import x509
     from cryptography.hazmat.primitives import hashes
     from cryptography.x509.oid import ExtendedKeyUsageOID, NameOID
 
+    ca = issuer is None
+    subject = x509.Name([x509.NameAttribute(NameOID.COMMON_NAME, common_name)])
+    signer = key if issuer is None else issuer[1]
     now = _now()
-    usages = [ExtendedKeyUsageOID.CLIENT_AUTH]
-    if identity == "router":  # it serves clients, and may link to other routers
-        usages.insert(0, ExtendedKeyUsageOID.SERVER_AUTH)
     builder = (
         x509.CertificateBuilder()
-        .subject_name(x509.Name([x509.NameAttribute(NameOID.COMMON_NAME, identity)]))
-        .issuer_name(ca_cert.subject)
+        .subject_name(subject)
+        .issuer_name(subject if issuer is None else issuer[0].subject)
         .public_key(key.public_key())
         .serial_number(x509.random_serial_number())
         .not_valid_before(now - datetime.timedelta(minutes=5))
         .not_valid_after(now + datetime.timedelta(days=days))
-        .add_extension(x509.BasicConstraints(ca=False, path_length=None), critical=True)
-        .add_extension(_key_usage(ca=False), critical=True)
-        .add_extension(x509.ExtendedKeyUsage(usages), critical=False)
+        .add_extension(x509.BasicConstraints(ca=ca, path_length=0 if ca else None), critical=True)
         .add_extension(
-            x509.AuthorityKeyIdentifier.from_issuer_public_key(ca_key.public_key()),
-            critical=False,
+            x509.KeyUsage(
+                digital_signature=True,
+                content_commitment=False,
+                key_encipherment=False,
+                data_encipherment=False,
+                key_agreement=False,
+                key_cert_sign=ca,
+                crl_sign=ca,
+                encipher_only=False,
+                decipher_only=False,
+            ),
+            critical=True,
         )
+    )
+    if ca:
+        identifier = x509.SubjectKeyIdentifier.from_public_key(key.public_key())
+        return builder.add_extension(identifier, critical=False).sign(key, hashes.SHA256())
+    usages = [ExtendedKeyUsageOID.CLIENT_AUTH]
+    if common_name == "router":  # it serves clients, and may link to other routers
+        usages.insert(0, ExtendedKeyUsageOID.SERVER_AUTH)
+    builder = builder.add_extension(x509.ExtendedKeyUsage(usages), critical=False).add_extension(
+        x509.AuthorityKeyIdentifier.from_issuer_public_key(signer.public_key()), critical=False
     )
     alt = [_alt_name(name) for name in dict.fromkeys(names)]
     if alt:
         builder = builder.add_extension(x509.SubjectAlternativeName(alt), critical=False)
-    return builder.sign(ca_key, hashes.SHA256())
+    return builder.sign(signer, hashes.SHA256())
 
 
 def _alt_name(name: str) -> Any:

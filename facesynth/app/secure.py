@@ -76,81 +76,48 @@ def _key_expr(prefix: str, key: str) -> str:
     return f"{prefix}/{key}/**" if key in keys.ROBOT_STAGES else f"{prefix}/{key}"
 
 
+def _allow(rule: str, messages: list[str], flow: str, key_exprs: list[str]) -> dict[str, Any]:
+    """An access-control rule: ``messages`` on ``key_exprs`` allowed one way (in or out)."""
+    return {
+        "id": rule,
+        "messages": messages,
+        "flows": [flow],
+        "permission": "allow",
+        "key_exprs": key_exprs,
+    }
+
+
 def access_control(rig: str) -> dict[str, Any]:
     """The router's access-control section for ``rig``: each identity its stage's part."""
     keys.check_name(rig)
     prefix = f"{keys.PREFIX}/{rig}"
-    rules: list[dict[str, Any]] = [
-        {
-            "id": "read-health",
-            "messages": ["liveliness_query", "declare_liveliness_subscriber"],
-            "flows": ["ingress"],
-            "permission": "allow",
-            "key_exprs": [f"{prefix}/health/**"],
-        },
-        {
-            "id": "see-health",
-            "messages": ["liveliness_token", "reply"],
-            "flows": ["egress"],
-            "permission": "allow",
-            "key_exprs": [f"{prefix}/health/**"],
-        },
+    health = [f"{prefix}/health/**"]
+    rules = [
+        _allow(
+            "read-health", ["liveliness_query", "declare_liveliness_subscriber"], "ingress", health
+        ),
+        _allow("see-health", ["liveliness_token", "reply"], "egress", health),
     ]
     subjects: list[dict[str, Any]] = []
     policies: list[dict[str, Any]] = []
     for identity, (publishes, subscribes) in ROLES.items():
-        own = [_key_expr(prefix, key) for key in publishes]
-        names: list[str] = []
-        if identity != "observer":  # observers only look
-            rules.append(
-                {
-                    "id": f"{identity}-announce",
-                    "messages": ["liveliness_token"],
-                    "flows": ["ingress"],
-                    "permission": "allow",
-                    "key_exprs": [f"{prefix}/health/{identity}/*"],
-                }
-            )
-            rules.append(
-                {
-                    "id": f"{identity}-publish",
-                    "messages": ["put"],
-                    "flows": ["ingress"],
-                    "permission": "allow",
-                    "key_exprs": [*own, f"{prefix}/stats/{identity}/*"],
-                }
-            )
-            # A client's publisher sends only while the router tells it of a subscriber.
-            rules.append(
-                {
-                    "id": f"{identity}-see-subscribers",
-                    "messages": ["declare_subscriber"],
-                    "flows": ["egress"],
-                    "permission": "allow",
-                    "key_exprs": [*own, f"{prefix}/stats/{identity}/*"],
-                }
-            )
-            names += [f"{identity}-announce", f"{identity}-publish", f"{identity}-see-subscribers"]
+        own = [*(_key_expr(prefix, key) for key in publishes), f"{prefix}/stats/{identity}/*"]
         reads = [_key_expr(prefix, key) for key in subscribes]
-        rules.append(
-            {
-                "id": f"{identity}-subscribe",
-                "messages": ["declare_subscriber"],
-                "flows": ["ingress"],
-                "permission": "allow",
-                "key_exprs": reads,
-            }
-        )
-        rules.append(
-            {
-                "id": f"{identity}-receive",
-                "messages": ["put"],
-                "flows": ["egress"],
-                "permission": "allow",
-                "key_exprs": reads,
-            }
-        )
-        names += [f"{identity}-subscribe", f"{identity}-receive"]
+        mine: list[dict[str, Any]] = []
+        if identity != "observer":  # observers only look
+            token = [f"{prefix}/health/{identity}/*"]
+            mine += [
+                _allow(f"{identity}-announce", ["liveliness_token"], "ingress", token),
+                _allow(f"{identity}-publish", ["put"], "ingress", own),
+                # A client's publisher sends only while the router tells it of a subscriber.
+                _allow(f"{identity}-see-subscribers", ["declare_subscriber"], "egress", own),
+            ]
+        mine += [
+            _allow(f"{identity}-subscribe", ["declare_subscriber"], "ingress", reads),
+            _allow(f"{identity}-receive", ["put"], "egress", reads),
+        ]
+        rules += mine
+        names = [rule["id"] for rule in mine]
         subjects.append({"id": identity, "cert_common_names": [identity]})
         policies.append(
             {"id": identity, "rules": ["read-health", "see-health", *names], "subjects": [identity]}

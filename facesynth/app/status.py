@@ -18,6 +18,7 @@ log = logging.getLogger("facesynth")
 
 def cmd_status(args: argparse.Namespace) -> int:
     """``facesynth status``: live services and their latest stats."""
+    from facesynth.app.engine.router import joined_bus
     from facesynth.runtime.codec import decode
     from facesynth.schemas.messages import ServiceStats
 
@@ -25,8 +26,7 @@ def cmd_status(args: argparse.Namespace) -> int:
     rig = None if args.all_rigs else args.rig
 
     async def main() -> tuple[list[str], dict[str, ServiceStats]]:
-        bus = await asyncio.to_thread(ZenohBus.open, options)
-        try:
+        async with joined_bus(options) as bus:
             subscription = bus.subscribe_queued(keys.stats_pattern(rig), 256)
             alive = await bus.alive(keys.health_pattern(rig), timeout=min(args.timeout, 2.0))
             stats: dict[str, ServiceStats] = {}
@@ -42,8 +42,6 @@ def cmd_status(args: argparse.Namespace) -> int:
                 except ValueError as exc:
                     log.warning("ignored stats on %s: %s", sample.key, exc)
             return alive, stats
-        finally:
-            await bus.close()
 
     alive, stats = run_async(main())
     print(format_status(alive, stats))

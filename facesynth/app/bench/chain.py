@@ -286,27 +286,13 @@ def chain_figures(
 
 
 def bench_chain(
-    chosen: Sequence[ChainVariant],
-    *,
-    runs: int = 1,
-    video: str | None = None,
-    seconds: float = 15.0,
-    fps: float = 30.0,
-    openface_csv: str | None = None,
-    hops: bool = False,
+    chosen: Sequence[ChainVariant], *, runs: int = 1, **options: Any
 ) -> list[ChainFigures]:
     """Every variant ``runs`` times, interleaved (run 1 of each, then run 2 of each, …), so a
-    machine whose speed drifts affects every variant alike."""
+    machine whose speed drifts affects every variant alike; ``options`` as
+    :func:`bench_chain_once` takes them."""
     return [
-        bench_chain_once(
-            variant,
-            video=video,
-            seconds=seconds,
-            fps=fps,
-            openface_csv=openface_csv,
-            hops=hops,
-            run=run,
-        )
+        bench_chain_once(variant, run=run, **options)
         for run in range(1, runs + 1)
         for variant in chosen
     ]

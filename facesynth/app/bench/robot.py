@@ -202,7 +202,16 @@ def run_profile(
     """The robot's raw features for every performer frame (``on_frame`` sees each image); T
     with the performer's calibration, if any."""
     loop = RobotLoop(profile, head, fps=performance.fps, calibration=performance.calibration)
-    loop.start()
+    return play(performance, loop, on_frame)
+
+
+def play(
+    performance: Performance,
+    loop: RobotLoop,
+    on_frame: Callable[[int, np.ndarray, Features], None] | None = None,
+) -> FeatureStream:
+    """The robot's raw features for every performer frame played through ``loop`` (which
+    starts at the first), ``on_frame`` seeing each image."""
     frames: list[dict[str, float] | None] = []
     for index, performer in enumerate(performance.features):
         image, features = loop.step(performer)
@@ -262,7 +271,7 @@ def measure(
     first one's record of what the robot moved while babbling is the head's ``babbled``.
     The head's first learned profile (one learned in process first) gives the robot's reach
     (:func:`reach_box`) each row's ratio in reach is taken against."""
-    loaded = [p if isinstance(p, Profile) else _load(p) for p in profiles]
+    loaded = [p if isinstance(p, Profile) else load(p) for p in profiles]
     result = RobotBench(
         video=performance.video,
         frames=len(performance.features),
@@ -307,7 +316,8 @@ def measure(
     return result
 
 
-def _load(name: str) -> Profile:
+def load(name: str) -> Profile:
+    """The profile ``name`` (a :class:`RobotError` in one line when it does not load)."""
     try:
         return load_profile(name)
     except ValueError as exc:

@@ -14,11 +14,11 @@ from collections.abc import Callable, Iterable, Sequence
 import msgspec
 
 from facesynth.app.engine.closed_robot_loop import ClosedRobotLoop
-from facesynth.app.engine.robot_loop import Head, RobotError, robot_features
+from facesynth.app.engine.robot_loop import Head
 from facesynth.runtime.profiles import Profile
 from facesynth.services.translator.closed_loop import LoopOptions, LoopState
 
-from .robot import Performance, RobotBench, measure
+from .robot import Performance, RobotBench, load, measure, play, run_profile
 from .robot_compare import FeatureStream
 
 __all__ = ["CLOSED_SUFFIX", "ClosedRobotLoop", "bench_closed", "run_closed"]
@@ -37,13 +37,7 @@ def run_closed(
     """The robot's raw features for every performer frame with the loop closed, and what the
     loop learned."""
     loop = ClosedRobotLoop(profile, head, fps=performance.fps, options=options, state=state)
-    loop.start()
-    frames: list[dict[str, float] | None] = []
-    for performer in performance.features:
-        _, features = loop.step(performer)
-        frames.append(robot_features(features))
-    stream = FeatureStream.from_frames(frames, names=performance.stream.names)
-    return stream, loop.loop.state
+    return play(performance, loop), loop.loop.state
 
 
 def bench_closed(
@@ -59,7 +53,6 @@ def bench_closed(
     """Every profile on every head as ``bench robot`` runs it, and each learned one again with
     the loop closed (named ``NAME (closed loop)``), side by side; ``learn`` as
     :func:`~.robot.measure` takes it (each profile it learns runs open and closed too)."""
-    from .robot import run_profile
 
     def closed_name(profile: Profile) -> str:
         return profile.name + CLOSED_SUFFIX
@@ -72,13 +65,8 @@ def bench_closed(
             return run_closed(performance, original, open_head(head), options)[0]
         return run_profile(performance, profile, open_head(head))
 
-    def load(name: str) -> list[Profile]:
-        from facesynth.runtime.profiles import load_profile
-
-        try:
-            profile = load_profile(name)
-        except ValueError as exc:
-            raise RobotError(str(exc)) from None
+    def open_and_closed(name: str) -> list[Profile]:
+        profile = load(name)
         if profile.learned is None:
             return [profile]
         return [profile, msgspec.structs.replace(profile, name=closed_name(profile))]
@@ -88,6 +76,6 @@ def bench_closed(
         mine = learn(head)
         return mine + [msgspec.structs.replace(p, name=closed_name(p)) for p in mine]
 
-    loaded = [p for name in profiles for p in load(name)]
+    loaded = [p for name in profiles for p in open_and_closed(name)]
     both = learn_both if learn is not None else None
     return measure(performance, heads, loaded, run, progress=progress, learn=both)

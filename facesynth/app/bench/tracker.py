@@ -162,11 +162,9 @@ def _median_of(runs: list[dict[str, Any]]) -> dict[str, Any]:
     out: dict[str, Any] = dict(runs[0])
     for key, value in runs[0].items():
         if isinstance(value, dict) and "median" in value:
-            out[key] = {
-                "n": value["n"],
-                "median": float(np.median([r[key]["median"] for r in runs])),
-                "p99": float(np.median([r[key]["p99"] for r in runs])),
-                "mean": float(np.median([r[key]["mean"] for r in runs])),
+            out[key] = {"n": value["n"]} | {
+                stat: float(np.median([r[key][stat] for r in runs]))
+                for stat in ("median", "p99", "mean")
             }
     return out
 

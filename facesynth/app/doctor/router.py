@@ -125,65 +125,49 @@ def _listens(endpoint: str, timeout: float) -> bool | None:
 def router_findings(result: RouterResult, need: RouterNeed) -> list[Finding]:
     """The router's line (pure): answering or not, judged by what the graph needs."""
     where = ", ".join(result.endpoints) or "the configured endpoints"
+
+    def found(text: str, **judged: Any) -> list[Finding]:
+        return [Finding(FAMILY, where, text, **judged)]
+
     if need.embedded and need.free_port and (result.router is not None or result.occupied):
         who = f"router {result.router}" if result.router is not None else "something"
-        return [
-            Finding(
-                FAMILY,
-                where,
-                f"{who} already listens there ({result.security}): run's own router will "
-                "take a free port on 127.0.0.1 instead and log it (commands that look on "
-                f"{where} meet the other program; --listen chooses run's endpoint)",
-                good=None,
-            )
-        ]
+        return found(
+            f"{who} already listens there ({result.security}): run's own router will "
+            "take a free port on 127.0.0.1 instead and log it (commands that look on "
+            f"{where} meet the other program; --listen chooses run's endpoint)",
+            good=None,
+        )
     if need.embedded:
         if result.router is not None:
-            return [
-                Finding(
-                    FAMILY,
-                    where,
-                    f"router {result.router} already listens there ({result.security}), where "
-                    "run's own router would",
-                    good=False,
-                    needed=True,
-                    fix="stop it, choose another endpoint with --listen, or use it with "
-                    f"--mode client --connect {result.endpoints[0] if result.endpoints else '…'}",
-                )
-            ]
-        if result.occupied:
-            return [
-                Finding(
-                    FAMILY,
-                    where,
-                    f"something already listens there ({result.security}), where run's own "
-                    f"router would: no session opens to it ({_cause(result.problem)})",
-                    good=False,
-                    needed=True,
-                    fix="stop what listens there (another router, perhaps of a secured rig), or "
-                    "choose another endpoint with --listen",
-                )
-            ]
-        return [
-            Finding(
-                FAMILY,
-                where,
-                f"free: run's own router listens here ({result.security}); no other router answers",
+            return found(
+                f"router {result.router} already listens there ({result.security}), where "
+                "run's own router would",
+                good=False,
+                needed=True,
+                fix="stop it, choose another endpoint with --listen, or use it with "
+                f"--mode client --connect {result.endpoints[0] if result.endpoints else '…'}",
             )
-        ]
-    if result.router is not None:
-        return [Finding(FAMILY, where, f"router {result.router} answers ({result.security})")]
-    return [
-        Finding(
-            FAMILY,
-            where,
-            f"no router answers ({result.security}): {_cause(result.problem)}",
-            good=False,
-            needed=True,
-            fix="start one (facesynth router, or zenohd with deploy/zenoh-router.json5), or "
-            "--connect where it runs; a secured rig needs its certificates (facesynth certs)",
+        if result.occupied:
+            return found(
+                f"something already listens there ({result.security}), where run's own "
+                f"router would: no session opens to it ({_cause(result.problem)})",
+                good=False,
+                needed=True,
+                fix="stop what listens there (another router, perhaps of a secured rig), or "
+                "choose another endpoint with --listen",
+            )
+        return found(
+            f"free: run's own router listens here ({result.security}); no other router answers"
         )
-    ]
+    if result.router is not None:
+        return found(f"router {result.router} answers ({result.security})")
+    return found(
+        f"no router answers ({result.security}): {_cause(result.problem)}",
+        good=False,
+        needed=True,
+        fix="start one (facesynth router, or zenohd with deploy/zenoh-router.json5), or "
+        "--connect where it runs; a secured rig needs its certificates (facesynth certs)",
+    )
 
 
 def _cause(problem: str | None) -> str:

@@ -9,6 +9,7 @@ be booting).
 
 from __future__ import annotations
 
+import functools
 import os
 import time
 from collections.abc import Iterable, Sequence
@@ -168,18 +169,15 @@ def _port_finding(result: PortResult, need: SerialNeed | None) -> Finding:
     subject = result.port
     if need is not None:
         subject += f" (control node {need.node}, {need.driver})"
+    found = functools.partial(Finding, FAMILY, subject)
     if result.unasked:
-        return Finding(
-            FAMILY,
-            subject,
+        return found(
             "a built-in serial port, not asked (a serial console may listen there): "
             f"facesynth doctor --serial {result.port} asks it",
             good=None,
         )
     if result.problem is not None:
-        return Finding(
-            FAMILY,
-            subject,
+        return found(
             result.problem,
             good=None if need is None else False,
             needed=need is not None,
@@ -190,26 +188,20 @@ def _port_finding(result: PortResult, need: SerialNeed | None) -> Finding:
     if answer is None:
         text = "no answer (not our firmware, a Maestro or an SSC-32, or another baud rate)"
         if need is None:
-            return Finding(FAMILY, subject, text, good=None)
-        return Finding(
-            FAMILY,
-            subject,
+            return found(text, good=None)
+        return found(
             text,
             good=False,
             needed=True,
             fix=f"check the board is powered and connected, and --baud (tried {need.baud})",
         )
     if need is None:
-        return Finding(
-            FAMILY, subject, f"{answer.description}: use --driver {DRIVER_OF[answer.kind]}"
-        )
+        return found(f"{answer.description}: use --driver {DRIVER_OF[answer.kind]}")
     if SERIAL_DRIVERS[need.driver] != answer.kind:
-        return Finding(
-            FAMILY,
-            subject,
+        return found(
             f"{answer.description} answers, not what the {need.driver} driver drives",
             good=False,
             needed=True,
             fix=f"use --driver {DRIVER_OF[answer.kind]} for this port, or give the right --port",
         )
-    return Finding(FAMILY, subject, answer.description)
+    return found(answer.description)

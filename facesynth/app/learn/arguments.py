@@ -21,6 +21,34 @@ ADAPTIVE_FLAGS = (
     ("--members", "self-models in the ensemble that judges them (5)"),
 )
 
+#: How babbling moves and settles: flag, type, default, help (which ends with the default).
+BABBLE_FLAGS: tuple[tuple[str, type[float] | type[int], float, str], ...] = (
+    ("--pace", float, 0.8, "command speed as a fraction of each servo's max_speed (0.8)"),
+    ("--settle-frames", int, 4, "frames the face must hold still (4)"),
+    ("--settle-tolerance", float, 0.05, "largest change of the features over those frames (0.05)"),
+    (
+        "--min-wait",
+        float,
+        0.25,
+        "seconds after the servos got there before the face's frames count (0.25)",
+    ),
+    ("--max-wait", float, 3.0, "longest wait for a pose to settle (3 s)"),
+    (
+        "--measured-tolerance",
+        float,
+        20.0,
+        "where the driver reads the servos back: how close (µs) "
+        "their measured positions must come to the command; no --min-wait then (20)",
+    ),
+    (
+        "--measured-timeout",
+        float,
+        3.0,
+        "seconds a read-back servo may take to get there before the pose is taken (3)",
+    ),
+    ("--frame-every", int, 30, "record every Nth camera frame into the session (30; 0: none)"),
+)
+
 
 def _cmd_learn(args: argparse.Namespace) -> int:
     from facesynth.app.learn.cli import cmd_learn
@@ -77,49 +105,8 @@ def _arguments(p: argparse.ArgumentParser) -> None:
     )
     for flag, what in ADAPTIVE_FLAGS:
         group.add_argument(flag, type=int, help=f"--plan adaptive: {what}")
-    group.add_argument(
-        "--pace",
-        type=float,
-        default=0.8,
-        help="command speed as a fraction of each servo's max_speed (0.8)",
-    )
-    group.add_argument(
-        "--settle-frames", type=int, default=4, help="frames the face must hold still (4)"
-    )
-    group.add_argument(
-        "--settle-tolerance",
-        type=float,
-        default=0.05,
-        help="largest change of the features over those frames (0.05)",
-    )
-    group.add_argument(
-        "--min-wait",
-        type=float,
-        default=0.25,
-        help="seconds after the servos got there before the face's frames count (0.25)",
-    )
-    group.add_argument(
-        "--max-wait", type=float, default=3.0, help="longest wait for a pose to settle (3 s)"
-    )
-    group.add_argument(
-        "--measured-tolerance",
-        type=float,
-        default=20.0,
-        help="where the driver reads the servos back: how close (µs) their measured positions "
-        "must come to the command; no --min-wait then (20)",
-    )
-    group.add_argument(
-        "--measured-timeout",
-        type=float,
-        default=3.0,
-        help="seconds a read-back servo may take to get there before the pose is taken (3)",
-    )
-    group.add_argument(
-        "--frame-every",
-        type=int,
-        default=30,
-        help="record every Nth camera frame into the session (30; 0: none)",
-    )
+    for flag, kind, default, what in BABBLE_FLAGS:
+        group.add_argument(flag, type=kind, default=default, help=what)
     seen = {"--out", "--profile"}
     for stage in ("sensor", "points", "control"):
         flags, _ = PLUGIN_FLAGS[stage]

@@ -27,7 +27,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 from facesynth.app.learn.plan import BabblePlan, Pose, to_pulses
-from facesynth.app.learn.settle import Settle, Settled, SettleOptions, StalledError
+from facesynth.app.learn.settle import Settle, Settled, SettleOptions, StalledError, near
 from facesynth.runtime.profiles import Profile
 
 #: Pace of a servo whose profile sets no ``max_speed`` (µs/s).
@@ -109,6 +109,7 @@ class Babbler:
         self.plan = plan
         self.options = options or BabbleOptions()
         self.budget = budget or Budget()
+        self._tol = self.options.settle.reach_tol_us
         self.neutral = profile.neutral_positions()
         self.speeds = {
             s.name: self.options.pace * (s.max_speed if s.max_speed > 0 else DEFAULT_SPEED_US_S)
@@ -153,7 +154,7 @@ class Babbler:
         self.measured = dict(measured or {})
         if self._settle is not None:
             self._settle.servos(positions, now_ns, self.measured)
-        if self._reached_ns is None and self._near(positions, self._goal):
+        if self._reached_ns is None and near(positions, self._goal, self._tol):
             self._reached_ns = now_ns
 
     def features(
@@ -295,7 +296,7 @@ class Babbler:
     def _go(self, goal: Mapping[str, float]) -> None:
         self._goal = dict(goal)
         self._reached_ns = None
-        if self.reported is not None and self._near(self.reported, self._goal):
+        if self.reported is not None and near(self.reported, self._goal, self._tol):
             self._reached_ns = self._last_ns
 
     def _holding(self, now_ns: int, seconds: float) -> bool:
@@ -303,10 +304,6 @@ class Babbler:
         if self.commanded != self._goal or self._reached_ns is None:
             return False
         return now_ns - self._reached_ns >= seconds * 1e9
-
-    def _near(self, positions: Mapping[str, float], goal: Mapping[str, float]) -> bool:
-        tol = self.options.settle.reach_tol_us
-        return all(abs(positions.get(name, -1e9) - value) <= tol for name, value in goal.items())
 
     def _paced(self, now_ns: int) -> dict[str, float]:
         """The command moved toward the goal, no servo faster than its pace."""

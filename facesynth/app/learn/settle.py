@@ -93,6 +93,11 @@ def average(frames: Sequence[Mapping[str, float]]) -> tuple[dict[str, float], di
     )
 
 
+def near(positions: Mapping[str, float], goal: Mapping[str, float], tolerance: float) -> bool:
+    """Whether every servo of ``goal`` is reported within ``tolerance`` of it (µs)."""
+    return all(abs(positions.get(name, -1e9) - value) <= tolerance for name, value in goal.items())
+
+
 def steady(frames: Sequence[Mapping[str, float]], tolerance: float) -> bool:
     """Whether the frames agree: the STEADY_QUANTILE of per-feature spans is within tolerance."""
     names = sorted(set.intersection(*(set(frame) for frame in frames))) if frames else []
@@ -131,7 +136,7 @@ class Settle:
         the driver reads them back."""
         if self.reached_ns is not None:
             return
-        if self.reported_ns is None and self._near(positions, self.options.reach_tol_us):
+        if self.reported_ns is None and near(positions, self.target, self.options.reach_tol_us):
             self.reported_ns = now_ns
         if measured and set(self.target) <= set(measured):
             self.reading = True
@@ -140,15 +145,9 @@ class Settle:
         elif (
             self.reported_ns is not None
             and measured
-            and self._near(measured, self.options.measured_tol_us)
+            and near(measured, self.target, self.options.measured_tol_us)
         ):
             self.reached_ns, self.reached = now_ns, "measured"
-
-    def _near(self, positions: Mapping[str, float], tolerance: float) -> bool:
-        return all(
-            abs(positions.get(name, -1e9) - value) <= tolerance
-            for name, value in self.target.items()
-        )
 
     def face(self, raw: Mapping[str, float], now_ns: int) -> None:
         """One frame's raw features (a frame with a face)."""

@@ -39,6 +39,7 @@ from facesynth.app.wiring import StageParts
 from facesynth.runtime import codec, keys
 from facesynth.runtime.bus.base import Bus, Subscription
 from facesynth.runtime.service import ServiceContext, run_service
+from facesynth.runtime.tasks import cancel_and_wait, stop_tasks
 from facesynth.schemas.messages import BabbleSample, Features, ServoCommands
 
 log = logging.getLogger("facesynth.learn")
@@ -144,9 +145,7 @@ class BabbleShell:
                 self.progress.update(step.phase, self.babbler.index, now / 1e9)
                 await clock.sleep(1 / RATE_HZ)
         finally:
-            for task in followers:
-                task.cancel()
-            await asyncio.gather(*followers, return_exceptions=True)
+            await cancel_and_wait(followers)
             now_s = clock.monotonic_ns() / 1e9
             self.progress.update(self.babbler.phase, self.babbler.index, now_s, force=True)
 
@@ -274,17 +273,12 @@ async def babble(
         for signum in (signal.SIGINT, signal.SIGTERM):
             with contextlib.suppress(NotImplementedError, RuntimeError):
                 loop.remove_signal_handler(signum)
-        for name in ("sensor", "points", "features", "control"):
-            node = nodes.get(name)
-            if node is not None:
-                node.cancel()
-                with contextlib.suppress(asyncio.CancelledError, Exception):
-                    await node
-        await asyncio.sleep(0.3)  # the last states and samples reach the recorder
-        record_task.cancel()
-        with contextlib.suppress(asyncio.CancelledError):
-            await record_task
-        shell.progress.close()
+        try:
+            await cancel_and_wait(nodes.values())
+            await asyncio.sleep(0.3)  # the last states and samples reach the recorder
+        finally:  # the recording is completed even when this stop is cancelled
+            await stop_tasks([record_task])
+            shell.progress.close()
     session.close()
     if failure is not None:
         raise failure

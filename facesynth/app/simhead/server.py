@@ -102,10 +102,8 @@ class PtyPort:
     def _readable(self) -> None:
         try:
             data = os.read(self._master, 4096)
-        except (BlockingIOError, InterruptedError):
+        except OSError:  # nothing to read yet, or no reader on the driver's side right now
             return
-        except OSError:
-            return  # no reader on the driver's side right now
         if data:
             self.write(self.on_bytes(data))
 
