@@ -148,7 +148,8 @@ def test_her_neutral_can_come_from_a_calibration(
 ) -> None:
     """``bench robot --calibration``: her change is read from the calibration's neutral from
     her first frame on (not from her first second, mid-grimace: her smile score is 0.49 in
-    frame 0), T is given it too (as ``run --calibration`` gives it), and the report says so."""
+    frame 0), T is given it too (as ``run --calibration`` gives it; the closed loop's T as well),
+    and the report says so."""
     from facesynth.app.bench import robot as bench
     from facesynth.app.bench.robot import measure, performer_neutral
     from facesynth.app.bench.robot_compare import FeatureStream
@@ -177,6 +178,12 @@ def test_her_neutral_can_come_from_a_calibration(
     with pytest.raises(Built) as loop:
         run_profile(calibrated, load_profile("paper16"), StillHead(face_image))
     assert loop.value.args[0]["calibration"] is rest
+    from facesynth.app.bench import robot_closed
+
+    monkeypatch.setattr(robot_closed, "ClosedRobotLoop", built)
+    with pytest.raises(Built) as closed:  # the closed run of a profile is given it too
+        robot_closed.run_closed(calibrated, load_profile("paper16"), StillHead(face_image))
+    assert closed.value.args[0]["calibration"] is rest
     values = np.full(calibrated.stream.values.shape, np.nan)
     still = FeatureStream(calibrated.stream.names, values)
     result = measure(calibrated, ["still"], ["paper16"], lambda head, profile: still)

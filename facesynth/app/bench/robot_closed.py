@@ -35,8 +35,15 @@ def run_closed(
     state: LoopState | None = None,
 ) -> tuple[FeatureStream, LoopState]:
     """The robot's raw features for every performer frame with the loop closed, and what the
-    loop learned."""
-    loop = ClosedRobotLoop(profile, head, fps=performance.fps, options=options, state=state)
+    loop learned; T with the performer's calibration, if any (as the open run has it)."""
+    loop = ClosedRobotLoop(
+        profile,
+        head,
+        fps=performance.fps,
+        options=options,
+        state=state,
+        calibration=performance.calibration,
+    )
     return play(performance, loop), loop.loop.state
 
 
