@@ -15,6 +15,7 @@ line naming them and how to finish) unless ``--partial``, which keeps them at ne
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import logging
 import sys
@@ -46,6 +47,7 @@ from facesynth.app.learn.session import (
     metadata,
     read_session,
 )
+from facesynth.app.learn.session_lag import session_lags
 from facesynth.app.learn.settle import SettleOptions
 from facesynth.app.learn.shell import RECORD_KEYS, BabbleShell, LearnResult, babble
 from facesynth.app.learn.sweeps import sweep_report
@@ -205,15 +207,19 @@ def fit_session(
     partial: bool = False,
     plan: PlanOptions | None = None,
 ) -> str:
-    """Read the session's poses into a BabbleSet, fit it and write the learned profile.
+    """Read the session's poses into a BabbleSet, with the head's response lag measured on its
+    one-servo moves (:mod:`facesynth.app.learn.session_lag`, in the fit's report), fit it and
+    write the learned profile.
 
     A session that has not yet swept every servo is a :class:`LearnError` naming them and how
     to finish (``plan``: the babbling's options, for the poses the sweeps take), unless
     ``partial``."""
     if not session.samples:
         raise LearnError(f"{session.path} holds no babbling poses to fit")
+    babble = babble_set(session.samples, profile)
+    babble = dataclasses.replace(babble, lags=session_lags(session.path, session.samples))
     try:
-        return fit(babble_set(session.samples, profile), profile, out, partial=partial)
+        return fit(babble, profile, out, partial=partial)
     except UnsweptError as exc:
         sweeps = Plan(len(profile.servos), plan or PlanOptions()).sweep_poses
         raise LearnError(

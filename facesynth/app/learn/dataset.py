@@ -6,7 +6,8 @@ The seam between the babbling session (which reads a recorded session into a
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Mapping
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -26,6 +27,8 @@ class BabbleSet:
         inputs: feature names, in column order of ``faces``.
         faces: (N, F) ``Features.raw`` values of the settled face (NaN where absent).
         kinds: per sample, one of :data:`KINDS`.
+        lags: per servo, the head's response lag (s) where the babbling measured it
+            (:mod:`facesynth.app.learn.lag`, the fit reports it; empty: not measured).
     """
 
     servos: tuple[str, ...]
@@ -33,6 +36,7 @@ class BabbleSet:
     inputs: tuple[str, ...]
     faces: np.ndarray
     kinds: tuple[str, ...]
+    lags: Mapping[str, float] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         n = len(self.kinds)

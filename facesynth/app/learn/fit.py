@@ -68,6 +68,7 @@ import numpy as np
 from facesynth.app.learn.augment import Recombination
 from facesynth.app.learn.coverage import UnsweptError, coverage
 from facesynth.app.learn.dataset import BabbleSet
+from facesynth.app.learn.lag import lag_notes
 from facesynth.app.learn.models import (
     CANDIDATES,
     FITTERS,
@@ -320,6 +321,8 @@ def _fit(babble: BabbleSet, profile: Profile, options: FitOptions) -> Profile:
     notes = data.notes + [f"{name} fitted in {seconds[name]:.1f} s" for name in seconds]
     notes += regions.notes() + ([verdict] if verdict else []) + face.notes()
     notes += regional_notes(live, own, keep, best)
+    lags = {servo: babble.lags[servo] for servo in live if servo in babble.lags}
+    notes += lag_notes(lags)
     if cover.unswept:
         notes.insert(0, f"partial fit: {UnsweptError(cover)} (kept at neutral)")
     report = Report(

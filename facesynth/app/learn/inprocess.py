@@ -12,7 +12,9 @@ a simulated head.
 ``neutral_every`` poses, optionally after the sweeps of ``facesynth learn``'s plan) on the
 hardware profile that has its servos (:func:`hardware_for`); :func:`learn_simhead` fits a
 learned profile on such a babbling (:func:`facesynth.app.learn.fit.fit_learned_profile`, the
-``[learn]`` extra).
+``[learn]`` extra). The babbling has no timing data (each pose is looked at settled): the
+head's response lag is probed apart (:func:`probe_lags`: steps of each servo followed frame by
+frame, as a session's one-servo moves are in :mod:`facesynth.app.learn.session_lag`).
 
 :func:`held_out_error` measures a learned profile's inverse model on poses it was not fitted
 on (a separate babbling, e.g. uniform random poses): the command error, raw and effective, as
@@ -28,6 +30,7 @@ import msgspec
 import numpy as np
 
 from facesynth.app.learn.dataset import BabbleSet
+from facesynth.app.learn.lag import Transition, servo_lags
 from facesynth.runtime.feature_names import NAMES
 from facesynth.runtime.frames import encode_frame
 from facesynth.runtime.profiles import Profile, available_profiles, load_profile
@@ -36,10 +39,16 @@ from facesynth.runtime.profiles.learned_predict import predictor
 
 if TYPE_CHECKING:
     from facesynth.app.simhead import HeadConfig
+    from facesynth.schemas.messages import Features
 
 #: The head's slew and settle lag are over well within this.
 SETTLE_NS = 1_500_000_000
 FRAME_NS = 33_333_333
+#: Frames the face is followed for after a probing step (the slowest bundled skin, 0.15 s,
+#: and slew, 1,500 µs/s, are over within them).
+PROBE_FRAMES = 30
+#: The probing steps' size (normalized command, each way from neutral).
+PROBE_STEP = 0.5
 
 
 class SimBabbler:
@@ -83,8 +92,34 @@ class SimBabbler:
             )
             features = self._processor.process(self._backend.process(frame))
             self._seq += 1
+        return self._read(features)
+
+    @staticmethod
+    def _read(features: Features | None) -> np.ndarray:
         raw = features.raw if features and features.face and features.neutral_ready else {}
         return np.array([raw.get(name, np.nan) for name in NAMES], dtype=np.float64)
+
+    def follow(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(times, faces)``: the face frame by frame (:data:`PROBE_FRAMES` frames, times in
+        s from the command) as the head, settled where it was, goes to pose ``u`` commanded
+        as a step: a transition of :mod:`facesynth.app.learn.lag` (settle with :meth:`look`
+        for its face after)."""
+        sim = self._sim
+        for spec, pulse in zip(self.profile.servos, self.pulses(u), strict=True):
+            sim.command(spec.channel, float(pulse))
+        start, faces = sim.t_ns, []
+        for index in range(PROBE_FRAMES):
+            sim.step(start + index * FRAME_NS)
+            frame = encode_frame(
+                sim.render(),
+                seq=self._seq,
+                t_capture_ns=sim.t_ns,
+                t_media_ns=sim.t_ns,
+                encoding="raw",
+            )
+            faces.append(self._read(self._processor.process(self._backend.process(frame))))
+            self._seq += 1
+        return np.arange(PROBE_FRAMES) * FRAME_NS / 1e9, np.array(faces)
 
 
 def babble(
@@ -159,6 +194,32 @@ LEARNED_NAME = "learned"
 #: The sweeps a profile learned in process starts with (``facesynth learn``'s default plan):
 #: the fit finds the face's regions from them (:mod:`facesynth.app.learn.regional`).
 SWEEP_STEPS = 3
+
+
+def probe_lags(
+    babbler: SimBabbler, step: float = PROBE_STEP, servos: Iterable[str] | None = None
+) -> dict[str, float]:
+    """Per servo (``servos``: these only), the head's response lag (s;
+    :func:`~facesynth.app.learn.lag.servo_lags`) over four steps of ``step``, the others at
+    neutral: out from neutral and back, each way, each followed frame by frame
+    (:meth:`SimBabbler.follow`); servos the camera barely sees are left out."""
+    count = len(babbler.profile.servos)
+    chosen = None if servos is None else set(servos)
+    transitions = []
+    for index, spec in enumerate(babbler.profile.servos):
+        if chosen is not None and spec.name not in chosen:
+            continue
+        rest = np.zeros(count)
+        face = babbler.look(rest, 4)
+        for sign in (1.0, 0.0, -1.0, 0.0):
+            pose = rest.copy()
+            pose[index] = sign * step
+            times, faces = babbler.follow(pose)
+            after = babbler.look(pose, 4)
+            command = np.ones(len(times))
+            transitions.append(Transition(spec.name, times, command, faces, face, after))
+            face = after
+    return servo_lags(transitions)
 
 
 def babble_simhead(

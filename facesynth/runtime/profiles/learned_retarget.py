@@ -37,8 +37,12 @@ class Retarget(msgspec.Struct, forbid_unknown_fields=True, kw_only=True):
     1.9 kept ρ within 0.005 while the robot's amplitude ratio rose from 0.47 to 0.52 and
     from 0.53 to 0.54); ``lead_s``: each command is led by its rate of change times this
     (s) against the head's lag, open loop only (:mod:`services.translator.lead`; 0, the
-    default: not led; on simhead16 0.1 s raised ρ from 0.59 to 0.62 and the amplitude ratio
-    from 0.47 to 0.50)."""
+    default and what a fit writes: not led; on simhead16 0.1 s raised ρ from 0.59 to 0.62 and
+    the amplitude ratio from 0.47 to 0.50 in a file asking for gain 0.9; a fit measures the
+    head's own lag and reports it (:mod:`facesynth.app.learn.lag`), but led by it, in files
+    asking for gain 1.1, ρ moved by -0.018 to +0.014 over five simulated heads and the amplitude in
+    reach fell by 0.04 on simhead16_stiff, so it is not written: docs/learning.md, "The lead
+    learned from the head's own lag")."""
 
     gain: float = 0.9
     tau_s: float = 10.0
