@@ -1,7 +1,14 @@
-"""Frame pixels to and from :class:`facesynth.schemas.messages.Frame` (JPEG or raw BGR)."""
+"""Frame pixels to and from :class:`facesynth.schemas.messages.Frame` (JPEG or raw BGR).
+
+With the sensor's default encoding, :data:`AUTO`, the stages of the sensor's own process take
+its raw pixels (:func:`local_encoding`), and every other reader (a process elsewhere, a
+recorder) gets the same frame as JPEG (:func:`jpeg_form`), encoded once, only when one wants
+bytes.
+"""
 
 from __future__ import annotations
 
+import msgspec
 import numpy as np
 
 from facesynth.runtime.opencv import import_cv2
@@ -9,6 +16,9 @@ from facesynth.schemas.messages import Frame
 
 #: A nominal image size for frames without pixels (ticks).
 TICK_SIZE = (640, 480)
+
+#: The sensor's default: raw pixels to the stages of its process, JPEG to every other reader.
+AUTO = "auto"
 
 
 class FrameError(ValueError):
@@ -51,6 +61,24 @@ def encode_frame(
         source=source,
         fps=fps,
     )
+
+
+def local_encoding(encoding: str) -> str:
+    """The encoding of the frames a stage in the sensor's own process takes, for the sensor's
+    ``encoding`` (``jpeg``, ``raw`` or :data:`AUTO`, whose frames are raw there)."""
+    return "raw" if encoding == AUTO else encoding
+
+
+def jpeg_form(frame: Frame, quality: int) -> Frame:
+    """A raw frame as JPEG at ``quality`` (every other field the same), as the sensor would have
+    encoded its pixels; any other frame as it is. :class:`FrameError` if its pixels are not
+    those of its header."""
+    if frame.encoding != "raw":
+        return frame
+    jpeg = encode_frame(
+        decode_frame(frame), seq=frame.seq, t_capture_ns=0, t_media_ns=0, quality=quality
+    )
+    return msgspec.structs.replace(frame, encoding="jpeg", data=jpeg.data)
 
 
 def tick_frame(

@@ -143,11 +143,17 @@ class ServiceContext:
         self.subscriptions.append(subscription)
         return subscription
 
-    def publish(self, stage: keys.Stage, message: msgspec.Struct) -> None:
+    def publish(
+        self,
+        stage: keys.Stage,
+        message: msgspec.Struct,
+        encode: Callable[[Any], bytes] = codec.encode,
+    ) -> None:
         """Publish ``message`` on a stage key, and count it: as the object to this process's
-        readers, encoded once for the others (:meth:`Bus.publish_message`). It is shared from
-        here on and must not be changed (the message structs are frozen)."""
-        self.bus.publish_message(self.key(stage), message, codec.encode)
+        readers, encoded once for the others (:meth:`Bus.publish_message`; ``encode`` makes
+        those bytes, msgpack by default). It is shared from here on and must not be changed
+        (the message structs are frozen)."""
+        self.bus.publish_message(self.key(stage), message, encode)
         self.stats.record_published(getattr(message, "t_capture_ns", 0), self.clock.time_ns())
 
     def reject(self, reason: str, count: int = 1) -> None:

@@ -12,20 +12,26 @@ stamps), so the stages downstream drop them once they are too old (after a stall
 frames wait for credit by design and name none (they are never aged from capture), nor do a
 measuring camera's (``capture_age`` off: learn's robot camera, whose frames are measured, never
 acted on).
+
+Frames travel as the ``encoding`` option says: ``jpeg`` and ``raw`` to every reader alike;
+``auto`` (a graph's default) hands the stages of this process (``facesynth run``) the raw
+pixels, and every other reader (a stage or recorder elsewhere, a recorder here) the same frame
+as JPEG at ``quality`` (:func:`~facesynth.runtime.frames.jpeg_form`), encoded once, only when
+one wants bytes. A camera's own JPEG stays as it is unless ``raw`` is asked for.
 """
 
 from __future__ import annotations
 
 import asyncio
 import contextlib
-from collections.abc import AsyncIterator, Iterator
+from collections.abc import AsyncIterator, Callable, Iterator
 from dataclasses import dataclass, field
 
 import msgspec
 
-from facesynth.runtime import keys
+from facesynth.runtime import codec, keys
 from facesynth.runtime.clock_host import clock_host
-from facesynth.runtime.frames import FrameError, tick_frame
+from facesynth.runtime.frames import AUTO, FrameError, jpeg_form, local_encoding, tick_frame
 from facesynth.runtime.service import ServiceContext
 from facesynth.schemas.messages import Frame
 from facesynth.services.sensor.core import Pacer
@@ -41,6 +47,7 @@ class SensorOptions:
     fast: bool = False
     window: int = 2
     ack_timeout: float = 2.0
+    #: ``jpeg``, ``raw``, or ``auto`` (raw to this process's stages, JPEG to other readers).
     encoding: str = "jpeg"
     quality: int = 90
     max_frames: int | None = None
@@ -104,6 +111,15 @@ class SensorService:
         #: Whose wall clock stamps the frames (none for ``fast``: see the module doc).
         aged = options.capture_age and not options.fast
         self.capture_host = clock_host() if aged else ""
+        #: How a frame becomes bytes for the readers that want bytes.
+        self.encode: Callable[[Frame], bytes] = (
+            self.jpeg_bytes if options.encoding == AUTO else codec.encode
+        )
+
+    def jpeg_bytes(self, frame: Frame) -> bytes:
+        """A frame's bytes for readers outside this process and recorders (``auto``): a raw
+        frame as JPEG at the options' quality."""
+        return codec.encode(jpeg_form(frame, self.options.quality))
 
     @property
     def stalls(self) -> int:
@@ -115,7 +131,7 @@ class SensorService:
 
         info = self.source.info
         if isinstance(image, JpegImage):
-            if self.options.encoding == "jpeg":  # the camera's own JPEG, as it is
+            if self.options.encoding != "raw":  # the camera's own JPEG, as it is
                 return Frame(
                     seq=seq,
                     t_capture_ns=now,
@@ -137,7 +153,7 @@ class SensorService:
             seq=seq,
             t_capture_ns=now,
             t_media_ns=t_media_ns,
-            encoding=self.options.encoding,
+            encoding=local_encoding(self.options.encoding),
             quality=self.options.quality,
             source=info.name,
             fps=info.fps,
@@ -204,7 +220,7 @@ class SensorService:
                 except FrameError as exc:  # e.g. a camera's JPEG that does not decode (raw)
                     ctx.reject(f"frame {seq}: {exc}")
                     continue
-                ctx.publish("input", frame)
+                ctx.publish("input", frame, self.encode)
                 self.last_seq = seq
                 await asyncio.sleep(0)
         finally:

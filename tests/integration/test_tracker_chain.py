@@ -157,6 +157,8 @@ def test_tracker_chain_in_processes_matches_run(
         "--video",
         VIDEO,
         "--fast",
+        "--encoding",
+        "jpeg",  # P tracks the JPEG the processes' P gets (the default: the raw pixels)
         "--max-frames",
         str(FRAMES),
         "--out",

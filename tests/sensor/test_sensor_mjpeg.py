@@ -305,7 +305,7 @@ def sensor_run(images: list[JpegImage], encoding: str) -> StageRun:
     return StageRun(sensor.serve, service="sensor")
 
 
-@pytest.mark.parametrize("encoding", ["jpeg", "raw"])
+@pytest.mark.parametrize("encoding", ["jpeg", "raw", "auto"])
 async def test_frames_on_the_bus_decode_downstream(encoding: str) -> None:
     good = [JpegImage(data, 64, 48) for data in JPEGS]
     broken = JpegImage(undecodable(JPEGS[0]), 64, 48)
@@ -313,12 +313,13 @@ async def test_frames_on_the_bus_decode_downstream(encoding: str) -> None:
     async with run:
         await run.finish(timeout=10.0)
         frames = run.messages("input")
-    if encoding == "jpeg":  # as they are: the points stage finds the broken one
+    if encoding != "raw":  # as they are (auto too): the points stage finds the broken one
         assert [f.data for f in frames] == [JPEGS[0], broken.data, *JPEGS[1:]]
         frames = [frames[0], *frames[2:]]
     else:  # decoded here: the broken one is dropped and counted
         assert [f.seq for f in frames] == [0, 2, 3, 4]
-    assert {(f.encoding, f.width, f.height) for f in frames} == {(encoding, 64, 48)}
+    sent = "raw" if encoding == "raw" else "jpeg"
+    assert {(f.encoding, f.width, f.height) for f in frames} == {(sent, 64, 48)}
     for frame, data in zip(frames, JPEGS, strict=True):
         expected = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_COLOR)
         assert np.array_equal(decode_frame(frame), expected)

@@ -28,7 +28,7 @@ from facesynth.app.stages.setup import Setup
 from facesynth.app.wiring import OptionError, build_profile, build_translator
 from facesynth.runtime.calibration import Calibration
 from facesynth.runtime.clock import FAKE_EPOCH_NS
-from facesynth.runtime.frames import encode_frame, tick_frame
+from facesynth.runtime.frames import encode_frame, local_encoding, tick_frame
 from facesynth.runtime.profiles import Profile
 from facesynth.schemas.messages import Features, Frame, Points, ServoCommands
 from facesynth.services.control.core import Arrival, ControlCore, MotionTime, Move
@@ -59,7 +59,7 @@ def sensor_frame(
     fps: float = 0.0,
 ) -> Frame:
     """The frame message a sensor makes of ``image`` (``None``: a tick without pixels, as
-    replayed point streams take)."""
+    replayed point streams take), as P in the sensor's process takes it (``auto``: raw)."""
     if image is None:
         return tick_frame(seq=seq, t_capture_ns=t_capture_ns, t_media_ns=t_media_ns, fps=fps)
     return encode_frame(
@@ -67,7 +67,7 @@ def sensor_frame(
         seq=seq,
         t_capture_ns=t_capture_ns,
         t_media_ns=t_media_ns,
-        encoding=encoding,
+        encoding=local_encoding(encoding),
         quality=quality,
         fps=fps,
     )

@@ -10,6 +10,7 @@ from msgspec import Meta
 from facesynth.app.data import sample_video
 from facesynth.app.stages.descriptor import NodeBuild, PluginTable, StageDescriptor, StageParts
 from facesynth.app.stages.node import StageNode
+from facesynth.runtime.frames import AUTO
 from facesynth.services.sensor.service import SensorOptions, SensorService
 from facesynth.services.sensor.sources.base import FrameSource, SourceError
 from facesynth.services.sensor.sources.registry import SOURCES
@@ -28,8 +29,14 @@ class SensorNode(StageNode, tag="sensor"):
         int, Meta(ge=1, description="--fast: frames in flight ahead of the last servo command")
     ] = 2
     encoding: Annotated[
-        Literal["jpeg", "raw"], Meta(description="frame encoding on the bus (default jpeg)")
-    ] = "jpeg"
+        Literal["auto", "jpeg", "raw"],
+        Meta(
+            description="frame encoding: jpeg, raw, or auto (the default): raw pixels to the "
+            "stages in the sensor's own process (facesynth run), JPEG at --quality to every "
+            "other process and to recordings; jpeg gives a one-process run the very frames of "
+            "a five-process chain"
+        ),
+    ] = "auto"
     quality: Annotated[int, Meta(ge=1, le=100, description="JPEG quality 1-100 (default 90)")] = 90
     max_frames: Annotated[int, Meta(ge=0, description="stop after N frames")] | None = None
     wait_for: Annotated[
@@ -67,12 +74,13 @@ def build_source(config: msgspec.Struct, replay_frames: int | None = None) -> Fr
     return SOURCES.build(config)
 
 
-def sensor_options(node: SensorNode) -> SensorOptions:
-    """The sensor's pacing and encoding options."""
+def sensor_options(node: SensorNode, standalone: bool = False) -> SensorOptions:
+    """The sensor's pacing and encoding options; ``auto`` is JPEG for a sensor in a process of
+    its own (``standalone``: no stage of its process takes its frames)."""
     return SensorOptions(
         fast=node.fast,
         window=node.window,
-        encoding=node.encoding,
+        encoding="jpeg" if standalone and node.encoding == AUTO else node.encoding,
         quality=node.quality,
         max_frames=node.max_frames,
         wait_for=list(node.wait_for),
@@ -85,7 +93,8 @@ def build(request: NodeBuild) -> StageParts:
     """A sensor node: its source, paced as the node says."""
     assert request.config is not None
     sensor = SensorService(
-        build_source(request.config, request.replay_frames), sensor_options(request.node)
+        build_source(request.config, request.replay_frames),
+        sensor_options(request.node, request.standalone),
     )
     return StageParts(request.name, STAGE.name, sensor.serve, sensor)
 

@@ -223,6 +223,7 @@ rig = "stepped"
 stage = "sensor"
 fast = true
 max_frames = {frames}
+{encoding}
 [nodes.points]
 stage = "points"
 [nodes.features]
@@ -238,10 +239,13 @@ driver = {{ driver = "record", out = "{out}" }}
 """
 
 
-def test_the_video_through_the_tracker_matches_too(tmp_path: Path) -> None:
-    """Frames with pixels, JPEG-encoded as the sensor sends them, through the tracker."""
+@pytest.mark.parametrize("encoding", ["", 'encoding = "jpeg"'], ids=["auto", "jpeg"])
+def test_the_video_through_the_tracker_matches_too(tmp_path: Path, encoding: str) -> None:
+    """Frames with pixels, as P in ``run``'s process takes them, through the tracker: raw by
+    default (``auto``: the JPEG is only for readers elsewhere), JPEG-encoded with ``jpeg`` (as
+    a five-process chain's P takes them)."""
     frames, out, path = 40, tmp_path / "video.jsonl", tmp_path / "video.toml"
-    path.write_text(VIDEO_GRAPH.format(frames=frames, out=out))
+    path.write_text(VIDEO_GRAPH.format(frames=frames, out=out, encoding=encoding))
     sent = _run(path, out)
     graph = load_graph(str(path), plugins=False)
     chain = _chain(graph)
