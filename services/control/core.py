@@ -83,6 +83,11 @@ class CommandInfo:
     face: bool
     t_ns: int | None = None
 
+    def at(self, t_ns: int) -> CommandInfo:
+        """The same, decided at ``t_ns`` (``dataclasses.replace``'s result, without its
+        look at every field)."""
+        return CommandInfo(self.frame, self.t_capture_ns, self.face, t_ns)
+
 
 #: What drivers are told about a move of the controller's own.
 OWN_MOVE = CommandInfo(frame=None, t_capture_ns=None, face=False)

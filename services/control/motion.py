@@ -107,12 +107,13 @@ class FaceMotion:
 
     def reached(self, targets: Mapping[str, float]) -> bool:
         """Whether every servo is at its target (clamped) and still."""
-        return all(
-            abs(self.positions[name] - spec.clamp(targets.get(name, self.positions[name])))
-            <= REACHED_US
-            and self.velocities[name] == 0.0
-            for name, spec in self._specs.items()
-        )
+        positions, velocities = self.positions, self.velocities
+        for name, low, high, _, _, _ in self._rows:  # (ServoSpec.clamp inlined, as in step)
+            position = positions[name]
+            target = min(max(targets.get(name, position), low), high)
+            if not (abs(position - target) <= REACHED_US and velocities[name] == 0.0):
+                return False
+        return True
 
     def max_step_us(self, name: str, dt_s: float) -> float:
         """The largest move of servo ``name`` in a step of ``dt_s`` (inf: unlimited)."""

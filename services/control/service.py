@@ -17,7 +17,6 @@ holds, then returns to neutral when the watchdog says so.
 from __future__ import annotations
 
 import contextlib
-import dataclasses
 import itertools
 import logging
 import math
@@ -160,7 +159,7 @@ class ControlService:
                 # The wall-clock instant of the step (not of this call, which may come later),
                 # by an offset a pause between two clock readings cannot skew.
                 offset = wall_offset_ns(ctx.clock)
-                info = dataclasses.replace(move.info, t_ns=move.t_ns + offset)
+                info = move.info.at(move.t_ns + offset)
                 if move.command:  # the last moment before the write: is it still young?
                     self.core.hand_over(move, ctx.clock.time_ns())
                 await self._guarded(self.driver.send(move.positions, info))

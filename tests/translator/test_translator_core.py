@@ -8,6 +8,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+from translator_fixtures import features_at, jaw_deltas, points_servo, profile_of
 
 from facesynth.runtime import codec
 from facesynth.runtime.calibration import Calibration
@@ -341,3 +342,14 @@ def test_paper16_cheeks_are_reversed() -> None:
     positions = _paper16_positions(face)
     assert positions["right_inner_cheek"] > 1500
     assert positions["left_inner_cheek"] == 1500.0
+
+
+def test_a_position_that_is_not_a_number_stops_its_limiter() -> None:
+    translator = Translator(profile_of(points_servo(max_speed=1000.0)))
+    limiter = translator._servos[0].limiter
+    for index, value in enumerate([0.0, 0.1, 0.2]):
+        translator.step(features_at(index, deltas=jaw_deltas(value)))
+    assert limiter.velocity > 0.0
+    out = translator.step(features_at(3, deltas=jaw_deltas(math.nan)))
+    assert math.isnan(out["p"]) and math.isnan(limiter.position or 0.0)
+    assert limiter.velocity == 0.0
