@@ -13,6 +13,21 @@ from facesynth_processes import Processes
 
 from facesynth.runtime.bus.zenoh_bus import ZenohOptions, open_session, router_locators
 
+BROWSER_TESTS = Path(__file__).parent / "browser"
+
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    """A ``browser`` test outside tests/browser is refused: the Makefile runs the browser group as
+    ``pytest -m browser tests/browser``, not over the whole tree (22 s of CPU to collect, 3 s)."""
+    strays = [
+        item.nodeid
+        for item in items
+        if item.get_closest_marker("browser") and not item.path.is_relative_to(BROWSER_TESTS)
+    ]
+    if strays:
+        raise pytest.UsageError(f"browser tests belong in tests/browser: {', '.join(strays)}")
+
 
 @pytest.fixture(scope="module")
 def zenoh_router() -> Iterator[str]:
