@@ -14,14 +14,13 @@ report written and marked ended early.
 from __future__ import annotations
 
 import json
-import os
 import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import pytest
+from soak_interrupt import interrupt_soak
 
 pytestmark = [pytest.mark.faults, pytest.mark.timeout(240)]
 
@@ -80,37 +79,25 @@ def test_sigint_ends_a_soak_at_once_mid_stall_with_its_report(tmp_path: Path) ->
     # Started as a script starts it in the background (`nohup python -m tools.soak ... &`):
     # SIGINT inherited ignored, which Python leaves ignored unless the soak handles it itself.
     out, log = tmp_path / "soak.json", tmp_path / "soak.out"
-    with open(log, "wb") as printed:
-        soak = subprocess.Popen(
-            ["sh", "-c", 'trap "" INT; exec "$0" "$@"', sys.executable, "-m", "tools.soak",
-             "--hours", "1", "--interval", "3", "--kinds", "stall", "--source", "replay",
-             "--folder", str(tmp_path / "run"), "--out", str(out)],
-            cwd=ROOT, stdout=printed, stderr=subprocess.STDOUT, start_new_session=True,
-        )  # fmt: skip
-    try:
-        deadline = time.monotonic() + 90
-        while "soak: the chain streams" not in log.read_text() and soak.poll() is None:
-            assert time.monotonic() < deadline, log.read_text()[-3000:]
-            time.sleep(0.1)
-        points = [int(line.split()[0]) for line in _session(soak.pid) if " points " in line]
-        assert len(points) == 1, _session(soak.pid)
-        while _state(points[0]) != "T":  # the stall: points stopped (SIGSTOP) for 3 s
-            assert time.monotonic() < deadline and soak.poll() is None, log.read_text()[-3000:]
-            time.sleep(0.05)
-        signalled = time.monotonic()
-        soak.send_signal(signal.SIGINT)
-        code = soak.wait(timeout=30)
-        took = time.monotonic() - signalled
-    finally:
-        if soak.poll() is None:
-            os.killpg(soak.pid, signal.SIGKILL)
-            soak.wait()
-    printed = log.read_text()
-    print(printed[-3000:])
+    points: list[int] = []
+
+    def stalled(leader: int) -> bool:  # the stall: points stopped (SIGSTOP) for 3 s
+        if not points:
+            points.extend(int(line.split()[0]) for line in _session(leader) if " points " in line)
+            assert len(points) == 1, _session(leader)
+        return _state(points[0]) == "T"
+
+    ended = interrupt_soak(
+        ["sh", "-c", 'trap "" INT; exec "$0" "$@"', sys.executable, "-m", "tools.soak",
+         "--hours", "1", "--interval", "3", "--kinds", "stall", "--source", "replay",
+         "--folder", str(tmp_path / "run"), "--out", str(out)],
+        log, stalled, signal.SIGINT, deadline_s=90,
+    )  # fmt: skip
+    code, took, printed = ended.code, ended.took_s, ended.printed
     assert code == 130, printed[-3000:]
     assert took < 15, took  # not the hour, nor a stopped points' 10 s before its SIGKILL
     assert f"pid {points[0]} continued" in printed
-    assert _session(soak.pid) == []
+    assert _session(ended.pid) == []
     report = json.loads(out.read_text())
     assert tuple(report) == SECTIONS
     assert report["run"]["ended_early"] == "SIGINT" and report["run"]["hours"] < 0.05

@@ -11,14 +11,13 @@ seconds, its report marked, no namespace or process of its session left.
 from __future__ import annotations
 
 import json
-import os
 import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 from netns_hosts import require_root_and_tools
+from soak_interrupt import interrupt_soak
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -61,37 +60,23 @@ def test_sigterm_mid_cut_ends_the_soak_at_once_and_leaves_no_namespace(tmp_path:
     require_root_and_tools()
     before = _namespaces()
     out, log = tmp_path / "soak.json", tmp_path / "soak.out"
-    with open(log, "wb") as printed:
-        soak = subprocess.Popen(
-            [sys.executable, "-m", "tools.soak", "--link-cuts", "--kinds", "cut",
-             "--hours", "1", "--interval", "5", "--source", "replay",
-             "--folder", str(tmp_path / "run"), "--out", str(out)],
-            cwd=ROOT, stdout=printed, stderr=subprocess.STDOUT, start_new_session=True,
-        )  # fmt: skip
-    try:
-        deadline = time.monotonic() + 120
-        while "soak: the chain streams" not in log.read_text() and soak.poll() is None:
-            assert time.monotonic() < deadline, log.read_text()[-3000:]
-            time.sleep(0.1)
+
+    def cut(_leader: int) -> bool:  # the cut: the board's link down for 4 s
         (iprouter,) = [ns for ns in _namespaces() - before if ns.endswith("-iprouter")]
-        while _link_up(iprouter, "toboard"):  # the cut: the board's link down for 4 s
-            assert time.monotonic() < deadline and soak.poll() is None, log.read_text()[-3000:]
-            time.sleep(0.05)
-        signalled = time.monotonic()
-        soak.send_signal(signal.SIGTERM)
-        code = soak.wait(timeout=30)
-        took = time.monotonic() - signalled
-    finally:
-        if soak.poll() is None:
-            os.killpg(soak.pid, signal.SIGKILL)
-            soak.wait()
-    printed = log.read_text()
-    print(printed[-3000:])
+        return not _link_up(iprouter, "toboard")
+
+    ended = interrupt_soak(
+        [sys.executable, "-m", "tools.soak", "--link-cuts", "--kinds", "cut",
+         "--hours", "1", "--interval", "5", "--source", "replay",
+         "--folder", str(tmp_path / "run"), "--out", str(out)],
+        log, cut, signal.SIGTERM, deadline_s=120,
+    )  # fmt: skip
+    code, took, printed = ended.code, ended.took_s, ended.printed
     assert code == 143, printed[-3000:]
     assert took < 15, took
     assert "the fault under way undone: board link up" in printed
     assert _namespaces() - before == set(), "the soak left network namespaces behind"
-    stray = subprocess.run(["pgrep", "-s", str(soak.pid)], capture_output=True, text=True).stdout
+    stray = subprocess.run(["pgrep", "-s", str(ended.pid)], capture_output=True, text=True).stdout
     assert stray == "", stray
     report = json.loads(out.read_text())
     assert report["run"]["ended_early"] == "SIGTERM"
