@@ -12,8 +12,9 @@ reach* (against her change clipped into the profile's reach box, gain 1:
 * **oracle**: per frame, commands found by optimising through the *true* head (its actuators,
   render, our tracker and F, :class:`~facesynth.app.learn.inprocess.SimBabbler`) toward that
   target, with the same weights and the same objective as T's plan (damped Gauss-Newton on
-  finite differences, started from T's own command and from the previous frame's): the
-  ceiling this head and tracker allow;
+  finite differences, started from T's own command and from the previous frame's): about the
+  ceiling this head and tracker allow (a local search, not converged: 6 iterations instead of
+  2 raised it by 0.02-0.06 of rho, docs/learning.md);
 * **plan**: T's commands before its smoothing (inverse model + plan), the head settled at each
   (no dynamics): the inverse model and plan against the oracle;
 * **sent**: the pulses C sent (T's smoothing and C's motion limits), settled at each;
