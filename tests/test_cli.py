@@ -410,6 +410,11 @@ CASES = [
         "the vmc driver cannot show 15 of the 16 controls of profile paper16",
     ),
     (
+        "run frame encoding",
+        ["run", "--encoding", "png", "--listen", "tcp/127.0.0.1:0"],
+        "--encoding: Invalid enum value 'png'",
+    ),
+    (
         "bench chain encoding",
         ["bench", "chain", "--encoding", "jpeg,png"],
         "--encoding: unknown png",
