@@ -35,9 +35,9 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of the ``facesynth`` console script."""
-    parser = build_parser()
+def main(argv: Sequence[str] | None = None, parser: argparse.ArgumentParser | None = None) -> int:
+    """Run the command ``argv`` names (``parser``: one :func:`build_parser` made already)."""
+    parser = parser or build_parser()
     args = parse_arguments(parser, argv)
     logging.basicConfig(
         level=getattr(args, "log_level", "INFO"),
