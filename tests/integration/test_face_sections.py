@@ -22,6 +22,13 @@ model here; the ``fast`` model's runs track the JPEG a five-process chain's P ge
 on this video (look_up − frown: virtual brow_right 23 µs, head16 right_eyebrow 38 and
 middle_eyebrow 44, against 302, 313 and 191 on the JPEG; the left brow 420/399 against
 451/437; measured 2026-11-27), a fragility of that model's brows, not of the method.
+
+Each model's first profile is a whole ``facesynth run`` in a process of its own, recorded; the
+others step F, T and C (:class:`facesynth.app.engine.stepped.SteppedChain`, built from the same
+command line with their ``--profile``) over the points that run's tracker gave, instead of
+tracking the video again (the stepped chain commands what ``run`` sends:
+tests/app/engine/test_stepped.py). Measured 2026-11-27 at load 4-5: 133 s for the file with a
+run per profile.
 """
 
 from __future__ import annotations
@@ -32,9 +39,15 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from stepped_chains import graph_chain
 
+from facesynth.app.cli import build_parser
+from facesynth.app.commands.run import run_graph
 from facesynth.app.data import sample_video
+from facesynth.app.recording.reader import Recording
+from facesynth.app.usage import parse_arguments
 from facesynth.runtime.calibration import load_calibration
+from facesynth.schemas.messages import Points
 from facesynth.services.control.drivers.record import read_record
 
 VIDEO = str(sample_video())
@@ -81,11 +94,9 @@ def _calibrate(model: str, tmp: Path) -> Path:
     return path
 
 
-def _segment_means(
-    calibration: Path, model: str, profile: str, tmp: Path
-) -> dict[str, dict[str, float]]:
-    out = tmp / f"{profile}-{model}.jsonl"
-    result = _facesynth(
+def _run_argv(model: str, calibration: Path, profile: str, out: Path) -> list[str]:
+    """``facesynth run`` of the whole video with ``model``, the calibration and ``profile``."""
+    return [
         "run",
         "--model",
         model,
@@ -101,15 +112,45 @@ def _segment_means(
         "--listen",
         "tcp/127.0.0.1:0",
         *(["--encoding", "jpeg"] if model == "fast" else []),  # see the module doc
-    )
-    assert result.returncode == 0, result.stderr
-    lines = [line for line in read_record(out) if line.frame is not None]
-    assert len(lines) == 472 and all(line.face for line in lines)
+    ]
+
+
+def _means(positions: dict[int, dict[str, float]]) -> dict[str, dict[str, float]]:
+    """Each segment's mean position of every servo (``positions``: by frame number)."""
+    assert len(positions) == 472
     means = {}
     for name, (start, end) in SEGMENTS.items():
-        chosen = [line.servos for line in lines if start <= line.frame / FPS < end]  # type: ignore[operator]
+        chosen = [servos for frame, servos in positions.items() if start <= frame / FPS < end]
         means[name] = {servo: float(np.mean([s[servo] for s in chosen])) for servo in chosen[0]}
     return means
+
+
+def _run(model: str, calibration: Path, profile: str, tmp: Path) -> tuple[dict, list[Points]]:
+    """The segment means of ``facesynth run`` (a process of its own) and the points its
+    tracker gave, read back from the run's recording."""
+    out, session = tmp / f"{profile}-{model}.jsonl", tmp / f"{model}.mcap"
+    argv = [*_run_argv(model, calibration, profile, out), "--record", str(session)]
+    result = _facesynth(*argv)
+    assert result.returncode == 0, result.stderr
+    lines = [line for line in read_record(out) if line.frame is not None]
+    assert all(line.face for line in lines)
+    with Recording(session) as recording:
+        keys = [key for key in recording.bus_keys() if key.endswith("/points")]
+        points = [message for _, message, _ in recording.messages(keys)]
+    assert [p.seq for p in points] == [line.frame for line in lines]
+    return _means({line.frame: line.servos for line in lines}), points  # type: ignore[misc]
+
+
+def _stepped(
+    model: str, calibration: Path, profile: str, points: list[Points], tmp: Path
+) -> dict[str, dict[str, float]]:
+    """The segment means of the same ``run`` with ``profile``, its F, T and C stepped over the
+    points the run's tracker gave (the stepped chain commands what ``run`` sends:
+    tests/app/engine/test_stepped.py), built from the same command line."""
+    argv = _run_argv(model, calibration, profile, tmp / f"{profile}-{model}.jsonl")
+    graph, _, setup = run_graph(parse_arguments(build_parser(), argv))
+    chain = graph_chain(graph, setup)
+    return _means({p.seq: chain.step(p).positions("translator") for p in points})
 
 
 # (profile, servo, segment that must be higher, segment it is compared with, at least µs)
@@ -177,19 +218,26 @@ CASES = _cases()
 
 
 class Runs:
-    """Each model's calibration and each (model, profile) run, made on first use."""
+    """Each model's calibration, one ``run`` per model (its first profile) and each other
+    profile stepped over that run's points, made on first use."""
 
     def __init__(self, tmp: Path) -> None:
         self.tmp = tmp
         self.calibrations: dict[str, Path] = {}
+        self.points: dict[str, list[Points]] = {}
         self.means: dict[tuple[str, str], dict[str, dict[str, float]]] = {}
 
     def __call__(self, model: str, profile: str) -> dict[str, dict[str, float]]:
         if model not in self.calibrations:
-            self.calibrations[model] = _calibrate(model, self.tmp)
+            calibration = self.calibrations[model] = _calibrate(model, self.tmp)
+            first = PROFILES[model][0]
+            self.means[(model, first)], self.points[model] = _run(
+                model, calibration, first, self.tmp
+            )
         if (model, profile) not in self.means:
-            calibration = self.calibrations[model]
-            self.means[(model, profile)] = _segment_means(calibration, model, profile, self.tmp)
+            self.means[(model, profile)] = _stepped(
+                model, self.calibrations[model], profile, self.points[model], self.tmp
+            )
         return self.means[(model, profile)]
 
 

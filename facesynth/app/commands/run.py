@@ -35,14 +35,20 @@ from facesynth.services.control.drivers.record import RecordConfig, earlier_sess
 log = logging.getLogger("facesynth")
 
 
-def cmd_run(args: argparse.Namespace) -> int:
-    """``facesynth run [GRAPH]``: every node of a graph in one process."""
+def run_graph(args: argparse.Namespace) -> tuple[Graph, dict[str, Any], Setup]:
+    """The graph ``facesynth run`` runs for ``args``: its file (or the demo) with the command
+    line's options applied to each node, each node's plugin configs, and the settled setup."""
     graph = load_graph(args.graph, plugins=False)
     configs = {}
     for name, node in list(graph.nodes.items()):
         graph.nodes[name], configs[name] = apply_arguments(name, node, args)
         check_node(name, graph.nodes[name], args.graph or "command line")
-    setup = settle(graph, configs)
+    return graph, configs, settle(graph, configs)
+
+
+def cmd_run(args: argparse.Namespace) -> int:
+    """``facesynth run [GRAPH]``: every node of a graph in one process."""
+    graph, configs, setup = run_graph(args)
     rig = args.rig or graph.rig
     check_run_outputs(args, graph, configs)
     tune_process(graph.nodes.values())

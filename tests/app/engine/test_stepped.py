@@ -16,6 +16,7 @@ from pathlib import Path
 
 import msgspec
 import pytest
+from stepped_chains import graph_chain
 
 from facesynth.app.cli import main
 from facesynth.app.data import sample_openface_csv
@@ -32,10 +33,8 @@ from facesynth.app.nodes import (
     PointsNode,
     SensorNode,
     TranslatorNode,
-    stage_of,
 )
-from facesynth.app.profile_choice import settle
-from facesynth.app.wiring import OptionError, build_node, build_source, replay_frames_of
+from facesynth.app.wiring import OptionError, build_source, replay_frames_of
 from facesynth.runtime.profiles import load_profile
 from facesynth.schemas.messages import Features, Frame
 from facesynth.services.control.drivers.record import RecordConfig, read_record
@@ -95,28 +94,9 @@ def _frames(graph: Graph) -> list[Frame]:
         source.close()
 
 
-def _chain(graph: Graph) -> SteppedChain:
-    """The graph's points, features and translator nodes (one of each at most) built as
-    ``run`` builds them (:func:`facesynth.app.wiring.build_node`, from the graph's settled
-    setup), the translator with the graph's control node."""
-    setup = settle(graph, {})
-    built = {
-        stage_of(node): (name, build_node(name, node, graph, None, setup=setup).service)
-        for name, node in graph.nodes.items()
-        if stage_of(node) in ("points", "features", "translator")
-    }
-    robots = []
-    if "translator" in built:
-        ((name, control),) = graph.of_stage("control").items()
-        core = control_core(control, setup.configs.get(name), setup.fast, setup)
-        robots.append(RobotCores(*built["translator"], core))
-    services = {stage: service for stage, (_, service) in built.items()}
-    return SteppedChain(services.get("points"), services.get("features"), robots)
-
-
 def _stepped(graph_file: Path) -> tuple[SteppedChain, list[Frame]]:
     graph = load_graph(str(graph_file), plugins=False)
-    return _chain(graph), _frames(graph)
+    return graph_chain(graph), _frames(graph)
 
 
 class _Resumes(logging.Handler):
@@ -248,7 +228,7 @@ def test_the_video_through_the_tracker_matches_too(tmp_path: Path, encoding: str
     path.write_text(VIDEO_GRAPH.format(frames=frames, out=out, encoding=encoding))
     sent = _run(path, out)
     graph = load_graph(str(path), plugins=False)
-    chain = _chain(graph)
+    chain = graph_chain(graph)
     sensor = graph.nodes["sensor"]
     assert isinstance(sensor, SensorNode)
     source = build_source(plugin_config(sensor, "sensor"))  # type: ignore[arg-type]
@@ -291,7 +271,7 @@ def test_a_performers_calibration_is_wired_as_in_the_services(tmp_path: Path) ->
 
 
 def test_each_stage_may_be_left_out_from_the_front() -> None:
-    points_only = _chain(
+    points_only = graph_chain(
         Graph(
             nodes={
                 "points": PointsNode(
