@@ -116,6 +116,29 @@ async def test_a_bus_whose_router_lost_its_token_declares_everything_anew(
         await other.close()
 
 
+async def test_a_session_without_subscriptions_is_vouched_for_by_its_token_alone(
+    zenoh_router: str, key_prefix: str
+) -> None:
+    """The sensor publishes only: the router's entry for its token (listing this session, not
+    another holding the same key) is what says the router holds it."""
+    stage = ZenohBus.open(ZenohOptions(mode="client", connect=[zenoh_router]))
+    other = ZenohBus.open(ZenohOptions(mode="client", connect=[zenoh_router]))
+    health = f"{key_prefix}/health/s"
+    try:
+        token = stage.declare_token(health)
+        other.declare_token(health)
+        stage.publish(f"{key_prefix}/input", b"frame")
+        await asyncio.sleep(0.3)
+        assert await asyncio.to_thread(router_holds, stage.session, health) is True
+        token._token.undeclare()  # type: ignore[attr-defined]
+        await asyncio.sleep(0.2)
+        assert await asyncio.to_thread(router_holds, stage.session, health) is False
+        assert await asyncio.to_thread(router_holds, other.session, health) is True
+    finally:
+        await stage.close()
+        await other.close()
+
+
 async def test_a_router_answering_late_gives_no_verdict_not_a_lost_token(key_prefix: str) -> None:
     """The router's answer held back past the question's timeout (its process paused, as a
     busy stage on a loaded machine saw it): no verdict, where it used to read as lost."""

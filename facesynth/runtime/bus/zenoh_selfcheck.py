@@ -8,14 +8,14 @@ the next router kill), and no transport event told it. Cutting that link made th
 with everything and its stream came back at once.
 
 A Zenoh bus of a client session holding a liveliness token (every service does; the deploy/
-configs are clients) asks for it every :data:`CHECK_S`: a client's liveliness query answers
-twice for its own token, once from the session itself and once from the router (measured with
-eclipse-zenoh 1.10.2; a peer's, once, so peers are not checked); once means the router has
-lost it, unless the router's admin space still lists a subscription of the session (a second
-opinion). A question whose answers did not all come back within its timeout gives no
-verdict. In a two-hour soak of 2026-11-27 (load 13) the sensor, busy sending frames and with
-no subscription for the admin space to vouch for, read as lost 30 times in 40 minutes while its
-stream flowed, most likely the router's answer arriving after the timeout. Two noes in a row,
+configs are clients) asks the router's admin space every :data:`CHECK_S` whether the router
+lists the session as that token's holder (``@/*/router/token/KEY``), else as a subscriber (a
+second opinion); peers are not checked. A question whose answers did not all come back within
+its timeout gives no verdict. The question used to be a liveliness query for the token (two
+answers for a client's own token, the session's and the router's; one meaning lost): in soaks
+of 2026-11-27 the sensor (a publisher only, no subscription to vouch for it) read as lost about
+once a minute while its stream flowed and an independent client, asking the same router every
+second, saw its token throughout (14 false alarms in 28 minutes at load 5-6). Two noes in a row,
 or :data:`SILENT_LIMIT` questions in a row without a verdict (a router that no longer answers
 this session at all), and the bus declares every subscription, publisher and token anew
 (:meth:`facesynth.runtime.bus.zenoh_bus.ZenohBus.declare_anew`), at most once every
@@ -38,6 +38,8 @@ log = logging.getLogger("facesynth.link")
 CHECK_S: Final = 2.0
 #: How long one question waits for its answers (a timeout gives no verdict).
 QUERY_TIMEOUT_S: Final = 1.0
+#: A router's admin space entry listing the sessions holding a liveliness token (+ its key).
+ADMIN_TOKENS: Final = "@/*/router/token/"
 #: A router's admin space entries listing the sessions subscribed to each key expression.
 ADMIN_SUBSCRIBERS: Final = "@/*/router/subscriber/**"
 #: Declared anew at most this often, whatever the answers (a router that keeps saying no).
@@ -47,32 +49,21 @@ SILENT_LIMIT: Final = 5
 
 
 def router_holds(session: Any, key: str, timeout: float = QUERY_TIMEOUT_S) -> bool | None:
-    """Whether the router holds ``session``'s declarations: it answers for ``key``, a
-    liveliness token of the session, or else its admin space lists a subscription of the
-    session (a second opinion before declaring everything anew). ``None`` when a question
-    timed out (no verdict: an answer may still have been on its way). Blocks up to twice
-    ``timeout``."""
-    answers = 0
+    """Whether the router holds ``session``'s declarations: its admin space lists the session
+    as a holder of ``key``, a liveliness token of the session, or else as a subscriber (a
+    second opinion before declaring everything anew). ``None`` when a question timed out (no
+    verdict: an answer may still have been on its way). Blocks up to twice ``timeout``."""
+    zid = str(session.info.zid())
     try:
-        started = time.monotonic()
-        for reply in session.liveliness().get(key, timeout=timeout):
-            if reply.ok is None:
-                return None
-            if str(reply.ok.key_expr) == key:
-                answers += 1
-        if answers >= 2:
-            return True
-        if time.monotonic() - started >= timeout:
-            return None  # cut off by the timeout, not told "that is all" by the router
-        zid = str(session.info.zid())
-        started = time.monotonic()
-        for reply in session.get(ADMIN_SUBSCRIBERS, timeout=timeout):
-            if reply.ok is not None and zid in json.loads(reply.ok.payload.to_bytes()).get(
-                "clients", []
-            ):
-                return True
-        if time.monotonic() - started >= timeout:
-            return None
+        for question in (ADMIN_TOKENS + key, ADMIN_SUBSCRIBERS):
+            started = time.monotonic()
+            for reply in session.get(question, timeout=timeout):
+                if reply.ok is not None and zid in json.loads(reply.ok.payload.to_bytes()).get(
+                    "clients", []
+                ):
+                    return True
+            if time.monotonic() - started >= timeout:
+                return None  # cut off by the timeout, not told "that is all" by the router
     except Exception:  # the session is closing, or an admin answer is not JSON: no verdict
         return None
     return False
