@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 import pytest
 
@@ -37,6 +39,26 @@ def _track(tracker: FaceTracker, image: np.ndarray) -> np.ndarray:
     return result.mesh478[:, :2]
 
 
+@pytest.fixture(scope="module")
+def tracked(face: Face, tracker: FaceTracker) -> Callable[[str | None], np.ndarray]:
+    """The tracked landmarks of the still face (``None``) or of an expression by name, each
+    drawn and tracked once per module: ``_track`` resets the tracker first, so an image always
+    gives the same points. Read-only arrays: no test can change another's."""
+    found: dict[str | None, np.ndarray] = {}
+
+    def points(name: str | None) -> np.ndarray:
+        if name not in found:
+            if name is None:
+                image = face.image
+            else:
+                image = render(face, next(e for e in expressions(face) if e.name == name))
+            found[name] = _track(tracker, image).copy()
+            found[name].flags.writeable = False
+        return found[name]
+
+    return points
+
+
 def test_a_warp_moves_what_it_should_and_nothing_else() -> None:
     rng = np.random.default_rng(1)
     image = rng.integers(0, 255, (120, 160, 3), dtype=np.uint8)
@@ -65,10 +87,12 @@ def test_the_baseline_irises_are_centred(face: Face) -> None:
 
 
 @pytest.mark.parametrize("name", ["smile", "brow_raise", "frown", "jaw_open"])
-def test_the_tracker_sees_the_warped_motion(face: Face, tracker: FaceTracker, name: str) -> None:
+def test_the_tracker_sees_the_warped_motion(
+    face: Face, tracked: Callable[[str | None], np.ndarray], name: str
+) -> None:
     """The landmarks that an expression moves move the same way in the tracked image."""
     expression = next(e for e in expressions(face) if e.name == name)
-    before, after = _track(tracker, face.image), _track(tracker, render(face, expression))
+    before, after = tracked(None), tracked(name)
     wanted = face.to_image(expression.move[:468, 0], expression.move[:468, 1])
     moving = np.linalg.norm(wanted, axis=1) > 0.5 * np.linalg.norm(wanted, axis=1).max()
     seen = (after - before)[:468][moving]
@@ -81,20 +105,20 @@ def test_the_tracker_sees_the_warped_motion(face: Face, tracker: FaceTracker, na
     [("look_left", (1, 0)), ("look_right", (-1, 0)), ("look_up", (0, -1)), ("look_down", (0, 1))],
 )
 def test_the_redrawn_irises_are_where_the_tracker_finds_them(
-    face: Face, tracker: FaceTracker, name: str, direction: tuple[int, int]
+    tracked: Callable[[str | None], np.ndarray], name: str, direction: tuple[int, int]
 ) -> None:
     """(image directions: looking to the performer's left moves the irises to the image's
     right; up is toward smaller y)"""
-    expression = next(e for e in expressions(face) if e.name == name)
-    before, after = _track(tracker, face.image), _track(tracker, render(face, expression))
+    before, after = tracked(None), tracked(name)
     for centre in IRIS_CENTRES:
         shift = after[centre] - before[centre]
         assert float(np.dot(shift, direction)) > 1.0, (name, shift)
 
 
-def test_a_smile_moves_the_lip_corners_out_and_up(face: Face, tracker: FaceTracker) -> None:
-    expression = next(e for e in expressions(face) if e.name == "smile")
-    before, after = _track(tracker, face.image), _track(tracker, render(face, expression))
+def test_a_smile_moves_the_lip_corners_out_and_up(
+    tracked: Callable[[str | None], np.ndarray],
+) -> None:
+    before, after = tracked(None), tracked("smile")
     right, left = (after - before)[list(LIP_CORNERS)]
     assert right[0] < 0 < left[0]  # out: the right corner to the image's left
     assert right[1] < 0 and left[1] < 0  # up

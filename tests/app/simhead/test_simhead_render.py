@@ -33,10 +33,12 @@ def test_at_rest_it_is_the_photo(renderer: Renderer) -> None:
 def test_a_frame_takes_a_few_ms(renderer: Renderer) -> None:
     busy = {name: 0.7 if i % 2 else -0.7 for i, name in enumerate(EFFECTS)}
     renderer.render(busy)
-    start = time.perf_counter()
+    # CPU time, not wall time: a loaded machine (other jobs, nice 19) stretched the wall clock
+    # past 25 ms a frame (40 ms measured) with the renderer unchanged
+    start = time.process_time()
     for _ in range(20):
         renderer.render(busy)
-    per_frame = (time.perf_counter() - start) / 20
+    per_frame = (time.process_time() - start) / 20
     assert per_frame < 0.025  # goal 20 ms; measured ~2-3 ms on one core
 
 

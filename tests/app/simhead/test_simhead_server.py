@@ -145,7 +145,12 @@ async def test_the_simhead_command_end_to_end(tmp_path: Path) -> None:
         try:
             neutral = {s.name: s.neutral_us for s in profile.servos}
             await driver.send({**neutral, "jaw": 2000.0}, INFO)
-            await asyncio.sleep(1.0)
+            deadline = time.monotonic() + 10
+            while time.monotonic() < deadline:  # until the camera shows the jaw dropped
+                now = await asyncio.to_thread(_jpeg, url.group(2))
+                if _lower_face_change(now, rest) > 5:
+                    break
+                await asyncio.sleep(0.05)
         finally:
             await driver.close()
         frames = await asyncio.to_thread(_mjpeg_frames, url.group(1), 2)
