@@ -3,7 +3,8 @@
 Every test runs in a network namespace with only loopback (``make test-ros2`` starts pytest
 under ``unshare -n``), and checks it: DDS discovery multicasts on every interface otherwise.
 Each test also gets ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`` and a ``ROS_DOMAIN_ID`` of its
-own, which the processes it starts inherit. They fail, never skip, when any of this is missing.
+own (or of its module's own, where the module's tests share one peer process), which the
+processes it starts inherit. They fail, never skip, when any of this is missing.
 """
 
 from __future__ import annotations
@@ -58,21 +59,40 @@ def loopback_only_problem(seen: dict[str, bool]) -> str | None:
     return None
 
 
-@pytest.fixture(autouse=True)
-def ros2_host(monkeypatch: pytest.MonkeyPatch) -> int:
-    """Check the namespace and the extra; set the discovery range and a domain of the test's
-    own; the domain id."""
+def enter_ros2_host(monkeypatch: pytest.MonkeyPatch, domain: int) -> int:
+    """Check the namespace and the extra; set the discovery range and ``domain``; the domain."""
     problem = loopback_only_problem(interfaces())
     if problem:
         pytest.fail(problem)
     if importlib.util.find_spec("rclpy") is None:
         pytest.fail("the ROS 2 tests need the [ros2] extra: pip install -e '.[ros2]'")
-    domain = next(_DOMAINS)
     monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
     monkeypatch.setenv("ROS_DOMAIN_ID", str(domain))
     monkeypatch.delenv("ROS_STATIC_PEERS", raising=False)
     assert os.environ["ROS_DOMAIN_ID"] == str(domain)
     return domain
+
+
+@pytest.fixture
+def ros2_domain() -> int:
+    """The test's ``ROS_DOMAIN_ID``: one of its own."""
+    return next(_DOMAINS)
+
+
+@pytest.fixture(scope="module")
+def ros2_module_host() -> Iterator[int]:
+    """:func:`ros2_host` for a whole module, with one domain for all its tests: for a module
+    whose tests share a ROS 2 peer started once (a module-scoped fixture taking this one, and
+    ``ros2_domain`` overridden to return it). Its tests keep apart by topics of their own."""
+    with pytest.MonkeyPatch.context() as monkeypatch:
+        yield enter_ros2_host(monkeypatch, next(_DOMAINS))
+
+
+@pytest.fixture(autouse=True)
+def ros2_host(monkeypatch: pytest.MonkeyPatch, ros2_domain: int) -> int:
+    """Check the namespace and the extra; set the discovery range and the test's domain
+    (:func:`ros2_domain`); the domain id."""
+    return enter_ros2_host(monkeypatch, ros2_domain)
 
 
 @pytest.fixture

@@ -113,24 +113,29 @@ def _publisher(
 
     from facesynth.app.data import sample_video
 
-    capture = cv2.VideoCapture(str(sample_video()))
-    frames = []
-    while len(frames) < 600:
-        ok, frame = capture.read()
-        if not ok:
-            break
-        frames.append(frame)
-    capture.release()
     rclpy.init()
     node = rclpy.create_node("test_camera")
     publisher = node.create_publisher(
         CompressedImage if kind == "compressed" else Image, topic, qos_profile_sensor_data
     )
-    encoded = [bytes(cv2.imencode(".jpg", f)[1]) for f in frames] if kind == "compressed" else []
+    # The video is decoded (and encoded) as its frames are first sent, then looped from memory:
+    # decoding it all before the first frame made the camera's start 2-4x longer (1.7-3.9 s).
+    capture: Any = cv2.VideoCapture(str(sample_video()))
+    frames: list[Any] = []
+    encoded: list[bytes] = []
     ready.set()
     start = time.monotonic()
     index = 0
     while not stop.is_set():
+        if capture is not None:
+            ok, frame = capture.read()
+            if ok:
+                frames.append(frame)
+                if kind == "compressed":
+                    encoded.append(bytes(cv2.imencode(".jpg", frame)[1]))
+            else:
+                capture.release()
+                capture = None
         due = start + index / fps
         time.sleep(max(0.0, due - time.monotonic()))
         msg: Any
@@ -191,11 +196,16 @@ def _relay(url: str, topic: str, ready: Any, stop: Any) -> None:
 class Peer:
     """One rclpy node in a spawned process."""
 
-    def __init__(self, target: Callable[..., None], *args: Any) -> None:
+    def __init__(self, target: Callable[..., None], *args: Any, wait: bool = True) -> None:
         self.ready = SPAWN.Event()
         self.stop_event = SPAWN.Event()
         self.process = SPAWN.Process(target=target, args=(*args, self.ready, self.stop_event))
         self.process.start()
+        if wait:
+            self.wait_ready()
+
+    def wait_ready(self) -> None:
+        """Wait for its node to be up (the process killed and AssertionError after 60 s)."""
         if not self.ready.wait(60):
             self.kill()
             raise AssertionError("the ROS 2 peer did not start within 60 s")
@@ -227,12 +237,15 @@ def camera(
     *,
     stamped: bool = True,
     behind_s: float = 0.0,
+    wait: bool = True,
 ) -> Peer:
     """A publisher of the performer video's frames (looped) as ``compressed`` (JPEG) or
     ``raw`` (``encoding``) images, stamped when sent (marked with :data:`STAMP_MARK`; zero
     without ``stamped``) by a clock ``behind_s`` behind this host's (a camera driver on another
-    machine), best effort as cameras do."""
-    return Peer(_publisher, topic, kind, encoding, fps, stamped, round(behind_s * 1e9))
+    machine), best effort as cameras do. Without ``wait`` it is still starting when returned
+    (:meth:`Peer.wait_ready`)."""
+    behind_ns = round(behind_s * 1e9)
+    return Peer(_publisher, topic, kind, encoding, fps, stamped, behind_ns, wait=wait)
 
 
 def relay(url: str, topic: str) -> Peer:

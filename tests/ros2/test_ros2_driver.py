@@ -18,6 +18,7 @@ import re
 import signal
 import subprocess
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 from facesynth_processes import Processes
@@ -155,6 +156,19 @@ def on(topic: str, received: list[Received]) -> list[Received]:
     return [r for r in received if r.topic == topic]
 
 
+def last(messages: list[Received]) -> list[float]:
+    """The positions of the last of ``messages`` (none: an empty list)."""
+    return messages[-1].positions if messages else []
+
+
+def settle(out: Path, done: Callable[[list[Received]], bool], timeout: float = 5.0) -> None:
+    """Wait until what the subscriber took (its file ``out``) is ``done``, at most ``timeout``
+    s: the messages still on their way when facesynth ended (the assertions say what is not)."""
+    deadline = time.monotonic() + timeout
+    while not done(read_received(out)) and time.monotonic() < deadline:
+        time.sleep(0.02)
+
+
 def test_every_command_of_a_performer_run_arrives_in_each_form(
     tmp_path: Path, procs: Processes, zenoh_router: str
 ) -> None:
@@ -168,7 +182,8 @@ def test_every_command_of_a_performer_run_arrives_in_each_form(
         assert chain.wait(180) == 0, procs.log("performer")[-3000:]
         robot_proc.send_signal(signal.SIGTERM)
         assert robot_proc.wait(30) == 0, procs.log("robot")[-3000:]
-        time.sleep(0.3)
+        count = len(read_record(tmp_path / "commands.jsonl"))
+        settle(out, lambda got: all(len(on(topic, got)) >= count for topic in TOPICS))
     finally:
         peer.stop()
     record = read_record(tmp_path / "commands.jsonl")
@@ -232,6 +247,7 @@ def test_a_terminated_facesynth_leaves_neutral_last(
 ) -> None:
     profile_path, profile = unlimited_profile(tmp_path)
     performer, robot = graphs(tmp_path, profile_path, video_loop=True)
+    neutral = [spec.angle.radians(spec.neutral_us) for spec in profile.servos]
     out = tmp_path / "received.jsonl"
     peer = subscriber(TOPICS, out)
     try:
@@ -244,10 +260,9 @@ def test_a_terminated_facesynth_leaves_neutral_last(
         moved = [r for r in read_received(out) if r.topic == "/facesynth/joint_commands"]
         robot_proc.send_signal(signal.SIGTERM)
         assert robot_proc.wait(30) == 0, procs.log("robot")[-3000:]
-        time.sleep(0.3)
+        settle(out, lambda got: all(close(last(on(t, got)), neutral) for t in TOPICS))
     finally:
         peer.stop()
-    neutral = [spec.angle.radians(spec.neutral_us) for spec in profile.servos]
     assert any(not close(m.positions, neutral) for m in moved), "the face never moved"
     received = read_received(out)
     for topic in TOPICS:

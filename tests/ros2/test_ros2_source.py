@@ -17,7 +17,7 @@ from pathlib import Path
 
 import pytest
 from facesynth_processes import Processes
-from ros2_peers import STAMP_MARK, camera
+from ros2_peers import STAMP_MARK, Peer, camera
 
 from facesynth.services.control.drivers.record import read_record
 
@@ -50,13 +50,23 @@ driver = {{ driver = "record", out = "{folder}/commands.jsonl" }}
     return path
 
 
-def run_chain(*args: str) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(
+def run_chain(peer: Peer, *args: str) -> subprocess.CompletedProcess[str]:
+    """``facesynth run`` to its end, started while the camera ``peer`` starts (the source waits
+    for images: the two start-ups overlap)."""
+    chain = subprocess.Popen(
         [sys.executable, "-m", "facesynth", "run", *args, "--listen", "tcp/127.0.0.1:0"],
-        capture_output=True,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
         text=True,
-        timeout=300,
     )
+    try:
+        peer.wait_ready()
+        stdout, stderr = chain.communicate(timeout=300)
+    finally:
+        if chain.poll() is None:
+            chain.kill()
+            chain.communicate()
+    return subprocess.CompletedProcess(chain.args, chain.returncode, stdout, stderr)
 
 
 @pytest.mark.parametrize(
@@ -72,9 +82,9 @@ def run_chain(*args: str) -> subprocess.CompletedProcess[str]:
 def test_the_chain_tracks_her_from_ros2_images(
     tmp_path: Path, topic: str, kind: str, encoding: str
 ) -> None:
-    peer = camera(topic, kind, encoding)
+    peer = camera(topic, kind, encoding, wait=False)
     try:
-        done = run_chain(str(graph(tmp_path, topic)), "--max-frames", str(FRAMES + PROBATION))
+        done = run_chain(peer, str(graph(tmp_path, topic)), "--max-frames", str(FRAMES + PROBATION))
     finally:
         peer.stop()
     assert done.returncode == 0, done.stderr[-3000:]
@@ -93,9 +103,9 @@ def test_a_camera_whose_clock_runs_3_s_behind_still_moves_the_face(tmp_path: Pat
     # 10 commands) instead of taking each frame for 3 s old by their own clock: the face
     # moves. (Named as this host's, every frame was dropped as old and the face stayed still.)
     topic = "/camera/image_raw/compressed"
-    peer = camera(topic, "compressed", behind_s=3.0)
+    peer = camera(topic, "compressed", behind_s=3.0, wait=False)
     try:
-        done = run_chain(str(graph(tmp_path, topic)), "--max-frames", str(FRAMES + PROBATION))
+        done = run_chain(peer, str(graph(tmp_path, topic)), "--max-frames", str(FRAMES + PROBATION))
     finally:
         peer.stop()
     assert done.returncode == 0, done.stderr[-3000:]
@@ -110,10 +120,10 @@ def test_a_camera_whose_clock_runs_3_s_behind_still_moves_the_face(tmp_path: Pat
 
 def test_images_without_a_stamp_are_stamped_when_taken(tmp_path: Path) -> None:
     topic = "/camera/image_raw/compressed"
-    peer = camera(topic, "compressed", stamped=False)
+    peer = camera(topic, "compressed", stamped=False, wait=False)
     started = time.time_ns()
     try:
-        done = run_chain(str(graph(tmp_path, topic)), "--max-frames", "30")
+        done = run_chain(peer, str(graph(tmp_path, topic)), "--max-frames", "30")
     finally:
         peer.stop()
     assert done.returncode == 0, done.stderr[-3000:]
@@ -125,11 +135,12 @@ def test_images_without_a_stamp_are_stamped_when_taken(tmp_path: Path) -> None:
 
 def test_a_killed_camera_never_stalls_the_chain(tmp_path: Path, procs: Processes) -> None:
     topic = "/camera/image_raw/compressed"
-    peer = camera(topic, "compressed")
+    peer = camera(topic, "compressed", wait=False)
     try:
         chain = procs.start(
             "run", str(graph(tmp_path, topic)), "--listen", "tcp/127.0.0.1:0", name="chain"
         )
+        peer.wait_ready()
         record = tmp_path / "commands.jsonl"
         deadline = time.monotonic() + 60
         while not record.exists() or sum(line.face for line in read_record(record)) < 30:
@@ -152,9 +163,9 @@ def test_a_killed_camera_never_stalls_the_chain(tmp_path: Path, procs: Processes
 
 def test_an_encoding_it_does_not_take_is_one_line(tmp_path: Path) -> None:
     topic = "/camera/image_raw"
-    peer = camera(topic, "raw", "yuv422_yuy2")
+    peer = camera(topic, "raw", "yuv422_yuy2", wait=False)
     try:
-        done = run_chain(str(graph(tmp_path, topic)), "--max-frames", "5")
+        done = run_chain(peer, str(graph(tmp_path, topic)), "--max-frames", "5")
     finally:
         peer.stop()
     assert done.returncode == 2, done.stderr[-3000:]
