@@ -19,7 +19,9 @@ from facesynth.runtime.profiles import Profile, load_profile
 from facesynth.runtime.profiles.learned import shown_inputs
 from facesynth.services.translator.core import Translator
 
-POSES = 240
+#: Poses babbled a head. The margins over each bound below: 440-530 µs on the lids and 50-90 µs
+#: on the neck, where 240 poses gave 395-490 µs and 48-98 µs.
+POSES = 160
 ZERO = np.zeros(68)
 
 

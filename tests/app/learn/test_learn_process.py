@@ -11,21 +11,26 @@ import time
 from pathlib import Path
 
 import pytest
-from facesynth_processes import Processes, free_port, run_facesynth
+from facesynth_processes import Processes, run_facesynth
 
 from facesynth.app.learn.session import read_session
 from facesynth.runtime.profiles import load_profile
 
 pytestmark = pytest.mark.slow
 
+#: The first run's budget: the neutral pose and the first servo's sweeps (and one more).
+FIRST = 8
 
-def _start_head(processes: Processes, tmp_path: Path) -> tuple[str, str]:
-    link = str(tmp_path / "simhead-tty")
-    processes("simhead", "--serial-link", link, "--http", f"127.0.0.1:{free_port()}", name="head")
-    line = processes.wait_for_line("head", "camera:", timeout=60)
-    url = re.search(r"camera: (\S+)", line)
-    assert url is not None, line
-    return link, url.group(1)
+
+def _wait_for_poses(processes: Processes, name: str, more_than: int, timeout: float) -> None:
+    """Until a progress line of ``name`` counts more than ``more_than`` poses taken."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        counts = re.findall(r"babbling \[[#.]*\] (\d+)/", processes.log(name))
+        if counts and int(counts[-1]) > more_than:
+            return
+        time.sleep(0.05)
+    raise AssertionError(f"{name} took no more than {more_than} poses:\n{processes.log(name)}")
 
 
 def _positions(link: str) -> dict[str, float]:
@@ -39,41 +44,42 @@ def _positions(link: str) -> dict[str, float]:
 
 
 def test_learn_babbles_the_simulated_head_resumes_and_stops_at_neutral(
-    processes: Processes, tmp_path: Path
+    simhead: tuple[str, str], processes: Processes, tmp_path: Path
 ) -> None:
-    link, camera = _start_head(processes, tmp_path)
+    link, camera = simhead
     session = tmp_path / "s.mcap"
     learn = ["learn", "--profile", "paper16", "--driver", "maestro", "--port", link]
     learn += ["--camera", camera, "--out", str(session), "--no-fit", "--log-level", "WARNING"]
-    first = run_facesynth(*learn, "--poses", "16", timeout=120)
+    first = run_facesynth(*learn, "--poses", str(FIRST), timeout=120)
     assert first.returncode == 0, first.stderr[-3000:]
     summary = json.loads(first.stdout.strip().splitlines()[-1])
-    assert summary["poses"] == summary["taken"] == 16, summary
+    assert summary["poses"] == summary["taken"] == FIRST, summary
     samples = read_session(session).samples
-    assert [s.seq for s in samples] == list(range(16))
+    assert [s.seq for s in samples] == list(range(FIRST))
     neutral = samples[0]
     assert neutral.kind == "neutral" and neutral.features
-    # the head moves when a servo sweeps: some feature leaves its neutral value
+    # the head moves when a servo sweeps: some face feature leaves its neutral value (the head
+    # pose's own jitter, 0.03-0.07 with every command neutral, is not a move of the face)
     moved = max(
         abs(s.features[name] - neutral.features[name])
         for s in samples
         if s.kind == "sweep"
         for name in s.features.keys() & neutral.features.keys()
+        if not name.startswith("head_")
     )
-    assert moved > 0.05
+    assert moved > 0.2, moved
     assert "babbling [" in first.stderr and "left" in first.stderr
 
     # a second run resumes the plan; Ctrl-C sends the head back to neutral and keeps the file
     processes(*learn, "--poses", "400", name="again")
-    processes.wait_for_line("again", "(babbling)", timeout=60)
-    time.sleep(4)
+    _wait_for_poses(processes, "again", FIRST + 1, timeout=60)  # two past the first run's
     proc = processes.procs[-1]
     proc.send_signal(signal.SIGINT)
     assert proc.wait(timeout=30) == 130
     log = processes.log("again")
     assert "Traceback" not in log
     samples = read_session(session).samples
-    assert len(samples) > 16
+    assert len(samples) > FIRST
     assert [s.seq for s in samples] == list(range(len(samples)))
     positions = _positions(link)
     expected = load_profile("paper16").neutral_positions()
@@ -83,9 +89,9 @@ def test_learn_babbles_the_simulated_head_resumes_and_stops_at_neutral(
 
 
 def test_learn_with_the_adaptive_plan_babbles_the_simulated_head_and_resumes_it(
-    processes: Processes, tmp_path: Path
+    simhead: tuple[str, str], tmp_path: Path
 ) -> None:
-    link, camera = _start_head(processes, tmp_path)
+    link, camera = simhead
     session = tmp_path / "s.mcap"
     learn = ["learn", "--profile", "paper16", "--driver", "maestro", "--port", link]
     learn += ["--camera", camera, "--out", str(session), "--no-fit", "--neutral-every", "5"]
