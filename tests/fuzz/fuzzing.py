@@ -10,13 +10,17 @@ test. ``FACESYNTH_FUZZ_CASES`` lowers the count while iterating on a target (nev
 
 from __future__ import annotations
 
+import atexit
 import collections
 import contextlib
 import os
+import shutil
 import sys
+import tempfile
 import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import TypeVar
 
 from hypothesis import HealthCheck, settings
@@ -124,3 +128,17 @@ def libjpeg_quiet() -> Iterator[None]:
         os.dup2(saved, 2)
         os.close(saved)
         os.close(devnull)
+
+
+#: Memory-backed scratch space when the machine has it (Linux's /dev/shm).
+SHM = Path("/dev/shm")
+
+
+def scratch_folder(prefix: str) -> Path:
+    """A new folder for the files targets read their cases from, in memory (``/dev/shm``) when
+    there is one: each case rewrites its file, and on a disk (ext4 flushes a truncated file's
+    data when it is closed) each rewrite took about 3 ms, more than the case itself."""
+    memory = SHM.is_dir() and os.access(SHM, os.W_OK)
+    folder = Path(tempfile.mkdtemp(prefix=prefix, dir=SHM if memory else None))
+    atexit.register(shutil.rmtree, folder, ignore_errors=True)
+    return folder

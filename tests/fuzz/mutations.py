@@ -85,6 +85,30 @@ def _copy(tree: Any) -> Any:
         return copy.deepcopy(tree)
 
 
+# The strategies drawn inside the composites below, built once: one built inside a draw is a
+# new object every time, built and validated by hypothesis again for every case.
+_ACTIONS = st.sampled_from(["replace", "replace", "replace", "delete", "grow", "add"])
+_GROWTH = st.sampled_from([0, 2, 3, 50])
+_NEW_KEYS = st.text(min_size=1, max_size=8)
+_DAMAGES = st.sampled_from(["truncate", "flip", "flip", "splice", "repeat"])
+_BITS = st.integers(0, 7)
+_SPLICES = st.binary(max_size=16)
+_REPEATS = st.integers(1, 4)
+_REPEATED = st.integers(1, 64)
+_DAMAGE_COUNT = st.integers(1, 3)
+
+
+def _index(draw: st.DrawFn, size: int) -> int:
+    """An index below ``size`` (``st.integers`` strategies are cached by their bounds; a
+    ``st.sampled_from`` of the paths would be a new strategy for every draw)."""
+    return draw(st.integers(0, size - 1))
+
+
+def _fresh(value: Any) -> Any:
+    """A copy of a drawn nasty value (never the shared constants themselves)."""
+    return _copy(value) if isinstance(value, list | dict) else value
+
+
 @st.composite
 def mutated(draw: st.DrawFn, valid: Any, max_changes: int = 3) -> Any:
     """A deep copy of ``valid`` with 1..``max_changes`` nodes changed."""
@@ -92,21 +116,21 @@ def mutated(draw: st.DrawFn, valid: Any, max_changes: int = 3) -> Any:
     for _ in range(draw(st.integers(1, max_changes))):
         paths = [p for p in _paths(tree) if p]
         if not paths:
-            return copy.deepcopy(draw(nasty))
-        path = draw(st.sampled_from(paths))
+            return _fresh(draw(nasty))
+        path = paths[_index(draw, len(paths))]
         parent = _parent(tree, path)
         key = path[-1]
-        action = draw(st.sampled_from(["replace", "replace", "replace", "delete", "grow", "add"]))
+        action = draw(_ACTIONS)
         if action == "replace":
-            parent[key] = copy.deepcopy(draw(nasty))  # never the shared constants themselves
+            parent[key] = _fresh(draw(nasty))
         elif action == "delete":
             del parent[key]
         elif action == "grow" and isinstance(parent[key], list | str):
-            parent[key] = copy.deepcopy(parent[key] * draw(st.sampled_from([0, 2, 3, 50])))
+            parent[key] = _fresh(parent[key] * draw(_GROWTH))
         elif isinstance(parent, dict):
-            parent[draw(st.text(min_size=1, max_size=8))] = copy.deepcopy(draw(nasty))
+            parent[draw(_NEW_KEYS)] = _fresh(draw(nasty))
         elif isinstance(parent, list):
-            parent.insert(key, copy.deepcopy(draw(nasty)))
+            parent.insert(key, _fresh(draw(nasty)))
     return tree
 
 
@@ -114,21 +138,21 @@ def mutated(draw: st.DrawFn, valid: Any, max_changes: int = 3) -> Any:
 def damaged(draw: st.DrawFn, valid: bytes) -> bytes:
     """``valid`` truncated, with bits flipped, with random bytes spliced in, or repeated."""
     data = bytearray(valid)
-    for _ in range(draw(st.integers(1, 3))):
-        kind = draw(st.sampled_from(["truncate", "flip", "flip", "splice", "repeat"]))
+    for _ in range(draw(_DAMAGE_COUNT)):
+        kind = draw(_DAMAGES)
         if not data:
-            data += draw(st.binary(max_size=16))
+            data += draw(_SPLICES)
             continue
         at = draw(st.integers(0, len(data) - 1))
         if kind == "truncate":
             del data[at:]
         elif kind == "flip":
-            data[at] ^= 1 << draw(st.integers(0, 7))
+            data[at] ^= 1 << draw(_BITS)
         elif kind == "splice":
             end = draw(st.integers(at, min(len(data), at + 16)))
-            data[at:end] = draw(st.binary(max_size=16))
+            data[at:end] = draw(_SPLICES)
         else:
-            data[at:at] = data[at : at + draw(st.integers(1, 64))] * draw(st.integers(1, 4))
+            data[at:at] = data[at : at + draw(_REPEATED)] * draw(_REPEATS)
     return bytes(data)
 
 

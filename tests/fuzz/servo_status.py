@@ -16,29 +16,38 @@ from sdk_ports import MemoryPort
 Split = Callable[[bytearray], list[tuple[int, bytes | None]]]
 
 
-@st.composite
 def status_streams(
-    draw: st.DrawFn,
     packet: Callable[[int, bytes], bytes],
     errors: Sequence[int],
     sizes: Sequence[int],
     noise: int,
-) -> bytes:
+) -> st.SearchStrategy[bytes]:
     """Up to five status packets of ids 1..6 (``packet(id, error byte + data)``), each good,
     damaged or replaced by noise of up to ``noise`` bytes."""
-    parts = []
-    for _ in range(draw(st.integers(0, 5))):
-        servo_id = draw(st.integers(1, 6))
-        error = draw(st.sampled_from(errors))
-        size = draw(st.sampled_from(sizes))
-        made = packet(servo_id, bytes((error,)) + draw(st.binary(min_size=size, max_size=size)))
-        kind = draw(st.sampled_from(["good", "good", "damaged", "noise"]))
-        if kind == "damaged":
-            made = draw(damaged(made))
-        elif kind == "noise":
-            made = draw(st.binary(max_size=noise))
-        parts.append(made)
-    return b"".join(parts)
+    # What a stream draws from, built once (not again inside every draw).
+    counts, ids = st.integers(0, 5), st.integers(1, 6)
+    error_bytes, data_sizes = st.sampled_from(errors), st.sampled_from(sizes)
+    data = {size: st.binary(min_size=size, max_size=size) for size in set(sizes)}
+    kinds = st.sampled_from(["good", "good", "damaged", "noise"])
+    noises = st.binary(max_size=noise)
+
+    @st.composite
+    def streams(draw: st.DrawFn) -> bytes:
+        parts = []
+        for _ in range(draw(counts)):
+            servo_id = draw(ids)
+            error = draw(error_bytes)
+            size = draw(data_sizes)
+            made = packet(servo_id, bytes((error,)) + draw(data[size]))
+            kind = draw(kinds)
+            if kind == "damaged":
+                made = draw(damaged(made))
+            elif kind == "noise":
+                made = draw(noises)
+            parts.append(made)
+        return b"".join(parts)
+
+    return streams()
 
 
 Found = set[tuple[int, int, bytes]]

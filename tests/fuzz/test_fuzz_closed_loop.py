@@ -75,6 +75,8 @@ state_files = st.one_of(
     st.binary(max_size=120),
 )
 
+FRAMES = frames()
+
 #: Capture times of the robot's faces relative to the performer frame's instant: this frame,
 #: a frame late, too old, from another clock far ahead or behind.
 LAGS = [0, 0, 33_333_333, 10**9, -(10**12), 10**15]
@@ -101,10 +103,12 @@ def test_loop_states_load_or_raise_loop_state_error() -> None:
     assert decode_loop_state(VALID, LEARNED).updates == 40
 
     @FUZZ
-    @given(state_files, frames(), frames())
-    def case(data: bytes, performer: list[Features], robot: list[Features]) -> None:
+    @given(state_files, st.data())
+    def case(data: bytes, more: st.DataObject) -> None:
         state = outcome(target, lambda: decode_loop_state(data, LEARNED), LoopStateError)
         if state is not None:
+            # the frames drawn only for a state that loaded (most are refused)
+            performer, robot = more.draw(FRAMES), more.draw(FRAMES)
             translator = Translator(PLANNING)
             translator.close_loop(WILD, state)
             drive(PLANNING, translator, performer, robot, [0])

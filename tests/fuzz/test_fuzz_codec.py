@@ -117,13 +117,17 @@ def test_jpeg_size_reads_a_header_or_raises_jpeg_header_error() -> None:
     check_tally(target, "valid", "refused")
 
 
+_FRAME_KINDS = st.sampled_from(["jpeg", "jpeg", "raw", "none"])
+_JPEG_DATA = st.one_of(damaged(JPEG), st.just(JPEG))
+
+
 @st.composite
 def frames(draw: st.DrawFn) -> Frame:
     """Frames that passed the codec's checks (so their header says their real size), with
     damaged JPEG data or raw pixels."""
-    kind = draw(st.sampled_from(["jpeg", "jpeg", "raw", "none"]))
+    kind = draw(_FRAME_KINDS)
     if kind == "jpeg":
-        data = draw(st.one_of(damaged(JPEG), st.just(JPEG)))
+        data = draw(_JPEG_DATA)
         try:
             width, height = jpeg_size(data)
         except JpegHeaderError:
@@ -196,18 +200,22 @@ def check_within_limits(profile: Profile, move: Move | None) -> None:
         assert spec.min_us <= value <= spec.max_us, (move.kind, name, value)
 
 
-@st.composite
-def command_streams(draw: st.DrawFn) -> list[tuple[bytes, int]]:
-    """1..3 payloads (mostly mutated commands for the profile), each with a gap in ms."""
-    seed = _msgpack(COMMANDS_SEED)
-    payloads = st.one_of(
-        mutated(COMMANDS_SEED, max_changes=2).map(_msgpack),
-        mutated(COMMANDS_SEED, max_changes=1).map(_msgpack),
-        damaged(seed),
-        st.binary(max_size=64),
-        st.just(seed),
-    )
-    return draw(st.lists(st.tuples(payloads, st.integers(0, 600)), min_size=1, max_size=3))
+COMMANDS_SEED_BYTES = _msgpack(COMMANDS_SEED)
+#: 1..3 payloads (mostly mutated commands for the profile), each with a gap in ms.
+command_streams = st.lists(
+    st.tuples(
+        st.one_of(
+            mutated(COMMANDS_SEED, max_changes=2).map(_msgpack),
+            mutated(COMMANDS_SEED, max_changes=1).map(_msgpack),
+            damaged(COMMANDS_SEED_BYTES),
+            st.binary(max_size=64),
+            st.just(COMMANDS_SEED_BYTES),
+        ),
+        st.integers(0, 600),
+    ),
+    min_size=1,
+    max_size=3,
+)
 
 
 def test_servo_commands_decode_and_never_move_a_servo_outside_its_limits() -> None:
@@ -215,7 +223,7 @@ def test_servo_commands_decode_and_never_move_a_servo_outside_its_limits() -> No
     core_target = "ControlCore.command"
 
     @FUZZ
-    @given(command_streams())
+    @given(command_streams)
     def case(stream: list[tuple[bytes, int]]) -> None:
         core = ControlCore(PROFILE)
         now = 10**9

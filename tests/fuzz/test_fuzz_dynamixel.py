@@ -73,8 +73,16 @@ def test_status_parser_returns_only_valid_status_packets() -> None:
 def test_read_back_blocks_decode_or_are_refused() -> None:
     target = "dynamixel decode_x / decode_p1"
 
+    # any bytes, or as many as an AX/MX or an X block holds (random bytes rarely are)
+    blocks = st.one_of(
+        st.binary(max_size=30),
+        st.sampled_from([m.P1_READ_SIZE, m.X_READ_SIZE]).flatmap(
+            lambda n: st.binary(min_size=n, max_size=n)
+        ),
+    )
+
     @FUZZ
-    @given(st.binary(max_size=30), st.integers(0, 255))
+    @given(blocks, st.integers(0, 255))
     def case(data: bytes, error: int) -> None:
         def decode() -> Any:
             p1 = m.decode_p1(data, error) if len(data) == m.P1_READ_SIZE else None

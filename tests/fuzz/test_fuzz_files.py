@@ -4,14 +4,13 @@ session markers) and MCAP recordings (``facesynth record``)."""
 from __future__ import annotations
 
 import math
-import tempfile
 from pathlib import Path
 from typing import Any
 
 import msgspec
 import numpy as np
 import pytest
-from fuzzing import FUZZ, check_tally, outcome
+from fuzzing import FUZZ, check_tally, outcome, scratch_folder
 from hypothesis import given
 from hypothesis import strategies as st
 from mutations import damaged, damaged_text, mutated, to_json
@@ -31,28 +30,37 @@ from facesynth.services.points.openface_csv import OpenFaceError, parse_openface
 pytestmark = [pytest.mark.fuzz, pytest.mark.timeout(600)]
 
 ROOT = Path(__file__).resolve().parents[2]
-FOLDER = Path(tempfile.mkdtemp(prefix="facesynth-fuzz-files-"))
+FOLDER = scratch_folder("facesynth-fuzz-files-")
 
 
 def _lines(trees: list[Any]) -> bytes:
     return b"".join(to_json(tree) + b"\n" for tree in trees)
 
 
-@st.composite
-def json_lines(draw: st.DrawFn, trees: list[Any]) -> bytes:
+def json_lines(trees: list[Any]) -> st.SearchStrategy[bytes]:
     """The lines of ``trees`` with some mutated, damaged as a whole, or random bytes."""
+    # What a file draws from, built once (not again inside every draw).
     whole = _lines(trees)
-    kind = draw(st.sampled_from(["mutate", "mutate", "damage", "random", "valid"]))
-    if kind == "damage":
-        return draw(damaged(whole))
-    if kind == "random":
-        return draw(st.binary(max_size=200))
-    if kind == "valid":
-        return whole
-    changed = list(trees)
-    for index in draw(st.sets(st.integers(0, len(trees) - 1), min_size=1, max_size=2)):
-        changed[index] = draw(mutated(trees[index], max_changes=2))
-    return _lines(changed)
+    kinds = st.sampled_from(["mutate", "mutate", "damage", "random", "valid"])
+    damages, randoms = damaged(whole), st.binary(max_size=200)
+    lines = st.sets(st.integers(0, len(trees) - 1), min_size=1, max_size=2)
+    changes = [mutated(tree, max_changes=2) for tree in trees]
+
+    @st.composite
+    def files(draw: st.DrawFn) -> bytes:
+        kind = draw(kinds)
+        if kind == "damage":
+            return draw(damages)
+        if kind == "random":
+            return draw(randoms)
+        if kind == "valid":
+            return whole
+        changed = list(trees)
+        for index in draw(lines):
+            changed[index] = draw(changes[index])
+        return _lines(changed)
+
+    return files()
 
 
 # --- track files -------------------------------------------------------------------------------
@@ -100,24 +108,35 @@ CSV_ROWS = [line.split(",") for line in CSV_LINES]
 CELLS = ["", " ", "nan", "inf", "-inf", "1e999", "-1", "0.5", "abc", '"', "1,2", "\x00", "2.5e3"]
 
 
+# What a CSV text draws from, built once (not again inside every draw).
+_CSV_KINDS = st.sampled_from(["cells", "cells", "damage", "random"])
+_CSV_DAMAGES = damaged_text("\n".join(CSV_LINES))
+_CSV_RANDOM = st.text(max_size=200)
+_CSV_EDITS = st.integers(1, 4)
+_CSV_ROWS = st.integers(0, len(CSV_ROWS) - 1)
+_CSV_ACTIONS = st.sampled_from(["set", "set", "drop", "add"])
+_CSV_CELLS = st.sampled_from(CELLS)
+_CSV_SET = st.one_of(_CSV_CELLS, st.text(max_size=5))
+
+
 @st.composite
 def openface_texts(draw: st.DrawFn) -> str:
-    kind = draw(st.sampled_from(["cells", "cells", "damage", "random"]))
+    kind = draw(_CSV_KINDS)
     if kind == "damage":
-        return draw(damaged_text("\n".join(CSV_LINES)))
+        return draw(_CSV_DAMAGES)
     if kind == "random":
-        return draw(st.text(max_size=200))
+        return draw(_CSV_RANDOM)
     rows = [list(row) for row in CSV_ROWS]
-    for _ in range(draw(st.integers(1, 4))):
-        row = draw(st.sampled_from(rows))
+    for _ in range(draw(_CSV_EDITS)):
+        row = rows[draw(_CSV_ROWS)]
         column = draw(st.integers(0, len(row) - 1))
-        action = draw(st.sampled_from(["set", "set", "drop", "add"]))
+        action = draw(_CSV_ACTIONS)
         if action == "set":
-            row[column] = draw(st.one_of(st.sampled_from(CELLS), st.text(max_size=5)))
+            row[column] = draw(_CSV_SET)
         elif action == "drop":
             del row[column]
         else:
-            row.insert(column, draw(st.sampled_from(CELLS)))
+            row.insert(column, draw(_CSV_CELLS))
     return "\n".join(",".join(row) for row in rows)
 
 

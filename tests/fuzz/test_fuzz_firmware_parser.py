@@ -83,6 +83,26 @@ def harness() -> Iterator[Harness]:
 
 u16 = st.integers(0, 0xFFFF)
 plausible_us = st.one_of(st.integers(0, 3000), u16)
+# Every strategy a case draws from, built once (not again inside every draw).
+_KINDS = st.sampled_from(["all", "some", "limits", "watchdog", "neutral", "query", "any"])
+_ALL = {count: st.lists(plausible_us, min_size=count, max_size=count) for count in range(1, 17)}
+_SOME = st.lists(st.tuples(st.integers(0, 20), plausible_us), min_size=1, max_size=6)
+_LIMITS = st.lists(
+    st.tuples(
+        st.integers(0, 20), plausible_us, plausible_us, plausible_us,
+        st.one_of(st.integers(0, 50), u16),
+    ),
+    min_size=1,
+    max_size=4,
+)  # fmt: skip
+_QUERIES = st.sampled_from([0x01, 0x02])
+_PAYLOADS = st.binary(max_size=proto.MAX_PAYLOAD)
+_CODES = st.integers(0, 0xFF)
+_CHANNELS = st.one_of(st.just(16), st.integers(1, 16), st.integers(0, 255))
+_OP_COUNTS = st.integers(1, 6)
+_OPS = st.sampled_from(["frame", "frame", "frame", "damaged", "noise", "tick"])
+_NOISE = st.binary(max_size=80)
+_TICKS = st.one_of(st.integers(0, 60), st.integers(0, 1200))
 
 
 @st.composite
@@ -90,51 +110,40 @@ def commands(draw: st.DrawFn, channels: int) -> bytes:
     """One frame: a well-formed command with hostile values, or any code and payload."""
     seq = draw(u16)
     count = max(1, min(channels, 16))
-    kind = draw(st.sampled_from(["all", "some", "limits", "watchdog", "neutral", "query", "any"]))
+    kind = draw(_KINDS)
     if kind == "all":
-        values = draw(st.lists(plausible_us, min_size=count, max_size=count))
+        values = draw(_ALL[count])
         return proto.encode_frame(seq, 0x10, struct.pack(f"<{count}H", *values))
     if kind == "some":
-        entries = draw(
-            st.lists(st.tuples(st.integers(0, 20), plausible_us), min_size=1, max_size=6)
-        )
+        entries = draw(_SOME)
         return proto.encode_frame(seq, 0x11, b"".join(struct.pack("<BH", *e) for e in entries))
     if kind == "limits":
-        entries = draw(
-            st.lists(
-                st.tuples(
-                    st.integers(0, 20), plausible_us, plausible_us, plausible_us,
-                    st.one_of(st.integers(0, 50), u16),
-                ),
-                min_size=1,
-                max_size=4,
-            )
-        )  # fmt: skip
+        entries = draw(_LIMITS)
         return proto.encode_frame(seq, 0x20, b"".join(struct.pack("<BHHHH", *e) for e in entries))
     if kind == "watchdog":
         return proto.encode_frame(seq, 0x21, struct.pack("<H", draw(u16)))
     if kind == "neutral":
         return proto.encode_frame(seq, 0x12)
     if kind == "query":
-        return proto.encode_frame(seq, draw(st.sampled_from([0x01, 0x02])))
-    payload = draw(st.binary(max_size=proto.MAX_PAYLOAD))
-    return proto.encode_frame(seq, draw(st.integers(0, 0xFF)), payload)
+        return proto.encode_frame(seq, draw(_QUERIES))
+    payload = draw(_PAYLOADS)
+    return proto.encode_frame(seq, draw(_CODES), payload)
 
 
 @st.composite
 def cases(draw: st.DrawFn) -> tuple[int, list[tuple[str, bytes | int]]]:
-    channels = draw(st.one_of(st.just(16), st.integers(1, 16), st.integers(0, 255)))
+    channels = draw(_CHANNELS)
     ops: list[tuple[str, bytes | int]] = []
-    for _ in range(draw(st.integers(1, 6))):
-        kind = draw(st.sampled_from(["frame", "frame", "frame", "damaged", "noise", "tick"]))
+    for _ in range(draw(_OP_COUNTS)):
+        kind = draw(_OPS)
         if kind == "frame":
             ops.append(("b", draw(commands(channels))))
         elif kind == "damaged":
-            ops.append(("b", draw(commands(channels).flatmap(damaged))))
+            ops.append(("b", draw(damaged(draw(commands(channels))))))
         elif kind == "noise":
-            ops.append(("b", draw(st.binary(max_size=80))))
+            ops.append(("b", draw(_NOISE)))
         else:
-            ops.append(("t", draw(st.one_of(st.integers(0, 60), st.integers(0, 1200)))))
+            ops.append(("t", draw(_TICKS)))
     return channels, ops
 
 

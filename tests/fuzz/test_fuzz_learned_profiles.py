@@ -16,14 +16,12 @@ learned path with the inputs it reads (``Features.raw``, scaled by ``Features.na
 from __future__ import annotations
 
 import math
-import tempfile
-from pathlib import Path
 from typing import Any
 
 import msgspec
 import numpy as np
 import pytest
-from fuzzing import FUZZ, check_tally, outcome, tally
+from fuzzing import FUZZ, check_tally, outcome, scratch_folder, tally
 from hypothesis import given
 from hypothesis import strategies as st
 from mutations import damaged, mutated
@@ -177,6 +175,9 @@ def _arrays(tree: Any, path: tuple[Any, ...] = ()) -> list[tuple[Any, ...]]:
     return []
 
 
+_PATTERNS = st.lists(st.sampled_from(EXTREME), min_size=1, max_size=4)
+
+
 @st.composite
 def extreme_arrays(draw: st.DrawFn, tree: Any) -> bytes:
     """A valid file with one or two arrays' values replaced by extreme finite ones (the
@@ -188,7 +189,7 @@ def extreme_arrays(draw: st.DrawFn, tree: Any) -> bytes:
         for step in path:
             node = node[step]
         size = math.prod(node["shape"])
-        pattern = draw(st.lists(st.sampled_from(EXTREME), min_size=1, max_size=4))
+        pattern = draw(_PATTERNS)
         values = np.resize(np.array(pattern), size)  # repeated: a few draws for any size
         if node["dtype"] == "<f4":
             values = np.clip(values, -3e38, 3e38)
@@ -268,7 +269,7 @@ def test_learned_profiles_load_or_raise_profile_error() -> None:
     target = "profiles.parse_learned_profile"
     for profile, data in zip(VALID, VALID_BYTES, strict=True):  # the seeds are valid files
         assert parse_learned_profile(data) == profile
-    folder = Path(tempfile.mkdtemp(prefix="fuzz-learned-"))
+    folder = scratch_folder("fuzz-learned-")
     file = folder / "robot.learned"
 
     @FUZZ

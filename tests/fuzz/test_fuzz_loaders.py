@@ -6,7 +6,6 @@ calibration a translator and F, a learned state F."""
 from __future__ import annotations
 
 import math
-import tempfile
 import tomllib
 from pathlib import Path
 from typing import Any
@@ -14,7 +13,7 @@ from typing import Any
 import msgspec
 import numpy as np
 import pytest
-from fuzzing import FUZZ, check_tally, outcome
+from fuzzing import FUZZ, check_tally, outcome, scratch_folder
 from hypothesis import given
 from hypothesis import strategies as st
 from mutations import damaged, damaged_text, mutated, to_json, to_toml
@@ -164,7 +163,7 @@ GRAPH_TREES = [tomllib.loads(text) for text in GRAPH_TEXTS]
 
 def test_graphs_load_or_raise_graph_error() -> None:
     target = "graph.load_graph"
-    folder = Path(tempfile.mkdtemp(prefix="fuzz-graph-"))
+    folder = scratch_folder("fuzz-graph-")
     file = folder / "graph.toml"
 
     @FUZZ

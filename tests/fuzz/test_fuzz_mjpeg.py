@@ -58,16 +58,23 @@ broken_pieces = st.sampled_from(
 )
 
 
+# What a stream draws from, built once (not again inside every draw).
+_KINDS = st.sampled_from(["valid", "broken", "damaged", "random"])
+_RANDOM = st.binary(max_size=600)
+_BROKEN = st.lists(st.one_of(good_parts.map(lambda p: framed(*p)), broken_pieces))
+_PARTS = st.lists(good_parts, max_size=4)
+
+
 @st.composite
 def streams(draw: st.DrawFn) -> tuple[bytes, list[bytes] | None]:
     """A stream, and the bodies it must give when it is well-formed (else None)."""
-    kind = draw(st.sampled_from(["valid", "broken", "damaged", "random"]))
+    kind = draw(_KINDS)
     if kind == "random":
-        return draw(st.binary(max_size=600)), None
+        return draw(_RANDOM), None
     if kind == "broken":
-        pieces = draw(st.lists(st.one_of(good_parts.map(lambda p: framed(*p)), broken_pieces)))
+        pieces = draw(_BROKEN)
         return b"".join(pieces), None
-    parts = draw(st.lists(good_parts, max_size=4))
+    parts = draw(_PARTS)
     # A part without a length ends at the next boundary line: the final one completes it.
     stream = b"".join(framed(body, length) for body, length in parts) + b"--frame\r\n"
     if kind == "valid":

@@ -30,47 +30,93 @@ pytestmark = [pytest.mark.fuzz, pytest.mark.timeout(900)]
 FIXTURE = Path(__file__).resolve().parents[1] / "fixtures" / "messages" / "points_face.msgpack"
 SEED: dict[str, Any] = msgspec.msgpack.decode(FIXTURE.read_bytes())
 SEED_BYTES = FIXTURE.read_bytes()
-SCHEMES = ["ibug68", "mesh468", "mesh478", "iris10", "other"]
+IBUG = "ibug68"
+SCHEMES = [IBUG, "mesh468", "mesh478", "iris10", "other"]
 #: Values per point of each scheme's full set (68, 468, 478 and 10 points).
 COUNTS = {"ibug68": 68, "mesh468": 468, "mesh478": 478, "iris10": N_IRIS, "other": 3}
 
 
+#: A set's shape: mostly one F can read (dims 2 or 3; every point, or one short), else one the
+#: codec or a reader refuses (dims 0, 1 or 4; empty; one point over).
+_FITTING_DIMS = st.sampled_from([2, 3])
+_FITTING_MISSING = st.sampled_from([0, 0, 0, 1])
+_ANY_DIMS = st.sampled_from([2, 2, 3, 3, 0, 1, 4])
+_ANY_COUNTS = {scheme: st.sampled_from([n, n - 1, n + 1, 0]) for scheme, n in COUNTS.items()}
+_SPREADS = st.sampled_from([0.0, 1e-9, 1.0, 50.0, 1e5])
+_ORIGINS = st.floats(-2000.0, 2000.0)
+_CHANGED = st.integers(0, 3)
+#: 0 one time in four.
+_ONE_IN_FOUR = st.integers(0, 3)
+_CHANGES = st.floats(-1e4, 1e4)
+#: Distinct schemes (a repeated one is added below, now and then).
+_SCHEME_LISTS = st.lists(st.sampled_from(SCHEMES), max_size=4, unique=True)
+#: 52 blendshape scores, now and then one short or long; values in 0..1 with up to two drawn
+#: from 0..1 or beyond it.
+_SCORE_COUNTS = st.sampled_from([52, 52, 52, 52, 51, 53])
+_SCORES = st.one_of(st.floats(0.0, 1.0), st.floats(-0.5, 1.5))
+_SCORES_CHANGED = st.integers(0, 2)
+
+
 @st.composite
-def point_sets(draw: st.DrawFn) -> dict[str, Any]:
-    """A set of a known scheme (or not), its dims (mostly 2 or 3), and a count of values that
-    fits them, is one point short or long, or is empty."""
-    scheme = draw(st.sampled_from(SCHEMES))
-    dims = draw(st.sampled_from([2, 2, 3, 3, 0, 1, 4]))
-    points = COUNTS[scheme] + draw(st.sampled_from([0, 0, 0, -1, 1, -COUNTS[scheme]]))
+def point_sets(draw: st.DrawFn, scheme: str) -> dict[str, Any]:
+    """A set of ``scheme``, its dims and a count of values that fits them (or one point short),
+    or, one time in four, a shape the codec or a reader refuses: dims 0, 1 or 4, one point
+    long, or empty."""
+    if draw(_ONE_IN_FOUR) == 0:
+        dims = draw(_ANY_DIMS)
+        points = draw(_ANY_COUNTS[scheme])
+    else:
+        dims = draw(_FITTING_DIMS)
+        points = COUNTS[scheme] - draw(_FITTING_MISSING)
     # Spread from a drawn origin (a full mesh drawn value by value is more than hypothesis
     # draws for one case), then a few values drawn as they come.
-    origin = draw(st.floats(-2000.0, 2000.0))
-    spread = draw(st.sampled_from([0.0, 1e-9, 1.0, 50.0, 1e5]))
+    origin = draw(_ORIGINS)
+    spread = draw(_SPREADS)
     coords = [origin + spread * ((k * 7919) % 101) / 101 for k in range(points * dims)]
-    for _ in range(draw(st.integers(0, 3)) if coords else 0):
-        coords[draw(st.integers(0, len(coords) - 1))] = draw(st.floats(-1e4, 1e4))
+    for _ in range(draw(_CHANGED) if coords else 0):
+        coords[draw(st.integers(0, len(coords) - 1))] = draw(_CHANGES)
     return {"scheme": scheme, "dims": dims, "coords": coords}
 
 
 @st.composite
-def points_payloads(draw: st.DrawFn) -> bytes:
-    """The golden points message with its sets and scores rebuilt, mutated, damaged, or random."""
+def scores(draw: st.DrawFn) -> list[float]:
+    """Blendshape scores: a drawn level's pattern, with a few values drawn as they come."""
+    level = draw(st.floats(0.0, 1.0))
+    values = [level * ((k * 37) % 101) / 100 for k in range(draw(_SCORE_COUNTS))]
+    for _ in range(draw(_SCORES_CHANGED)):
+        values[draw(st.integers(0, len(values) - 1))] = draw(_SCORES)
+    return values
+
+
+@st.composite
+def rebuilt(draw: st.DrawFn) -> bytes:
+    """The golden points message with its sets and scores rebuilt: distinct schemes (ibug68
+    among them more often than not), now and then a scheme twice; no score set or one."""
+    schemes = draw(_SCHEME_LISTS)
+    if IBUG not in schemes and draw(st.booleans()):
+        schemes.insert(0, IBUG)
+    sets = [draw(point_sets(scheme)) for scheme in schemes]
+    if sets and draw(_ONE_IN_FOUR) == 0:
+        sets.append(sets[-1])  # the codec refuses a scheme twice
     tree = dict(SEED)
-    tree["sets"] = draw(st.lists(point_sets(), max_size=4))
-    score = st.one_of(st.floats(0.0, 1.0), st.floats(-0.5, 1.5))
-    scores = st.lists(score, min_size=52, max_size=52) | st.lists(score, min_size=51, max_size=53)
+    tree["sets"] = sets
     tree["scores"] = [
         {"scheme": "blendshapes52", "values": values}
-        for values in draw(st.lists(scores, max_size=1))
+        for values in draw(st.lists(scores(), max_size=1))
     ]
-    return draw(
-        st.one_of(
-            st.just(msgspec.msgpack.encode(tree)),
-            mutated(SEED, max_changes=2).map(msgspec.msgpack.encode),
-            damaged(SEED_BYTES),
-            st.binary(max_size=64),
-        )
-    )
+    return msgspec.msgpack.encode(tree)
+
+
+#: The rebuilt message (half the cases: what reaches the readers), the golden one mutated or
+#: damaged, or random bytes.
+points_payloads = st.one_of(
+    rebuilt(),
+    rebuilt(),
+    rebuilt(),
+    mutated(SEED, max_changes=2).map(msgspec.msgpack.encode),
+    damaged(SEED_BYTES),
+    st.binary(max_size=64),
+)
 
 
 def _read(points: Points) -> None:
@@ -91,7 +137,7 @@ def test_points_give_finite_features_or_a_feature_error() -> None:
     target = "FeatureProcessor.process"
 
     @FUZZ
-    @given(points_payloads())
+    @given(points_payloads)
     def case(payload: bytes) -> None:
         points = outcome(decode_target, lambda: codec.decode(payload, Points), codec.MessageError)
         if points is None:

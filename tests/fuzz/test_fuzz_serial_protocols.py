@@ -6,6 +6,7 @@ drivers' readings of them). The firmware's own parser is fuzzed in test_fuzz_fir
 from __future__ import annotations
 
 import asyncio
+import itertools
 import struct
 
 import pytest
@@ -24,15 +25,23 @@ pytestmark = [pytest.mark.fuzz, pytest.mark.timeout(600)]
 REPLY_CODES = [m for m in proto.MESSAGES if m.direction == "reply"]
 
 
+# What a reply frame draws from, built once (not again inside every draw).
+_SEQS = st.integers(0, 0xFFFF)
+_REPLY_KINDS = st.sampled_from(["reply", "reply", "any", "damaged"])
+_CODES = st.integers(0, 0xFF)
+_PAYLOADS = st.binary(max_size=proto.MAX_PAYLOAD)
+_REPLY_MESSAGES = st.sampled_from(REPLY_CODES)
+
+
 @st.composite
 def reply_frames(draw: st.DrawFn) -> bytes:
     """A reply frame: well formed with any values, any code and payload, or damaged."""
-    seq = draw(st.integers(0, 0xFFFF))
-    kind = draw(st.sampled_from(["reply", "reply", "any", "damaged"]))
+    seq = draw(_SEQS)
+    kind = draw(_REPLY_KINDS)
     if kind == "any":
-        code = draw(st.integers(0, 0xFF))
-        return proto.encode_frame(seq, code, draw(st.binary(max_size=proto.MAX_PAYLOAD)))
-    message = draw(st.sampled_from(REPLY_CODES))
+        code = draw(_CODES)
+        return proto.encode_frame(seq, code, draw(_PAYLOADS))
+    message = draw(_REPLY_MESSAGES)
     frame = proto.encode_frame(
         seq, message.code, draw(st.binary(min_size=message.size, max_size=message.size))
     )
@@ -44,14 +53,18 @@ def test_arduino_replies_decode_or_are_counted_malformed() -> None:
     record = tally(target)
 
     @FUZZ
-    @given(st.lists(st.one_of(reply_frames(), st.binary(max_size=24)), max_size=8), st.data())
-    def case(parts: list[bytes], data: st.DataObject) -> None:
+    @given(
+        st.lists(st.one_of(reply_frames(), st.binary(max_size=24)), max_size=8),
+        st.lists(st.integers(1, 64), min_size=1, max_size=12),
+    )
+    def case(parts: list[bytes], sizes: list[int]) -> None:
         stream = b"".join(parts)
         decoder = replies.ReplyDecoder()
         got: list[replies.Reply] = []
         i = 0
-        while i < len(stream):  # as the serial port delivers it: in chunks
-            n = data.draw(st.integers(1, 64))
+        for n in itertools.cycle(sizes):  # as the serial port delivers it: in chunks
+            if i >= len(stream):
+                break
             got += decoder.feed(stream[i : i + n])
             i += n
             assert decoder.frames.pending <= proto.MAX_REPLY_PAYLOAD + proto.FRAME_OVERHEAD
@@ -72,13 +85,21 @@ def test_arduino_replies_decode_or_are_counted_malformed() -> None:
 def test_arduino_parse_reply_types_a_frame_or_raises_protocol_error() -> None:
     target = "arduino parse_reply"
 
-    @FUZZ
-    @given(
-        st.integers(0, 0xFFFF),
-        st.one_of(st.sampled_from([m.code for m in REPLY_CODES]), st.integers(0, 255)),
-        st.binary(max_size=60),
+    # a reply's code with a payload of its size (random sizes rarely are), or any of either
+    frames = st.one_of(
+        st.sampled_from(REPLY_CODES).flatmap(
+            lambda m: st.tuples(st.just(m.code), st.binary(min_size=m.size, max_size=m.size))
+        ),
+        st.tuples(
+            st.one_of(st.sampled_from([m.code for m in REPLY_CODES]), st.integers(0, 255)),
+            st.binary(max_size=60),
+        ),
     )
-    def case(seq: int, code: int, payload: bytes) -> None:
+
+    @FUZZ
+    @given(st.integers(0, 0xFFFF), frames)
+    def case(seq: int, frame: tuple[int, bytes]) -> None:
+        code, payload = frame
         outcome(
             target,
             lambda: replies.parse_reply(proto.Frame(seq, code, payload)),
@@ -94,20 +115,17 @@ def test_arduino_parse_reply_types_a_frame_or_raises_protocol_error() -> None:
 LOOP = asyncio.new_event_loop()
 
 
-@st.composite
-def conversations(draw: st.DrawFn) -> tuple[list[tuple[int | None, bytes | None]], list[bytes]]:
-    """Requests (a size, or a terminator) and the bytes the board sends back, in chunks."""
-    requests = draw(
-        st.lists(
-            st.one_of(
-                st.tuples(st.sampled_from([1, 2]), st.none()),
-                st.tuples(st.none(), st.just(b"\r")),
-            ),
-            max_size=5,
-        )
-    )
-    chunks = draw(st.lists(st.one_of(st.binary(max_size=6), st.binary(max_size=300)), max_size=6))
-    return requests, chunks
+#: Requests (a size, or a terminator) and the bytes the board sends back, in chunks.
+conversations = st.tuples(
+    st.lists(
+        st.one_of(
+            st.tuples(st.sampled_from([1, 2]), st.none()),
+            st.tuples(st.none(), st.just(b"\r")),
+        ),
+        max_size=5,
+    ),
+    st.lists(st.one_of(st.binary(max_size=6), st.binary(max_size=300)), max_size=6),
+)
 
 
 def test_maestro_and_ssc32_answers_are_matched_in_order_and_read() -> None:
@@ -143,7 +161,7 @@ def test_maestro_and_ssc32_answers_are_matched_in_order_and_read() -> None:
         record.count("answered" if answered else "unanswered")
 
     @FUZZ
-    @given(conversations())
+    @given(conversations)
     def case(conversation: tuple[list[tuple[int | None, bytes | None]], list[bytes]]) -> None:
         LOOP.run_until_complete(converse(*conversation))
 

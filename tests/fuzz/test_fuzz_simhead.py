@@ -23,13 +23,12 @@ from __future__ import annotations
 
 import copy
 import math
-import tempfile
 import tomllib
 from pathlib import Path
 from typing import Any
 
 import pytest
-from fuzzing import FUZZ, check_tally, outcome, tally
+from fuzzing import FUZZ, check_tally, outcome, scratch_folder, tally
 from hypothesis import given
 from hypothesis import strategies as st
 from mutations import damaged, damaged_text, mutated, to_toml
@@ -86,14 +85,22 @@ EDGES: dict[str, list[Any]] = {
 }
 
 
+# What an edge head draws from, built once (not again inside every draw).
+_HEADS = st.sampled_from(HEAD_TREES)
+_EDITS = st.integers(1, 3)
+_FIELDS = st.sampled_from(sorted(EDGES))
+_EDGE_VALUES = {field: st.sampled_from(values) for field, values in EDGES.items()}
+
+
 @st.composite
 def edge_heads(draw: st.DrawFn) -> str:
     """A bundled head with one to three actuator fields set to edge values."""
-    head = copy.deepcopy(draw(st.sampled_from(HEAD_TREES)))
-    for _ in range(draw(st.integers(1, 3))):
-        actuator = draw(st.sampled_from(head["actuators"]))
-        field = draw(st.sampled_from(sorted(EDGES)))
-        actuator[field] = draw(st.sampled_from(EDGES[field]))
+    head = copy.deepcopy(draw(_HEADS))
+    for _ in range(draw(_EDITS)):
+        actuators = head["actuators"]
+        actuator = actuators[draw(st.integers(0, len(actuators) - 1))]
+        field = draw(_FIELDS)
+        actuator[field] = draw(_EDGE_VALUES[field])
     return to_toml(head)
 
 
@@ -147,7 +154,7 @@ def exercise(config: HeadConfig, moves: list[Any]) -> None:
 
 def test_heads_load_or_raise_head_error() -> None:
     target = "simhead.parse_head + SimHead"
-    folder = Path(tempfile.mkdtemp(prefix="fuzz-head-"))
+    folder = scratch_folder("fuzz-head-")
     file = folder / "head.toml"
 
     @FUZZ
@@ -229,20 +236,30 @@ def maestro_command(
     return bytes((command,)) + data, fits
 
 
+# What a Maestro stream draws from, built once (not again inside every draw).
+_CHANNELS = st.sampled_from([6, 12, 18, 24])
+_DEVICES = st.sampled_from([12, 12, 0, 127, 5])
+_KINDS = st.sampled_from(["clean", "clean", "damaged", "mixed", "random"])
+_RANDOM = st.binary(max_size=64)
+_COMMANDS = st.lists(COMMAND, min_size=1, max_size=8)
+_NOISE = st.binary(min_size=1, max_size=8)
+_PIECE_SIZES = st.integers(1, 16)
+
+
 @st.composite
 def maestro_streams(draw: st.DrawFn) -> tuple[int, int, list[bytes], bool]:
     """A Maestro (channels, device number), the chunks written to it, and whether they are
     all well-formed commands for it."""
-    channels = draw(st.sampled_from([6, 12, 18, 24]))
-    device = draw(st.sampled_from([12, 12, 0, 127, 5]))
-    kind = draw(st.sampled_from(["clean", "clean", "damaged", "mixed", "random"]))
+    channels = draw(_CHANNELS)
+    device = draw(_DEVICES)
+    kind = draw(_KINDS)
     parts: list[bytes] = []
     clean = True
     if kind == "random":
-        parts.append(draw(st.binary(max_size=64)))
+        parts.append(draw(_RANDOM))
         clean = False
     else:
-        for code in draw(st.lists(COMMAND, min_size=1, max_size=8)):
+        for code in draw(_COMMANDS):
             command, fits = maestro_command(_fields(code), channels, device)
             clean &= fits
             parts.append(command)
@@ -251,10 +268,10 @@ def maestro_streams(draw: st.DrawFn) -> tuple[int, int, list[bytes], bool]:
             parts[at] = draw(damaged(parts[at]))
             clean = False
         elif kind == "mixed":
-            parts.insert(draw(st.integers(0, len(parts))), draw(st.binary(min_size=1, max_size=8)))
+            parts.insert(draw(st.integers(0, len(parts))), draw(_NOISE))
             clean = False
     stream = b"".join(parts)
-    size = draw(st.integers(1, 16))  # as the pseudo-terminal delivers it: in pieces
+    size = draw(_PIECE_SIZES)  # as the pseudo-terminal delivers it: in pieces
     return channels, device, [stream[at : at + size] for at in range(0, len(stream), size)], clean
 
 

@@ -53,8 +53,11 @@ def test_page_messages_parse_or_raise_client_message_error() -> None:
 
 
 def _text_of(*pieces: str) -> st.SearchStrategy[str]:
+    """Up to six pieces, exactly three (a value's usual shape: ``640`` ``x`` ``480``, an
+    address and a port, two schedule steps; rare among up to six), or any text."""
     return st.one_of(
         st.lists(st.sampled_from(pieces), max_size=6).map("".join),
+        st.lists(st.sampled_from(pieces), min_size=3, max_size=3).map("".join),
         st.text(max_size=30),
     )
 

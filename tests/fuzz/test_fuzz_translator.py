@@ -43,25 +43,31 @@ SEED["named"] = {
 SEED_BYTES = msgspec.msgpack.encode(SEED)
 
 
+_PROFILE_NAMES = st.sampled_from(sorted(PROFILES))
+_PAYLOAD_COUNTS = st.integers(1, 4)
+_KINDS = st.sampled_from(["mutated", "valid", "damaged", "random"])
+_DAMAGED = damaged(SEED_BYTES)
+_RANDOM = st.binary(max_size=32)
+
+
 @st.composite
 def feature_streams(draw: st.DrawFn) -> tuple[str, list[bytes]]:
     """A shipped profile's name and 1..4 feature payloads: the seed at 30 fps with its times
     and values mutated (times may jump, go back or stand still), damaged, or random."""
-    profile = draw(st.sampled_from(sorted(PROFILES)))
+    profile = draw(_PROFILE_NAMES)
     payloads = []
-    for index in range(draw(st.integers(1, 4))):
+    for index in range(draw(_PAYLOAD_COUNTS)):
         tree = dict(SEED, seq=index, t_media_ns=index * 33_333_333)
         tree["face"] = draw(st.booleans()) or index > 0
-        payloads.append(
-            draw(
-                st.one_of(
-                    mutated(tree, max_changes=2).map(msgspec.msgpack.encode),
-                    st.just(msgspec.msgpack.encode(tree)),
-                    damaged(SEED_BYTES),
-                    st.binary(max_size=32),
-                )
-            )
-        )
+        # one of four kinds, as st.one_of picks them, but only the one picked built
+        kind = draw(_KINDS)
+        if kind == "mutated":
+            payload = msgspec.msgpack.encode(draw(mutated(tree, max_changes=2)))
+        elif kind == "valid":
+            payload = msgspec.msgpack.encode(tree)
+        else:
+            payload = draw(_DAMAGED if kind == "damaged" else _RANDOM)
+        payloads.append(payload)
     return profile, payloads
 
 
