@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import asyncio
 import json
+import os
 import re
 import signal
 import subprocess
@@ -20,10 +21,13 @@ from facesynth.app.bench.robot import Performance, RobotError, track_performer
 from facesynth.app.bench.robot_live import CameraFeed, live_profile
 from facesynth.app.cli import main
 from facesynth.app.data import sample_video
+from facesynth.app.engine.robot_loop import tracker
 from facesynth.app.simhead import SimHead, load_head
 from facesynth.runtime.profiles import Profile, load_profile
+from facesynth.schemas.messages import Frame, Points
 from facesynth.services.control.core import CommandInfo
 from facesynth.services.control.drivers.base import ServoDriver
+from facesynth.services.points.backends.base import PointsBackend
 from facesynth.services.sensor.sources.base import FrameSource, SourceError, SourceInfo
 
 FRAMES = 36
@@ -143,6 +147,70 @@ def test_a_camera_that_stops_is_an_error(performance: Performance) -> None:
             )
     finally:
         camera.close()
+
+
+class AnsweringHead(HeadDriver):
+    """A head whose device answers every write at once on a pipe the event loop reads, as a
+    serial driver reads its board's answers; ``backlog``: the most answers a write found
+    unread (a run that keeps the loop from its I/O leaves them all unread, and a Maestro
+    driver then reads its board as lost and drops the commands)."""
+
+    async def connect(self) -> None:
+        await super().connect()
+        self.answers, self.device = os.pipe()
+        asyncio.get_running_loop().add_reader(self.answers, self.read)
+        self.unread = self.backlog = self.writes = 0
+
+    def read(self) -> None:
+        self.unread -= len(os.read(self.answers, 1024))
+
+    async def send(self, positions: Mapping[str, float], info: CommandInfo) -> None:
+        await super().send(positions, info)
+        self.writes += 1
+        self.backlog = max(self.backlog, self.unread)
+        self.unread += os.write(self.device, b"a")
+
+    async def close(self) -> None:
+        asyncio.get_running_loop().remove_reader(self.answers)
+        os.close(self.answers)
+        os.close(self.device)
+        await super().close()
+
+
+class SlowTracker(PointsBackend):
+    """The tracker on a machine too slow to track a frame in its period."""
+
+    def __init__(self, seconds: float) -> None:
+        self.backend = tracker()
+        self.seconds = seconds
+
+    def process(self, frame: Frame) -> Points:
+        time.sleep(self.seconds)
+        return self.backend.process(frame)
+
+
+def test_a_run_behind_its_frames_still_reads_the_drivers_answers(
+    performance: Performance,
+) -> None:
+    """Each look takes longer than a frame, so every frame is late: the loop still runs the
+    driver's I/O between writes (it never did: a loaded machine lost the Maestro)."""
+    rig = Rig()
+    profile = load_profile("head16")
+    camera = CameraFeed(HeadCamera(rig))
+    driver = AnsweringHead(rig, profile)
+    backend = SlowTracker(1.5 / performance.fps)
+    started = time.monotonic()
+    try:
+        robot = asyncio.run(
+            live_profile(
+                performance, profile, driver, camera, settle_s=0.0, timeout_s=30, backend=backend
+            )
+        )
+    finally:
+        camera.close()
+    assert time.monotonic() - started > 1.5 * FRAMES / performance.fps  # late at every frame
+    assert len(robot) == FRAMES and driver.writes > FRAMES
+    assert driver.backlog <= 1  # at most the last write's answer was still unread
 
 
 @pytest.mark.slow

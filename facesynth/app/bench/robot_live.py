@@ -147,8 +147,10 @@ class _Live:
         while True:
             due = min(self.control.due_ns(), t_ns)
             wait = due - self.clock()
-            if wait > 0:
-                await asyncio.sleep(wait / 1e9)
+            # Late (tracking took longer than a frame) still yields: the driver's writes and
+            # answers are the event loop's I/O, and a loop that never ran read a live Maestro
+            # as lost (no answer to Get Errors for 2 s) and dropped the run's commands.
+            await asyncio.sleep(max(wait, 0) / 1e9)
             if due >= t_ns:
                 return
             move = self.cores.tick(self.clock())
