@@ -7,6 +7,7 @@ after 10 s, to whatever is still running (the fixtures call it at the end of a t
 from __future__ import annotations
 
 import os
+import re
 import signal
 import socket
 import subprocess
@@ -50,6 +51,17 @@ class Processes:
                     return line
             time.sleep(0.05)
         raise AssertionError(f"{name} never printed {text!r}; it printed:\n{self.log(name)}")
+
+    def start_simhead(self, link: str | Path) -> str:
+        """``facesynth simhead`` (process ``head``) with its Maestro on the pty ``link``; its
+        camera URL once it serves one."""
+        self.start(
+            "simhead", "--serial-link", str(link), "--http", f"127.0.0.1:{free_port()}", name="head"
+        )
+        line = self.wait_for_line("head", "camera:", timeout=60)
+        url = re.search(r"camera: (\S+)", line)
+        assert url is not None, line
+        return url.group(1)
 
     def stop(self) -> None:
         """SIGTERM to every process still running, then SIGKILL after 10 s."""

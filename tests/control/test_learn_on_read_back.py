@@ -6,12 +6,11 @@ log says so, the summary counts them), and the session keeps those positions."""
 from __future__ import annotations
 
 import json
-import re
 from pathlib import Path
 from typing import Any
 
 import pytest
-from facesynth_processes import Processes, free_port, run_facesynth
+from facesynth_processes import Processes, run_facesynth
 from fake_devices.dynamixel import FakeDynamixelBus
 
 from facesynth.app.learn.session import read_session
@@ -25,16 +24,14 @@ def test_learn_settles_on_the_positions_a_dynamixel_bus_reads_back(
     processes: Processes, tmp_path: Path
 ) -> None:
     link = str(tmp_path / "simhead-tty")
-    processes("simhead", "--serial-link", link, "--http", f"127.0.0.1:{free_port()}", name="head")
-    found = re.search(r"camera: (\S+)", processes.wait_for_line("head", "camera:", timeout=60))
-    assert found is not None
+    camera = processes.start_simhead(link)
     bus = FakeDynamixelBus(tmp_path / "ttyDXL", list(range(1, 17)))
     bus.plug()
     session = tmp_path / "s.mcap"
     try:
         done = run_facesynth(
             "learn", "--profile", "paper16", "--driver", "dynamixel", "--port", str(bus.link),
-            "--baud", "1000000", "--camera", found.group(1), "--out", str(session),
+            "--baud", "1000000", "--camera", camera, "--out", str(session),
             "--poses", str(POSES), "--no-fit", "--log-level", "INFO", timeout=240,
         )  # fmt: skip
     finally:

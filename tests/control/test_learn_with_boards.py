@@ -8,12 +8,11 @@ limits, then go back to neutral."""
 from __future__ import annotations
 
 import json
-import re
 from pathlib import Path
 from typing import Any
 
 import pytest
-from facesynth_processes import Processes, free_port, run_facesynth
+from facesynth_processes import Processes, run_facesynth
 from uno_rig import near
 
 from facesynth.app.learn.session import read_session
@@ -26,10 +25,7 @@ POSES = 6
 
 def _camera(processes: Processes, tmp_path: Path) -> str:
     link = str(tmp_path / "simhead-tty")
-    processes("simhead", "--serial-link", link, "--http", f"127.0.0.1:{free_port()}", name="head")
-    url = re.search(r"camera: (\S+)", processes.wait_for_line("head", "camera:", timeout=60))
-    assert url is not None
-    return url.group(1)
+    return processes.start_simhead(link)
 
 
 def _learn(driver: str, port: Path, camera: str, session: Path) -> dict[str, Any]:

@@ -3,7 +3,6 @@ Uno, the simulated head's Maestro and camera, an SSC-32 on a pty), from tests/co
 
 from __future__ import annotations
 
-import re
 import sys
 from collections.abc import Iterator
 from pathlib import Path
@@ -14,7 +13,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "control"))
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "firmware"))
 
 from board_fixtures import ssc32
-from facesynth_processes import Processes, free_port
+from facesynth_processes import Processes
 from uno_rig import UnoRig, firmware_ready
 
 __all__ = ["firmware_ready", "ssc32"]
@@ -36,13 +35,7 @@ def simhead(tmp_path: Path) -> Iterator[tuple[Path, str]]:
     """``facesynth simhead`` as its own process: its Maestro's pty link and its camera URL."""
     processes = Processes(tmp_path)
     link = tmp_path / "simhead-tty"
-    processes(
-        "simhead", "--serial-link", str(link), "--http", f"127.0.0.1:{free_port()}", name="head"
-    )
     try:
-        line = processes.wait_for_line("head", "camera:", timeout=60)
-        url = re.search(r"camera: (\S+)", line)
-        assert url is not None, line
-        yield link, url.group(1)
+        yield link, processes.start_simhead(link)
     finally:
         processes.stop()

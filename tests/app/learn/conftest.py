@@ -4,11 +4,10 @@ learn`` as processes."""
 
 from __future__ import annotations
 
-import re
 from collections.abc import Iterator
 
 import pytest
-from facesynth_processes import Processes, free_port
+from facesynth_processes import Processes
 from threadpoolctl import threadpool_limits
 
 
@@ -31,16 +30,11 @@ def simhead(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[str, str
     renderer's face, the camera) is paid once a module."""
     folder = tmp_path_factory.mktemp("simhead")
     processes = Processes(folder)
-    with pytest.MonkeyPatch.context() as patch:
-        patch.setenv("FACESYNTH_STATE", str(folder / "facesynth-state"))
-        link = str(folder / "simhead-tty")
-        processes(
-            "simhead", "--serial-link", link, "--http", f"127.0.0.1:{free_port()}", name="head"
-        )
     try:
-        line = processes.wait_for_line("head", "camera:", timeout=60)
-        url = re.search(r"camera: (\S+)", line)
-        assert url is not None, line
-        yield link, url.group(1)
+        with pytest.MonkeyPatch.context() as patch:  # the head's own state, not the user's
+            patch.setenv("FACESYNTH_STATE", str(folder / "facesynth-state"))
+            link = str(folder / "simhead-tty")
+            camera = processes.start_simhead(link)
+        yield link, camera
     finally:
         processes.stop()

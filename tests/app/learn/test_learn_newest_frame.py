@@ -15,13 +15,12 @@ from __future__ import annotations
 
 import itertools
 import json
-import re
 import textwrap
 from pathlib import Path
 
 import numpy as np
 import pytest
-from facesynth_processes import Processes, free_port, run_facesynth
+from facesynth_processes import Processes, run_facesynth
 
 from facesynth.app.learn.inprocess import SimBabbler
 from facesynth.app.learn.session import read_session
@@ -80,14 +79,12 @@ def test_a_slow_tracker_still_records_each_poses_own_face(
     plugin.mkdir()
     _install_slow_runtime(plugin, monkeypatch)
     link = str(tmp_path / "simhead-tty")
-    processes("simhead", "--serial-link", link, "--http", f"127.0.0.1:{free_port()}", name="head")
-    found = re.search(r"camera: (\S+)", processes.wait_for_line("head", "camera:", timeout=60))
-    assert found is not None
+    camera = processes.start_simhead(link)
     session = tmp_path / "s.mcap"
     # a neutral pose between sweeps of one whole step each way: each sweep pose is far from
     # the poses before and after it
     learn = ["learn", "--profile", "paper16", "--driver", "maestro", "--port", link]
-    learn += ["--camera", found.group(1), "--inference", "litert-slow", "--out", str(session)]
+    learn += ["--camera", camera, "--inference", "litert-slow", "--out", str(session)]
     learn += ["--no-fit", "--poses", "12", "--sweep-steps", "1", "--neutral-every", "2"]
     done = run_facesynth(*learn, "--log-level", "WARNING", timeout=400)
     assert done.returncode == 0, done.stderr[-3000:]
