@@ -17,6 +17,7 @@ from facesynth.app.bench.fanout import (
     uses_blendshapes,
 )
 from facesynth.app.bench.fanout_report import format_fanout, goal_line, within_goal
+from facesynth.app.graph import Graph
 from facesynth.app.nodes import ControlNode, TranslatorNode
 from facesynth.runtime import keys
 from facesynth.schemas.messages import ServiceStats
@@ -138,9 +139,9 @@ def test_two_robots_of_different_profiles_share_one_performer(
     runs: list[RigRun] = []
     figures_of = fanout.fanout_figures
 
-    def keep(*args: object) -> FanoutFigures:
-        runs.append(args[3])  # type: ignore[arg-type]
-        return figures_of(*args)  # type: ignore[arg-type]
+    def keep(robots: int, layout: str, graph: Graph, result: RigRun, frames: int) -> FanoutFigures:
+        runs.append(result)
+        return figures_of(robots, layout, graph, result, frames)
 
     monkeypatch.setattr(fanout, "fanout_figures", keep)
     figures = bench_fanout_once(2, "shared", seconds=4.0, model="fast", encoding="raw")

@@ -133,7 +133,7 @@ def _run(model: str, calibration: Path, profile: str, tmp: Path) -> tuple[dict, 
     result = _facesynth(*argv)
     assert result.returncode == 0, result.stderr
     lines = [line for line in read_record(out) if line.frame is not None]
-    assert all(line.face for line in lines)
+    assert len(lines) == 472 and all(line.face for line in lines)
     with Recording(session) as recording:
         keys = [key for key in recording.bus_keys() if key.endswith("/points")]
         points = [message for _, message, _ in recording.messages(keys)]

@@ -13,8 +13,9 @@ reach* (against her change clipped into the profile's reach box, gain 1:
   render, our tracker and F, :class:`~facesynth.app.learn.inprocess.SimBabbler`) toward that
   target, with the same weights and the same objective as T's plan (damped Gauss-Newton on
   finite differences, started from T's own command and from the previous frame's): about the
-  ceiling this head and tracker allow (a local search, not converged: 6 iterations instead of
-  2 raised it by 0.02-0.06 of rho, docs/learning.md);
+  ceiling this head and tracker allow (a local search: 6 iterations instead of 2 raised it by
+  0.04 of rho on 180 frames, 12 no further; it stalls on the noise of the head's settled face,
+  docs/learning.md);
 * **plan**: T's commands before its smoothing (inverse model + plan), the head settled at each
   (no dynamics): the inverse model and plan against the oracle;
 * **sent**: the pulses C sent (T's smoothing and C's motion limits), settled at each;

@@ -15,7 +15,8 @@ its timeout gives no verdict. The question used to be a liveliness query for the
 answers for a client's own token, the session's and the router's; one meaning lost): in soaks
 of 2026-11-27 the sensor (a publisher only, no subscription to vouch for it) read as lost about
 once a minute while its stream flowed and an independent client, asking the same router every
-second, saw its token throughout (14 false alarms in 28 minutes at load 5-6). Two noes in a row,
+second, saw its token throughout (21 false alarms in 31 minutes at load 5-10; none in the 72
+minutes of soak after this change). Two noes in a row,
 or :data:`SILENT_LIMIT` questions in a row without a verdict (a router that no longer answers
 this session at all), and the bus declares every subscription, publisher and token anew
 (:meth:`facesynth.runtime.bus.zenoh_bus.ZenohBus.declare_anew`), at most once every
@@ -53,8 +54,8 @@ def router_holds(session: Any, key: str, timeout: float = QUERY_TIMEOUT_S) -> bo
     as a holder of ``key``, a liveliness token of the session, or else as a subscriber (a
     second opinion before declaring everything anew). ``None`` when a question timed out (no
     verdict: an answer may still have been on its way). Blocks up to twice ``timeout``."""
-    zid = str(session.info.zid())
     try:
+        zid = str(session.info.zid())
         for question in (ADMIN_TOKENS + key, ADMIN_SUBSCRIBERS):
             started = time.monotonic()
             for reply in session.get(question, timeout=timeout):
