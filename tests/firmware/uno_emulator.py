@@ -7,6 +7,7 @@ and reads that log back.
 
 from __future__ import annotations
 
+import fcntl
 import subprocess
 import time
 from collections.abc import Callable
@@ -35,13 +36,19 @@ def missing_packages() -> list[str]:
 
 
 def build_firmware() -> str:
-    """``make -C firmware build emulator``; returns its output, raises with it on failure."""
-    result = subprocess.run(
-        ["make", "-C", str(FIRMWARE), "-j2", "build", "emulator"],
-        capture_output=True,
-        text=True,
-        check=False,
-    )
+    """``make -C firmware build emulator``; returns its output, raises with it on failure.
+
+    Test processes running side by side (pytest-xdist's workers) take turns, through a lock
+    file beside the build: two makes writing one ELF at once would leave a torn file."""
+    BUILD.mkdir(parents=True, exist_ok=True)
+    with open(BUILD / ".lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        result = subprocess.run(
+            ["make", "-C", str(FIRMWARE), "-j2", "build", "emulator"],
+            capture_output=True,
+            text=True,
+            check=False,
+        )
     if result.returncode != 0:
         raise RuntimeError(f"firmware build failed:\n{result.stdout}\n{result.stderr}")
     return result.stdout

@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TypeVar
 
+import pytest
 from hypothesis import HealthCheck, settings
 
 #: Hypothesis cases per target.
@@ -30,6 +31,10 @@ CASES = int(os.environ.get("FACESYNTH_FUZZ_CASES", "10000"))
 #: No case may take this much CPU (seconds of this thread's time, not wall time, so a loaded
 #: machine's preemption does not count): a parser that loops on some input is a failure too.
 SLOWEST_CASE_S = 2.0
+#: Each fuzz test's wall-clock limit, a guard against a hang only (each case's CPU is bounded by
+#: SLOWEST_CASE_S above; a test takes 10-150 s of CPU): CI runs the suite at the idle
+#: scheduling class beside the other groups (.ci/run), where it can wait minutes for a core.
+TIMEOUT = pytest.mark.timeout(1800)
 
 FUZZ = settings(
     max_examples=CASES,

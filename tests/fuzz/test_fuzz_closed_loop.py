@@ -17,7 +17,7 @@ import msgspec
 import numpy as np
 import pytest
 import test_fuzz_learned_profiles as profiles
-from fuzzing import FUZZ, check_tally, outcome, tally
+from fuzzing import FUZZ, TIMEOUT, check_tally, outcome, tally
 from hypothesis import given
 from hypothesis import strategies as st
 from mutations import damaged, mutated
@@ -34,7 +34,7 @@ from facesynth.services.translator.loop_state import (
     encode_loop_state,
 )
 
-pytestmark = [pytest.mark.fuzz, pytest.mark.timeout(600)]
+pytestmark = [pytest.mark.fuzz, TIMEOUT]
 
 assert PLANNING.learned is not None
 LEARNED = PLANNING.learned

@@ -13,7 +13,7 @@ from typing import Any
 
 import msgspec
 import pytest
-from fuzzing import FUZZ, check_tally, libjpeg_quiet, outcome
+from fuzzing import FUZZ, TIMEOUT, check_tally, libjpeg_quiet, outcome
 from hypothesis import given
 from hypothesis import strategies as st
 from mutations import damaged, hostile, mutated
@@ -32,7 +32,7 @@ from facesynth.schemas.messages import (
 )
 from facesynth.services.control.core import Arrival, CommandError, ControlCore, Move, StaleCommand
 
-pytestmark = [pytest.mark.fuzz, pytest.mark.timeout(600)]
+pytestmark = [pytest.mark.fuzz, TIMEOUT]
 
 FIXTURES = Path(__file__).resolve().parents[1] / "fixtures" / "messages"
 JPEG = (FIXTURES / "frame.jpg").read_bytes()

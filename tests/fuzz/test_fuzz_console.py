@@ -8,7 +8,7 @@ from __future__ import annotations
 import math
 
 import pytest
-from fuzzing import FUZZ, check_tally, outcome
+from fuzzing import FUZZ, TIMEOUT, check_tally, outcome
 from hypothesis import given
 from hypothesis import strategies as st
 
@@ -19,7 +19,7 @@ from facesynth.app.console.rig import ConsoleError, ConsoleRig
 from facesynth.app.wiring import OptionError
 from facesynth.runtime.profiles import load_profile, parse_profile
 
-pytestmark = [pytest.mark.fuzz, pytest.mark.timeout(900)]
+pytestmark = [pytest.mark.fuzz, TIMEOUT]
 
 PIECES = ['{"type": "jog", "servo": ', '{"type": "limit", "servo": ', '"which": "min"', "1500",
           "1e999", "NaN", "-0", "true", "null", '"x"', "}", "{", ", ", '"us": ', "99", "-1",

@@ -11,7 +11,7 @@ from typing import Any
 
 import dynamixel_sdk
 import pytest
-from fuzzing import FUZZ, check_tally, outcome, tally
+from fuzzing import FUZZ, TIMEOUT, check_tally, outcome, tally
 from hypothesis import given
 from hypothesis import strategies as st
 from mutations import damaged
@@ -30,7 +30,7 @@ from facesynth.services.control.drivers.bus_servo import wire
 from facesynth.services.control.drivers.dynamixel import models as m
 from facesynth.services.control.drivers.dynamixel.bus import DynamixelBus
 
-pytestmark = [pytest.mark.fuzz, pytest.mark.timeout(600)]
+pytestmark = [pytest.mark.fuzz, TIMEOUT]
 
 
 def status2(body: bytes) -> bytes | None:

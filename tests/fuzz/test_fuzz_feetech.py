@@ -10,7 +10,7 @@ from typing import Any
 
 import pytest
 import scservo_sdk
-from fuzzing import FUZZ, check_tally, outcome
+from fuzzing import FUZZ, TIMEOUT, check_tally, outcome
 from hypothesis import given
 from hypothesis import strategies as st
 from servo_status import (
@@ -28,7 +28,7 @@ from facesynth.services.control.drivers.bus_servo import wire
 from facesynth.services.control.drivers.feetech import models as m
 from facesynth.services.control.drivers.feetech.bus import FeetechBus
 
-pytestmark = [pytest.mark.fuzz, pytest.mark.timeout(600)]
+pytestmark = [pytest.mark.fuzz, TIMEOUT]
 
 
 STREAMS = status_streams(

@@ -10,7 +10,7 @@ from typing import Any
 import msgspec
 import numpy as np
 import pytest
-from fuzzing import FUZZ, check_tally, outcome, scratch_folder
+from fuzzing import FUZZ, TIMEOUT, check_tally, outcome, scratch_folder
 from hypothesis import given
 from hypothesis import strategies as st
 from mutations import damaged, damaged_text, mutated, to_json
@@ -27,7 +27,7 @@ from facesynth.services.points.backends.base import BackendError
 from facesynth.services.points.backends.track import TrackFileConfig, TrackReplay
 from facesynth.services.points.openface_csv import OpenFaceError, parse_openface_csv
 
-pytestmark = [pytest.mark.fuzz, pytest.mark.timeout(600)]
+pytestmark = [pytest.mark.fuzz, TIMEOUT]
 
 ROOT = Path(__file__).resolve().parents[2]
 FOLDER = scratch_folder("facesynth-fuzz-files-")

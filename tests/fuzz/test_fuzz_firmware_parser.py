@@ -18,7 +18,7 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
-from fuzzing import FUZZ, check_tally, tally
+from fuzzing import FUZZ, TIMEOUT, check_tally, tally
 from hypothesis import given
 from hypothesis import strategies as st
 from mutations import damaged
@@ -26,7 +26,7 @@ from mutations import damaged
 from facesynth.services.control.drivers.arduino import protocol as proto
 from facesynth.services.control.drivers.arduino import replies
 
-pytestmark = [pytest.mark.fuzz, pytest.mark.timeout(900)]
+pytestmark = [pytest.mark.fuzz, TIMEOUT]
 
 FIRMWARE = Path(__file__).resolve().parents[2] / "firmware"
 HARNESS = FIRMWARE / "build" / "host" / "fuzz_device"

@@ -14,7 +14,7 @@ from __future__ import annotations
 from typing import Any
 
 import pytest
-from fuzzing import FUZZ, check_tally, outcome
+from fuzzing import FUZZ, TIMEOUT, check_tally, outcome
 from hypothesis import given
 from hypothesis import strategies as st
 from test_fuzz_simhead import MOVES, exercise
@@ -23,7 +23,7 @@ from facesynth.app.simhead.config import HeadError
 from facesynth.app.simhead.generated import MAX_SEED, PREFIXES, generated_seed
 from facesynth.app.simhead.heads import load_head
 
-pytestmark = [pytest.mark.fuzz, pytest.mark.timeout(600)]
+pytestmark = [pytest.mark.fuzz, TIMEOUT]
 
 tails = st.one_of(
     st.integers(0, MAX_SEED).map(str),

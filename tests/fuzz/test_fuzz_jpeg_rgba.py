@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from fuzzing import FUZZ, check_tally, libjpeg_quiet, outcome
+from fuzzing import FUZZ, TIMEOUT, check_tally, libjpeg_quiet, outcome
 from hypothesis import given
 from hypothesis import strategies as st
 from mutations import damaged
@@ -23,7 +23,7 @@ from facesynth.schemas.messages import Frame
 from facesynth.services.points.tracker.jpeg_rgba import decode_rgba
 from facesynth.services.points.tracker.model_input import frame_to_rgba
 
-pytestmark = [pytest.mark.fuzz, pytest.mark.timeout(900)]
+pytestmark = [pytest.mark.fuzz, TIMEOUT]
 
 cv2 = import_cv2(RuntimeError)
 TARGET = "tracker decode_rgba (JPEG to RGBA)"

@@ -21,7 +21,7 @@ from typing import Any
 import msgspec
 import numpy as np
 import pytest
-from fuzzing import FUZZ, check_tally, outcome, scratch_folder, tally
+from fuzzing import FUZZ, TIMEOUT, check_tally, outcome, scratch_folder, tally
 from hypothesis import given
 from hypothesis import strategies as st
 from mutations import damaged, mutated
@@ -50,7 +50,7 @@ from facesynth.schemas.messages import Features
 from facesynth.services.control.core import Arrival, CommandError, ControlCore, StaleCommand
 from facesynth.services.translator.core import Translator
 
-pytestmark = [pytest.mark.fuzz, pytest.mark.timeout(600)]
+pytestmark = [pytest.mark.fuzz, TIMEOUT]
 
 INPUTS = ["brow_raise_inner_right", "jaw_open", "lip_corner_pull_left"]
 HARDWARE = load_profile("head16_hardware")

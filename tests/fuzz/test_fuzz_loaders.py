@@ -13,7 +13,7 @@ from typing import Any
 import msgspec
 import numpy as np
 import pytest
-from fuzzing import FUZZ, check_tally, outcome, scratch_folder
+from fuzzing import FUZZ, TIMEOUT, check_tally, outcome, scratch_folder
 from hypothesis import given
 from hypothesis import strategies as st
 from mutations import damaged, damaged_text, mutated, to_json, to_toml
@@ -36,7 +36,7 @@ from facesynth.services.features.state import LearnedState, StateError, parse_st
 from facesynth.services.translator.core import TranslationError, Translator
 from facesynth.services.translator.learned import unsourced
 
-pytestmark = [pytest.mark.fuzz, pytest.mark.timeout(600)]
+pytestmark = [pytest.mark.fuzz, TIMEOUT]
 
 ROOT = Path(__file__).resolve().parents[2]
 POINTS = codec.decode((ROOT / "tests/fixtures/messages/points_face.msgpack").read_bytes(), Points)

@@ -4,14 +4,14 @@
 from __future__ import annotations
 
 import pytest
-from fuzzing import FUZZ, check_tally, outcome, tally
+from fuzzing import FUZZ, TIMEOUT, check_tally, outcome, tally
 from hypothesis import given
 from hypothesis import strategies as st
 
 from facesynth.services.control.drivers.base import DriverConfigError
 from facesynth.services.control.drivers.pca9685 import registers as reg
 
-pytestmark = [pytest.mark.fuzz, pytest.mark.timeout(600)]
+pytestmark = [pytest.mark.fuzz, TIMEOUT]
 
 
 def test_channel_registers_read_back_as_a_pulse_length() -> None:

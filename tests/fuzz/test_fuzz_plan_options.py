@@ -9,14 +9,14 @@ import argparse
 from pathlib import Path
 
 import pytest
-from fuzzing import FUZZ, check_tally, outcome
+from fuzzing import FUZZ, TIMEOUT, check_tally, outcome
 from hypothesis import given
 from hypothesis import strategies as st
 
 from facesynth.app.learn.plan import PlanError
 from facesynth.app.learn.plan_options import FIELD_PREFIX, choose, shaping, stored
 
-pytestmark = [pytest.mark.fuzz, pytest.mark.timeout(600)]
+pytestmark = [pytest.mark.fuzz, TIMEOUT]
 
 NONE_GIVEN = argparse.Namespace(**{name: None for name in shaping("adaptive")})
 values = st.one_of(

@@ -9,7 +9,7 @@ from typing import Any
 
 import msgspec
 import pytest
-from fuzzing import FUZZ, check_tally, outcome
+from fuzzing import FUZZ, TIMEOUT, check_tally, outcome
 from hypothesis import given
 from hypothesis import strategies as st
 from mutations import damaged, mutated
@@ -25,7 +25,7 @@ from facesynth.services.features.point_sets import (
     optional_points,
 )
 
-pytestmark = [pytest.mark.fuzz, pytest.mark.timeout(900)]
+pytestmark = [pytest.mark.fuzz, TIMEOUT]
 
 FIXTURE = Path(__file__).resolve().parents[1] / "fixtures" / "messages" / "points_face.msgpack"
 SEED: dict[str, Any] = msgspec.msgpack.decode(FIXTURE.read_bytes())

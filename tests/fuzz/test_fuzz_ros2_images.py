@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from fuzzing import FUZZ, check_tally, outcome
+from fuzzing import FUZZ, TIMEOUT, check_tally, outcome
 from hypothesis import given
 from hypothesis import strategies as st
 from mutations import damaged
@@ -22,7 +22,7 @@ from facesynth.services.sensor.sources.ros2_images import (
     raw_image,
 )
 
-pytestmark = [pytest.mark.fuzz, pytest.mark.timeout(600)]
+pytestmark = [pytest.mark.fuzz, TIMEOUT]
 
 cv2 = import_cv2(RuntimeError)
 JPEG = bytes(cv2.imencode(".jpg", np.full((8, 16, 3), 90, np.uint8))[1].tobytes())

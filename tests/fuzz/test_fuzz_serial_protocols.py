@@ -10,7 +10,7 @@ import itertools
 import struct
 
 import pytest
-from fuzzing import FUZZ, check_tally, outcome, tally
+from fuzzing import FUZZ, TIMEOUT, check_tally, outcome, tally
 from hypothesis import given
 from hypothesis import strategies as st
 from mutations import damaged
@@ -20,7 +20,7 @@ from facesynth.services.control.drivers.arduino import replies
 from facesynth.services.control.drivers.maestro import protocol as mp
 from facesynth.services.control.drivers.replies import ReplyQueue
 
-pytestmark = [pytest.mark.fuzz, pytest.mark.timeout(600)]
+pytestmark = [pytest.mark.fuzz, TIMEOUT]
 
 REPLY_CODES = [m for m in proto.MESSAGES if m.direction == "reply"]
 

@@ -28,7 +28,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from fuzzing import FUZZ, check_tally, outcome, scratch_folder, tally
+from fuzzing import FUZZ, TIMEOUT, check_tally, outcome, scratch_folder, tally
 from hypothesis import given
 from hypothesis import strategies as st
 from mutations import damaged, damaged_text, mutated, to_toml
@@ -52,7 +52,7 @@ from facesynth.app.simhead.maestro import (
     Maestro,
 )
 
-pytestmark = [pytest.mark.fuzz, pytest.mark.timeout(600)]
+pytestmark = [pytest.mark.fuzz, TIMEOUT]
 
 HEAD_FILES = [
     Path(__file__).resolve().parents[2] / "facesynth/app/simhead/data/heads" / f"{name}.toml"

@@ -4,7 +4,7 @@ parsers of the command line (``--http``, ``--size``, ``--keys``, ``--schedule``)
 from __future__ import annotations
 
 import pytest
-from fuzzing import FUZZ, check_tally, outcome
+from fuzzing import FUZZ, TIMEOUT, check_tally, outcome
 from hypothesis import given
 from hypothesis import strategies as st
 
@@ -19,7 +19,7 @@ from facesynth.services.control.drivers.virtual.wire import (
 )
 from facesynth.services.features.calibrate import CalibrationStepError, parse_schedule
 
-pytestmark = [pytest.mark.fuzz, pytest.mark.timeout(600)]
+pytestmark = [pytest.mark.fuzz, TIMEOUT]
 
 #: JSON-ish pieces that page messages are made of, and their hostile variants.
 PIECES = ['{"type": "ping", "t": ', '{"type": "hello", "frames": ', "1.5", "1e999", "NaN", "-0",

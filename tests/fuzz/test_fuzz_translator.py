@@ -9,7 +9,7 @@ from typing import Any
 
 import msgspec
 import pytest
-from fuzzing import FUZZ, check_tally, outcome
+from fuzzing import FUZZ, TIMEOUT, check_tally, outcome
 from hypothesis import given
 from hypothesis import strategies as st
 from mutations import damaged, mutated
@@ -20,7 +20,7 @@ from facesynth.schemas.messages import Features, ServoCommands
 from facesynth.services.control.core import Arrival, CommandError, ControlCore, StaleCommand
 from facesynth.services.translator.core import Translator
 
-pytestmark = [pytest.mark.fuzz, pytest.mark.timeout(600)]
+pytestmark = [pytest.mark.fuzz, TIMEOUT]
 
 PROFILES = {name: load_profile(name) for name in available_profiles()}
 FIXTURE = Path(__file__).resolve().parents[1] / "fixtures" / "messages" / "features.msgpack"
