@@ -420,6 +420,11 @@ CASES = [
         "--encoding: unknown png",
     ),
     ("bench chain runs", ["bench", "chain", "--runs", "0"], "--runs must be at least 1"),
+    (
+        "bench option the benchmark does not read",
+        ["bench", "chain", "--head", "simhead16"],
+        "--head: bench chain does not read it (bench robot does)",
+    ),
     ("bench chain sched", ["bench", "chain", "--sched", "fifo"], "--sched: unknown fifo"),
     ("bench chain mode", ["bench", "chain", "--mode", "router"], "--mode: unknown router"),
     ("bench chain model", ["bench", "chain", "--models", "tiny"], "--models: unknown tiny"),

@@ -3,10 +3,11 @@
 from __future__ import annotations
 
 import argparse
+import re
 
 import pytest
 
-from facesynth.app.bench.arguments import add_bench_arguments
+from facesynth.app.bench.arguments import READERS, add_bench_arguments, unread_options
 from facesynth.app.cli import main
 
 
@@ -36,3 +37,57 @@ def test_bench_robot_reads_the_calibration(capsys: pytest.CaptureFixture[str]) -
     err = capsys.readouterr().err
     assert "--calibration: calibration file /nonexistent/alice.json does not exist" in err
     assert "does not read it" not in err
+
+
+def _options() -> list[argparse.Action]:
+    parser = argparse.ArgumentParser()
+    add_bench_arguments(parser)
+    return [action for action in parser._actions if action.dest not in ("help", "what")]
+
+
+def test_every_option_names_the_benchmarks_that_read_it_in_its_help() -> None:
+    kinds = set(_kinds())
+    for action in _options():
+        readers = READERS[action.dest]  # every option has its readers
+        assert readers <= kinds, action.dest
+        help_text = action.help or ""
+        if action.dest != "video":  # "video" is every benchmark's that plays one
+            missing = [k for k in readers if not re.search(rf"\b{k}\b", help_text)]
+            assert not missing, f"{action.dest}'s help does not name {missing}: {help_text}"
+            # and a benchmark its help names before a colon reads it
+            named = {
+                word
+                for clause in help_text.split(";")
+                if ":" in clause
+                for word in re.split(r"[,\s]+", clause.split(":", 1)[0].strip())
+                if word in kinds
+            }
+            assert named <= readers, f"{action.dest}: {sorted(named - readers)} named, not read"
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["chain", "--head", "simhead16"], "--head: bench chain does not read it"),
+        (
+            ["face", "--frames", "3"],
+            "--frames: bench face does not read it (bench drivers, robot, run, tracker do)",
+        ),
+        (["tracker", "--hops"], "--hops: bench tracker does not read it (bench chain does)"),
+        (["recording", "--profile", "head16"], "--profile: bench recording does not read it"),
+        (["smoothing", "--fps", "60"], "--fps: bench smoothing does not read it"),
+    ],
+)
+def test_an_option_the_benchmark_does_not_read_is_refused(
+    argv: list[str], message: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(["bench", *argv]) == 2
+    err = capsys.readouterr().err
+    assert f"facesynth bench: error: {message}" in err and len(err.strip().splitlines()) == 1
+
+
+def test_options_left_at_their_defaults_are_not_refused() -> None:
+    parser = argparse.ArgumentParser()
+    add_bench_arguments(parser)
+    for kind in _kinds():
+        assert unread_options(parser.parse_args([kind])) == [], kind

@@ -1,8 +1,72 @@
-"""``facesynth bench``'s options; each help says which benchmarks read it."""
+"""``facesynth bench``'s options; each help says which benchmarks read it, and
+:data:`READERS` says it to the command: an option given to a benchmark that does not read it
+is refused (:func:`unread_options`) rather than silently ignored."""
 
 from __future__ import annotations
 
 import argparse
+from typing import Final
+
+#: The benchmarks that read each option (its dest), as its help says.
+READERS: Final[dict[str, frozenset[str]]] = {
+    dest: frozenset(kinds.split())
+    for dest, kinds in {
+        "video": "chain fanout tracker fidelity robot run",
+        "seconds": "chain fanout face",
+        "rate": "face",
+        "fps": "chain fanout recording drivers",
+        "openface_csv": "chain",
+        "frames": "tracker robot drivers run",
+        "emulated": "drivers",
+        "encoding": "chain fanout",
+        "threads": "chain",
+        "robots": "fanout",
+        "layout": "chain fanout",
+        "sched": "chain fanout",
+        "baseline": "chain",
+        "runs": "chain fanout run",
+        "hops": "chain",
+        "profile": "smoothing drivers robot",
+        "head": "robot",
+        "json": "robot",
+        "driver": "robot",
+        "port": "robot",
+        "camera": "robot",
+        "ros2_image_topic": "robot",
+        "closed_loop": "robot",
+        "learn_poses": "robot",
+        "calibration": "robot",
+        "track": "smoothing",
+        "mode": "chain fanout",
+        "backends": "tracker",
+        "models": "tracker fidelity chain fanout",
+        "profiles": "fidelity robot",
+        "repeat": "tracker drivers",
+        "mediapipe_python": "tracker run",
+        "mediapipe_task": "tracker run",
+        "minutes": "recording",
+    }.items()
+}
+
+
+def unread_options(args: argparse.Namespace) -> list[str]:
+    """The options given (other than their defaults) that benchmark ``args.what`` does not
+    read, each as ``--flag: bench WHAT does not read it (bench A, B do)``."""
+    parser = argparse.ArgumentParser(add_help=False)
+    add_bench_arguments(parser)
+    problems = []
+    for action in parser._actions:
+        readers = READERS.get(action.dest)
+        if readers is None or args.what in readers:
+            continue
+        if getattr(args, action.dest, action.default) != action.default:
+            flag = action.option_strings[0] if action.option_strings else action.dest
+            verb = "does" if len(readers) == 1 else "do"
+            problems.append(
+                f"{flag}: bench {args.what} does not read it "
+                f"(bench {', '.join(sorted(readers))} {verb})"
+            )
+    return problems
 
 
 def add_bench_arguments(p: argparse.ArgumentParser) -> None:
@@ -34,7 +98,10 @@ def add_bench_arguments(p: argparse.ArgumentParser) -> None:
         "--rate", type=float, default=100.0, help="face: commands per second (default 100)"
     )
     p.add_argument(
-        "--fps", type=float, default=30.0, help="chain, recording: frame rate (default 30)"
+        "--fps",
+        type=float,
+        default=30.0,
+        help="chain, fanout, recording, drivers --emulated: frame rate (default 30)",
     )
     p.add_argument(
         "--openface-csv", metavar="PATH", help="chain: replay these landmarks instead of tracking"
@@ -58,7 +125,7 @@ def add_bench_arguments(p: argparse.ArgumentParser) -> None:
         default="jpeg",
         metavar="A,B",
         help="chain: frame encodings to compare, jpeg and/or raw (default jpeg; raw frames go "
-        "through Zenoh's shared memory between processes on one host)",
+        "through Zenoh's shared memory between processes on one host); fanout: one of them",
     )
     p.add_argument(
         "--threads", default="1", metavar="N,M", help="chain: tracker inference threads to compare"
@@ -98,7 +165,8 @@ def add_bench_arguments(p: argparse.ArgumentParser) -> None:
         default=1,
         metavar="N",
         help="chain: N interleaved runs of every variant (default 1; the goals ask for 3); "
-        "run: N interleaved rounds of facesynth run and the plain MediaPipe script",
+        "fanout: N runs of each layout and count; run: N interleaved rounds of facesynth run "
+        "and the plain MediaPipe script",
     )
     p.add_argument(
         "--hops",
@@ -179,7 +247,8 @@ def add_bench_arguments(p: argparse.ArgumentParser) -> None:
         "--mode",
         default="client",
         metavar="A,B",
-        help="chain: Zenoh modes of the services to compare, client and/or peer (default client)",
+        help="chain: Zenoh modes of the services to compare, client and/or peer (default "
+        "client); fanout: one of them",
     )
     p.add_argument(
         "--backends", default="litert,opencv", help="tracker: inference backends to compare"
@@ -193,7 +262,8 @@ def add_bench_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--profiles",
         metavar="A,B",
-        help="fidelity: profiles to measure (default: every shipped one)",
+        help="fidelity: profiles to measure (default: every shipped one); robot: more "
+        "profiles to drive the heads with, as --profile",
     )
     p.add_argument(
         "--repeat",

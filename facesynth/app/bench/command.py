@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from facesynth.app.bench.arguments import unread_options
 from facesynth.app.wiring import OptionError
 
 #: Why a benchmark other than ``robot`` refuses ``--calibration`` (the performer's calibration
@@ -31,6 +32,9 @@ def cmd_bench(args: argparse.Namespace) -> int:
             f"--calibration: bench {args.what} does not read it ({NO_CALIBRATION[args.what]}); "
             "bench robot does"
         )
+    unread = unread_options(args)
+    if unread:
+        raise OptionError("; ".join(unread))
     if args.what == "fidelity":
         return _bench_fidelity(args)
     if args.what == "robot":
