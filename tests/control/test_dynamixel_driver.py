@@ -108,6 +108,8 @@ async def test_a_stalled_servo_is_held_and_the_others_go_on(
         )
     )
     assert abs(connected.readings()["jaw"].position_us - (1500 + 100 / 1.024)) < 1
+    # The worker logs after it records the fault (outside its lock): wait for the line too.
+    await eventually(lambda: any("overload" in r.getMessage() for r in caplog.records))
     lines = [r for r in caplog.records if "overload" in r.getMessage()]
     assert len(lines) == 1 and "holding it" in lines[0].getMessage()
     held_goal = stalled.goal
@@ -224,7 +226,7 @@ async def test_protocol_one_drives_ax12(tmp_path: Path, caplog: pytest.LogCaptur
         device.servos[12].stall_at = (want[12] + top) // 2  # blocked: status says overload
         await send(made, {"jaw": jaw.max_us})
         await eventually(lambda: made.readings()["jaw"].fault == "overload")
-        assert "overload; holding it" in caplog.text
+        await eventually(lambda: "overload; holding it" in caplog.text)  # logged just after
     finally:
         await made.close()
         device.close()

@@ -89,7 +89,13 @@ async def test_read_back_and_an_overload_held(
     stalled.stall_at = 2048
     await send(connected, {"jaw": jaw.min_us})
     await eventually(lambda: connected.readings()["jaw"].fault == "overload")
-    assert len([r for r in caplog.records if "overload; holding it" in r.getMessage()]) == 1
+
+    def said() -> int:
+        return len([r for r in caplog.records if "overload; holding it" in r.getMessage()])
+
+    # The worker logs after it records the fault (outside its lock): wait for the line too.
+    await eventually(lambda: said() >= 1)
+    assert said() == 1
     held = stalled.goal
     await send(connected, {s.name: s.min_us for s in PAPER16.servos})
     want = {s.channel + 1: 2048 - 512 for s in PAPER16.servos}
