@@ -48,6 +48,23 @@ READERS: Final[dict[str, frozenset[str]]] = {
     }.items()
 }
 
+#: Why a benchmark other than ``robot`` refuses ``--calibration`` (the performer's calibration
+#: for her F and T) rather than ignore it.
+NO_CALIBRATION: Final[dict[str, str]] = {
+    "fidelity": "its faces are synthetic, F taking each one's neutral from its still face",
+    "smoothing": "it feeds T synthetic features, with no F",
+    "chain": "it times the chain, and a calibration changes no stage's work per frame",
+    "fanout": "it times the chain, and a calibration changes no stage's work per frame",
+    "run": "it times facesynth run against plain MediaPipe, and a calibration changes no "
+    "stage's work per frame",
+    "tracker": "it runs no F",
+    "recording": "it runs no F",
+    "face": "it runs no F",
+    "drivers": "it runs no F",
+}
+#: Why a benchmark does not read an option, where saying which do is not enough.
+WHY_NOT: Final[dict[str, dict[str, str]]] = {"calibration": NO_CALIBRATION}
+
 
 def unread_options(args: argparse.Namespace) -> list[str]:
     """The options given (other than their defaults) that benchmark ``args.what`` does not
@@ -62,9 +79,11 @@ def unread_options(args: argparse.Namespace) -> list[str]:
         if getattr(args, action.dest, action.default) != action.default:
             flag = action.option_strings[0] if action.option_strings else action.dest
             verb = "does" if len(readers) == 1 else "do"
+            who = f"bench {', '.join(sorted(readers))} {verb}"
+            why = WHY_NOT.get(action.dest, {}).get(args.what)
             problems.append(
                 f"{flag}: bench {args.what} does not read it "
-                f"(bench {', '.join(sorted(readers))} {verb})"
+                + (f"({why}); {who}" if why else f"({who})")
             )
     return problems
 

@@ -9,29 +9,9 @@ from pathlib import Path
 from facesynth.app.bench.arguments import unread_options
 from facesynth.app.wiring import OptionError
 
-#: Why a benchmark other than ``robot`` refuses ``--calibration`` (the performer's calibration
-#: for her F and T) rather than ignore it.
-NO_CALIBRATION = {
-    "fidelity": "its faces are synthetic, F taking each one's neutral from its still face",
-    "smoothing": "it feeds T synthetic features, with no F",
-    "chain": "it times the chain, and a calibration changes no stage's work per frame",
-    "fanout": "it times the chain, and a calibration changes no stage's work per frame",
-    "run": "it times facesynth run against plain MediaPipe, and a calibration changes no "
-    "stage's work per frame",
-    "tracker": "it runs no F",
-    "recording": "it runs no F",
-    "face": "it runs no F",
-    "drivers": "it runs no F",
-}
-
 
 def cmd_bench(args: argparse.Namespace) -> int:
     """``facesynth bench chain|tracker|smoothing|recording|face|fidelity|drivers|robot``."""
-    if getattr(args, "calibration", None) is not None and args.what != "robot":
-        raise OptionError(
-            f"--calibration: bench {args.what} does not read it ({NO_CALIBRATION[args.what]}); "
-            "bench robot does"
-        )
     unread = unread_options(args)
     if unread:
         raise OptionError("; ".join(unread))
