@@ -41,6 +41,12 @@ _M_MMAP_THRESHOLD = -3
 MMAP_THRESHOLD = 4 * 1024 * 1024
 #: Free heap kept for reuse before it is given back to the kernel.
 TRIM_THRESHOLD = 16 * 1024 * 1024
+#: The router's: it reuses a raw frame's buffer as well with it, and after a burst each of its
+#: Zenoh threads' arenas keeps 4 MB of free top instead of 16 (docs/benchmarks.md).
+ROUTER_TRIM_THRESHOLD = 4 * 1024 * 1024
+#: The router's heap trimmer trims once its idle memory stands this much above its lowest
+#: (:class:`facesynth.runtime.heap_trim.HeapTrimmer`): two arenas' free tops.
+ROUTER_TRIM_RISE = 2 * ROUTER_TRIM_THRESHOLD
 
 
 class SchedulingError(ValueError):
@@ -136,9 +142,10 @@ def _apply_realtime(priority: int, pid: int) -> None:
         ) from None
 
 
-def keep_buffers() -> bool:
-    """Let glibc reuse freed buffers of up to :data:`MMAP_THRESHOLD` instead of unmapping them
-    (see the module docstring); ``False`` where the C library is not glibc."""
+def keep_buffers(trim_threshold: int = TRIM_THRESHOLD) -> bool:
+    """Let glibc reuse freed buffers of up to :data:`MMAP_THRESHOLD` instead of unmapping them,
+    keeping up to ``trim_threshold`` of free heap at the top of each arena (see the module
+    docstring); ``False`` where the C library is not glibc."""
     libc = c_library()
     try:
         mallopt = libc.mallopt if libc is not None else None
@@ -149,7 +156,7 @@ def keep_buffers() -> bool:
     mallopt.argtypes = (ctypes.c_int, ctypes.c_int)
     mallopt.restype = ctypes.c_int
     return bool(
-        mallopt(_M_MMAP_THRESHOLD, MMAP_THRESHOLD) and mallopt(_M_TRIM_THRESHOLD, TRIM_THRESHOLD)
+        mallopt(_M_MMAP_THRESHOLD, MMAP_THRESHOLD) and mallopt(_M_TRIM_THRESHOLD, trim_threshold)
     )
 
 

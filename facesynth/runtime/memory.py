@@ -25,12 +25,13 @@ same chain with the soak's faults every 12 s for 21 minutes: F +1.5 MB and P +1.
 +12.5 and +10.5 MB (+11.9 and +6.5 MB with ``MALLOC_ARENA_MAX=2`` instead), F's memory system
 calls between faults unchanged (3-4 in 20 s).
 
-``facesynth run`` and ``facesynth router`` keep :func:`facesynth.app.tuning.keep_buffers`'
-thresholds, by measurement (2026-11-27, docs/benchmarks.md "The board process beyond F's
-core"): ``run --fast`` on the bundled video showed no step of RSS either way and took 2.5-5x
-the page faults with these settings; the router's steps after bursts went away with a 128 KiB
-trim threshold, but each raw frame it forwards (as bytes: it has no shared memory) was then
-faulted in again, 15-90 faults a 700 kB frame against none.
+``facesynth run`` keeps :func:`facesynth.app.tuning.keep_buffers`' thresholds and
+``facesynth router`` a 4 MB trim threshold, by measurement (docs/benchmarks.md "The board
+process beyond F's core"): ``run --fast`` on the bundled video showed no step of RSS either way
+and took 2.5-5x the page faults with these settings; the router's steps after bursts went away
+with a 128 KiB trim threshold, but each raw frame it forwards (as bytes: it has no shared
+memory) was then faulted in again, 15-90 faults a 700 kB frame against none, and with 4 MB it
+faults none in and keeps at most 4 MB free at each arena's top.
 """
 
 from __future__ import annotations

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import ctypes
 import ctypes.util
+import mmap
 import threading
 
 from facesynth.runtime.heap_trim import HeapTrimmer, resident_bytes
@@ -16,6 +17,14 @@ libc = ctypes.CDLL(ctypes.util.find_library("c"))
 libc.malloc.restype = ctypes.c_void_p
 libc.malloc.argtypes = (ctypes.c_size_t,)
 libc.free.argtypes = (ctypes.c_void_p,)
+libc.malloc_trim.argtypes = (ctypes.c_size_t,)
+
+
+def from_a_trimmed_heap() -> None:
+    """Give back the free heap the tests before left (a test worker's heap is shaped by every
+    file it ran), so a burst takes new pages instead of reusing free ones, and a first trim
+    returns only what the test made."""
+    libc.malloc_trim(0)
 
 
 def test_the_trimmer_finds_glibc_here() -> None:
@@ -31,8 +40,8 @@ def on_a_thread(body: object) -> None:
     worker.join()
 
 
-def allocate(blocks: list[int]) -> None:
-    for _ in range(BLOCKS):
+def allocate(blocks: list[int], count: int = BLOCKS) -> None:
+    for _ in range(count):
         address = libc.malloc(BLOCK)
         ctypes.memset(address, 1, BLOCK)  # touched: resident
         blocks.append(address)
@@ -46,6 +55,7 @@ def free_all_but_the_last(blocks: list[int]) -> None:
 
 
 def test_freed_heap_a_burst_left_resident_goes_back_to_the_system() -> None:
+    from_a_trimmed_heap()
     trimmer = HeapTrimmer(rise_bytes=16 * MB)
     blocks: list[int] = []
     before = resident_bytes()
@@ -98,3 +108,29 @@ def test_the_thread_trims_on_its_own_and_stops() -> None:
         for address in blocks:
             libc.free(address)
     assert not any(thread.name == "heap-trim" for thread in threading.enumerate())
+
+
+def test_a_trim_measures_from_the_lowest_level_not_from_what_the_last_trim_left() -> None:
+    """Idle memory a trim cannot return (here a touched anonymous mapping, as Python's own
+    arenas are) does not move the level a later burst is measured from: a burst of 12 MB on top
+    of it is trimmed although it is under the 16 MB rise, and memory that cannot go lower is not
+    trimmed again and again."""
+    from_a_trimmed_heap()
+    trimmer = HeapTrimmer(rise_bytes=16 * MB, retrim_bytes=4 * MB)
+    untrimmable = mmap.mmap(-1, 20 * MB, flags=mmap.MAP_PRIVATE | mmap.MAP_ANONYMOUS)
+    view = ctypes.c_char.from_buffer(untrimmable)
+    ctypes.memset(ctypes.addressof(view), 1, 20 * MB)  # touched: resident, never malloc's
+    del view  # (no 20 MB bytes object on the way: it could come from the heap)
+    blocks: list[int] = []
+    try:
+        first = trimmer.check()
+        assert first is not None and first.returned < 4 * MB, first  # nothing it can give back
+        assert trimmer.check() is None  # no new growth: not again
+        on_a_thread(lambda: allocate(blocks, 192))  # 12 MB
+        on_a_thread(lambda: free_all_but_the_last(blocks))
+        trim = trimmer.check()
+        assert trim is not None and trim.returned > 10 * MB, trim
+    finally:
+        untrimmable.close()
+        for address in blocks:
+            libc.free(address)

@@ -176,7 +176,8 @@ def test_memory_mb_reads_the_two_lines_of_the_status_table() -> None:
     with open("/proc/self/status", encoding="ascii") as handle:
         fields = dict(line.split(":", 1) for line in handle if ":" in line)
     rss, peak = stats.memory_mb()
-    assert peak == int(fields["VmHWM"].split()[0]) / 1024  # the peak only grows
+    before = int(fields["VmHWM"].split()[0]) / 1024
+    assert before <= peak < before + 2  # the peak only grows (another thread may grow it)
     assert abs(rss - int(fields["VmRSS"].split()[0]) / 1024) < 2  # read a moment later
 
 

@@ -9,7 +9,13 @@ import logging
 from facesynth.app import wiring
 from facesynth.app.command_registry import Command
 from facesynth.app.common_arguments import zenoh_arguments
-from facesynth.app.tuning import Scheduling, apply_scheduling, keep_buffers
+from facesynth.app.tuning import (
+    ROUTER_TRIM_RISE,
+    ROUTER_TRIM_THRESHOLD,
+    Scheduling,
+    apply_scheduling,
+    keep_buffers,
+)
 from facesynth.runtime.bus.router_options import router_options
 from facesynth.runtime.bus.zenoh_bus import open_session, router_locators
 from facesynth.runtime.heap_trim import HeapTrimmer
@@ -20,7 +26,7 @@ log = logging.getLogger("facesynth")
 
 def cmd_router(args: argparse.Namespace) -> int:
     """``facesynth router``: a Zenoh router in Python."""
-    keep_buffers()
+    keep_buffers(ROUTER_TRIM_THRESHOLD)
     request = Scheduling(args.nice, args.realtime, tuple(args.cpus or ()))
     if request.requested:
         apply_scheduling(request)
@@ -31,7 +37,7 @@ def cmd_router(args: argparse.Namespace) -> int:
 
     async def main() -> None:
         session = await asyncio.to_thread(open_session, options)
-        trimmer = HeapTrimmer()
+        trimmer = HeapTrimmer(rise_bytes=ROUTER_TRIM_RISE)
         trimmer.start()
         try:
             print(
