@@ -15,6 +15,7 @@ from pathlib import Path
 import pytest
 from profile_files import write_profile
 from uno_rig import UnoRig, near
+from waiting import eventually
 
 from facesynth.runtime.profiles import Profile, load_profile
 from facesynth.services.control.core import CommandInfo
@@ -186,7 +187,9 @@ async def test_a_board_that_reset_gets_its_limits_again(uno: UnoRig, tmp_path: P
         uno.restart()  # a brownout: the USB adapter (the cable) stays, the board reboots
         await hold(driver, {"s3": 1700.0}, uno, {3: 1700})
         assert driver.board_resets == 1 and driver.link.state.losses == 0
-        assert any(f.code == SET_LIMITS for f in uno.commands())  # sent to the new boot
+        # Sent to the new boot once an ACK said its limits were gone: the positions before it
+        # may already show (within the firmware's own limits), so the limits are waited for.
+        await eventually(lambda: any(f.code == SET_LIMITS for f in uno.commands()))
         await driver.neutral(profile.neutral_positions())
         await uno.settle({ch: 1400 + 10 * ch for ch in range(16)})
     finally:

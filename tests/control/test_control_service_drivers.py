@@ -6,10 +6,10 @@ from __future__ import annotations
 import asyncio
 import contextlib
 from collections.abc import Mapping
-from typing import Any
 
 import msgspec
 from fake_devices.ssc32 import FakeSSC32
+from waiting import eventually
 
 from facesynth.runtime import codec, keys
 from facesynth.runtime.bus.memory import MemoryNetwork
@@ -63,14 +63,6 @@ def commands(seq: int, **positions: float) -> bytes:
     )
 
 
-async def until(predicate: Any, timeout: float = 5.0) -> None:
-    for _ in range(int(timeout / 0.01)):
-        if predicate():
-            return
-        await asyncio.sleep(0.01)
-    raise AssertionError("condition not reached")
-
-
 async def test_driver_errors_are_counted_and_the_service_goes_on() -> None:
     network = MemoryNetwork()
     bus = network.bus()
@@ -79,11 +71,11 @@ async def test_driver_errors_are_counted_and_the_service_goes_on() -> None:
     ctx = ServiceContext(bus, RIG, "control")
     task = asyncio.create_task(run_service(ctx, control.serve))
     try:
-        await until(lambda: bool(network.tokens))
+        await eventually(lambda: bool(network.tokens))
         key = keys.stage_key(RIG, "servo_commands")
         for seq in range(6):
             bus.publish(key, commands(seq, jaw=1500.0 + 10 * seq))
-        await until(lambda: control.last_frame == 5)
+        await eventually(lambda: control.last_frame == 5)
         assert control.driver_errors == 3 and not task.done()  # calls 2, 4, 6 (call 1: neutral)
         assert [p["jaw"] for p in driver.sent[1:]] == [1510.0, 1530.0, 1550.0]
     finally:
@@ -108,14 +100,14 @@ async def test_an_unplugged_board_shows_in_the_stats_and_comes_back(ssc32: FakeS
         return codec.decode(sample.payload, ServiceStats).note
 
     try:
-        await until(lambda: bool(network.tokens))
+        await eventually(lambda: bool(network.tokens))
         key = keys.stage_key(RIG, "servo_commands")
         bus.publish(key, commands(0, jaw=1800.0))
         await ssc32.until(lambda: ssc32.widths.get(11) == 1800)
         assert "connected to" in await next_note()
         ssc32.unplug()
         bus.publish(key, commands(1, jaw=1700.0))
-        await until(lambda: control.last_frame == 1)
+        await eventually(lambda: control.last_frame == 1)
         for _ in range(40):
             if "disconnected" in await next_note():
                 break

@@ -14,6 +14,7 @@ from typing import Any
 import msgspec
 import pytest
 from fake_devices.dynamixel import FakeDynamixelBus
+from waiting import eventually
 
 from facesynth.runtime.profiles import Profile, load_profile
 from facesynth.services.control.core import CommandInfo
@@ -58,14 +59,6 @@ async def connected(bus: FakeDynamixelBus) -> AsyncIterator[DynamixelDriver]:
 
 async def send(made: DynamixelDriver, positions: dict[str, float]) -> None:
     await made.send(positions, CommandInfo(None, None, True))
-
-
-async def eventually(check: Any, timeout: float = 5.0) -> None:
-    loop = asyncio.get_running_loop()
-    deadline = loop.time() + timeout
-    while not check():
-        assert loop.time() < deadline, "condition not met"
-        await asyncio.sleep(0.02)
 
 
 async def test_speeds_and_torque_come_from_the_profile(

@@ -4,7 +4,6 @@ model, and SCS servos (high byte first, one READ each)."""
 
 from __future__ import annotations
 
-import asyncio
 import math
 from collections.abc import AsyncIterator, Iterator
 from pathlib import Path
@@ -13,6 +12,7 @@ from typing import Any
 import msgspec
 import pytest
 from fake_devices.feetech import FakeFeetechBus
+from waiting import eventually
 
 from facesynth.runtime.profiles import Profile, load_profile
 from facesynth.services.control.core import CommandInfo
@@ -52,14 +52,6 @@ async def connected(bus: FakeFeetechBus) -> AsyncIterator[FeetechDriver]:
         yield made
     finally:
         await made.close()
-
-
-async def eventually(check: Any, timeout: float = 5.0) -> None:
-    loop = asyncio.get_running_loop()
-    deadline = loop.time() + timeout
-    while not check():
-        assert loop.time() < deadline, "condition not met"
-        await asyncio.sleep(0.02)
 
 
 async def send(made: FeetechDriver, positions: dict[str, float]) -> None:
