@@ -41,8 +41,9 @@ _M_MMAP_THRESHOLD = -3
 MMAP_THRESHOLD = 4 * 1024 * 1024
 #: Free heap kept for reuse before it is given back to the kernel.
 TRIM_THRESHOLD = 16 * 1024 * 1024
-#: The router's: it reuses a raw frame's buffer as well with it, and after a burst each of its
-#: Zenoh threads' arenas keeps 4 MB of free top instead of 16 (docs/benchmarks.md).
+#: The router's: with it a forwarded raw frame's buffer is reused as with 16 MB (no page
+#: faults), and after a burst each of its Zenoh threads' arenas keeps at most 4 MB of free top
+#: instead of 16 (docs/benchmarks.md).
 ROUTER_TRIM_THRESHOLD = 4 * 1024 * 1024
 #: The router's heap trimmer trims once its idle memory stands this much above its lowest
 #: (:class:`facesynth.runtime.heap_trim.HeapTrimmer`): two arenas' free tops.
