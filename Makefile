@@ -36,11 +36,13 @@ docs: $(BIN)/.installed
 SYSTEM_PACKAGES := bash tools/system-packages.sh
 
 ## The Debian packages the tests need (installed as root), then lint, type-check, schema
-## freshness, and the whole test suite (the browser group last), in two processes (pytest-xdist,
-## a test file to each): most tests wait on real processes, routers and emulators, so two
-## workers take about half the time of one (7.5 min against 14-15). TEST_WORKERS=0 runs it in
-## this one process.
-TEST_WORKERS ?= 2
+## freshness, and the whole test suite (the browser group last). TEST_WORKERS=2 runs the suite
+## in two processes (pytest-xdist, a test file to each): most tests wait on real processes,
+## routers and emulators, so two workers take about half the time of one (7.5 min against
+## 14-15); but a test then has a busier neighbour, and each few runs that way have found another
+## emulator or timing test that is not yet sure to pass, so the default (0) is this one process,
+## as CI runs it.
+TEST_WORKERS ?= 0
 test: system-packages-test $(BIN)/.installed lint
 	$(BIN)/python -m pytest -q -n $(TEST_WORKERS) --dist loadfile -m "not browser and not containers and not netns and not board and not faults and not fuzz and not arm64 and not ros2"
 	$(BIN)/python -m pytest -q -m browser tests/browser
