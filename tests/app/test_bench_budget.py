@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import itertools
 import math
+import time
 from typing import Any
 
 import numpy as np
@@ -59,3 +60,21 @@ def test_without_skip_the_first_frames_warm_up_and_are_timed_again(calls: list[A
 
 def test_no_frame_after_the_skip_gives_nan() -> None:
     assert math.isnan(model_calls_ms("full", 1, sample_video(), 3, skip=472))
+
+
+def test_with_fps_the_timed_frames_come_at_that_rate(monkeypatch: pytest.MonkeyPatch) -> None:
+    """As a chain's points stage gets them: one every 1 / fps seconds, not back to back."""
+    starts: list[float] = []
+    process = FaceTracker.process
+
+    def spy_process(self: FaceTracker, image: np.ndarray) -> Any:
+        starts.append(time.perf_counter())
+        return process(self, image)
+
+    monkeypatch.setattr(FaceTracker, "process", spy_process)
+    ms = model_calls_ms("full", 1, sample_video(), 4, skip=2, fps=10)
+    assert math.isfinite(ms) and ms > 0
+    timed = starts[2:]  # after the two warm-up frames
+    assert len(timed) == 4
+    gaps = np.diff(timed)
+    assert gaps.min() >= 0.095, gaps  # 0.1 s apart (back to back they are ~10 ms apart)

@@ -6,7 +6,10 @@ features ≤ 0.5; translator ≤ 0.3; control ≤ 0.3; router ≤ 0.5; the five-
 F + T + C in one board process ≤ 1 ms. The model calls are measured in the benchmark's own
 process, after the runs, on the same video: the CPU time of the tracker's raw inference calls
 (:meth:`Model.run <facesynth.services.points.tracker.runtimes.base.Model.run>`: detector, landmarks,
-blendshapes), per frame.
+blendshapes), per frame, with the frames paced at the chain's rate as the points stage gets them:
+a core that idles between frames runs the next one cold, and the same calls then cost more
+than back to back (measured 2026-11-28 on this project's machine kind: 5.5–6.3 ms a frame back
+to back, 6.6–6.8 at 30 fps; see the benchmarks page).
 """
 
 from __future__ import annotations
@@ -61,12 +64,21 @@ def _timed(run: Callable[[], Any], spent: list[float]) -> Callable[[], Any]:
 
 
 def model_calls_ms(
-    model: str, threads: int, video: Path, frames: int = 150, *, skip: int = 0
+    model: str,
+    threads: int,
+    video: Path,
+    frames: int = 150,
+    *,
+    skip: int = 0,
+    fps: float | None = None,
 ) -> float:
     """CPU ms per frame of the tracker's raw model calls over the video's first ``frames``
     frames (decoded beforehand, so decoding is not counted). With ``skip``, over the
     ``frames`` frames after the first ``skip``, which are tracked first, untimed, as a
-    chain's warm-up is (``facesynth bench run``: the frames its ``run`` is measured on)."""
+    chain's warm-up is (``facesynth bench run``: the frames its ``run`` is measured on).
+    With ``fps``, the timed frames are tracked one every ``1 / fps`` seconds, as a chain's
+    points stage gets them (``bench chain``); without it, back to back (``bench run``, whose
+    ``run --fast`` tracks as fast as it can)."""
     from facesynth.services.points.backends.tracker import TrackerBackend, TrackerConfig
     from facesynth.services.points.tracker.offline import iter_video_frames
 
@@ -88,6 +100,9 @@ def model_calls_ms(
             tracker.process(image)
         tracker.reset()
     spent[0] = 0.0
-    for image in images:
+    start = time.perf_counter()
+    for index, image in enumerate(images):
+        if fps:
+            time.sleep(max(0.0, start + index / fps - time.perf_counter()))
         tracker.process(image)
     return spent[0] * 1e3 / len(images)

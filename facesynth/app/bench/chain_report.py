@@ -127,7 +127,7 @@ def format_budget(
     chosen = list(dict.fromkeys(figures.variant for figures in all_figures))  # in run order
     lines = [
         "CPU budget (ms of CPU per frame, mean of the runs; points: beyond its model calls, "
-        "measured in this process on the same video)"
+        "measured in this process on the same video at the same frame rate)"
     ]
     for variant in chosen:
         runs = [f for f in all_figures if f.variant == variant]

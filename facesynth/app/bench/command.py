@@ -131,13 +131,15 @@ def _bench_chain(args: argparse.Namespace) -> int:
         openface_csv=args.openface_csv,
         hops=args.hops,
     )
-    # The tracker's own model calls, which the points stage may spend beyond its budget.
+    # The tracker's own model calls, which the points stage may spend beyond its budget, at
+    # the chain's frame rate (as the stage makes them).
     model_ms = {}
     if not args.openface_csv:
         for variant in chosen:
             key = (variant.model, variant.threads)
             if key not in model_ms:
-                model_ms[key] = model_calls_ms(*key, Path(args.video or sample_video()))
+                video = Path(args.video or sample_video())
+                model_ms[key] = model_calls_ms(*key, video, fps=args.fps)
     print(format_chain_bench(figures, model_ms))
     return 0
 
