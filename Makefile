@@ -1,5 +1,5 @@
 # facesynth developer commands. `make demo` and `make test` work on a fresh clone: they create
-# .venv and install facesynth with every extra first.
+# .venv and install facesynth with every extra but ros2 (.[all,test]) first.
 VENV ?= .venv
 PYTHON ?= python3
 BIN := $(VENV)/bin

@@ -3,8 +3,8 @@
 The ports looked at: those pyserial lists (USB serial adapters and boards, real UARTs), the
 graph's boards' ports, and any given with ``--serial``. Each is opened locked, as the drivers
 open it: a port a running service holds is reported as in use and never written to. Ports
-are asked in parallel; a silent one costs about a second (two on a USB port, where an Uno may
-be booting).
+are asked in parallel; a silent one costs about a second (about three on a USB port, where an
+Uno may be booting).
 """
 
 from __future__ import annotations
