@@ -8,11 +8,11 @@ from __future__ import annotations
 import asyncio
 from collections import Counter
 from collections.abc import Awaitable, Callable
-from importlib import resources
 from pathlib import Path
 from typing import Any
 
 import pytest
+from profile_files import patient_profile
 
 import facesynth.app.engine.chain_run as chain_run
 from facesynth.app.cli import main
@@ -31,9 +31,7 @@ def run_csv(out: Path, *, fast: bool = True) -> None:
     commands recorded to ``out``, onto paper16 with commands aged up to 5 s (on a loaded machine
     a stall of 0.25 s would make C drop a command as stale, as it should, and the runs would
     differ by it)."""
-    profile = out.with_name("paper16-patient.toml")
-    text = resources.files("facesynth.runtime.profiles").joinpath("paper16.toml").read_text()
-    profile.write_text(text.replace("\n[smoothing]", "\nmax_command_age_s = 5.0\n\n[smoothing]", 1))
+    profile = patient_profile(out.with_name("paper16-patient.toml"))
     argv = ["run", *(["--fast"] if fast else []), "--openface-csv", str(sample_openface_csv())]
     argv += ["--out", str(out)]
     argv += ["--profile", str(profile), "--max-frames", str(FRAMES)]
