@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from profile_files import patient_profile
+from patient_profiles import patient_profile
 
 import facesynth.app.engine.chain_run as chain_run
 from facesynth.app.cli import main

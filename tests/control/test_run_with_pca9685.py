@@ -12,8 +12,8 @@ from pathlib import Path
 
 import pytest
 from fake_devices.pca9685 import FakeI2CAdapter, FakePCA9685
+from patient_profiles import patient_profile
 from pca9685_model_driver import model_driver
-from profile_files import patient_profile
 from test_run_with_boards import CHANNEL, CSV, FPS, PROFILE, expected_poses, recorded, sent_poses
 
 from facesynth.app.cli import main
