@@ -167,28 +167,26 @@ def test_secured_chain_runs_end_to_end(
         time.sleep(0.1)
     assert frames == list(range(60)), spawn.log("control")
 
-    status = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "facesynth",
-            "status",
-            "--rig",
-            "lab",
-            "--timeout",
-            "1.5",
-            "--zenoh-config",
-            str(certs["lab"] / "observer.json5"),
-            "--connect",
-            router,
-        ],
-        capture_output=True,
-        text=True,
-        timeout=60,
-    )
-    assert status.returncode == 0, status.stderr
-    listed = {row.split()[1] for row in status.stdout.splitlines()[1:] if row.startswith("lab")}
-    assert listed == {"points", "features", "translator", "control"}, status.stdout
+    # status is a snapshot of the router's tokens: on a starved machine a service's session may
+    # be between a lost lease and its return at that moment (once control, with two test
+    # workers beside a soak), so it is asked up to three times.
+    wanted = {"points", "features", "translator", "control"}
+    for _ in range(3):
+        status = subprocess.run(
+            [
+                sys.executable, "-m", "facesynth", "status", "--rig", "lab", "--timeout", "1.5",
+                "--zenoh-config", str(certs["lab"] / "observer.json5"), "--connect", router,
+            ],
+            capture_output=True,
+            text=True,
+            timeout=60,
+        )  # fmt: skip
+        assert status.returncode == 0, status.stderr
+        rows = status.stdout.splitlines()[1:]
+        listed = {row.split()[1] for row in rows if row.startswith("lab")}
+        if listed == wanted:
+            break
+    assert listed == wanted, status.stdout
     # A service's own identity may run its container's health check.
     health = subprocess.run(
         [
