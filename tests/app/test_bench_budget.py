@@ -76,5 +76,8 @@ def test_with_fps_the_timed_frames_come_at_that_rate(monkeypatch: pytest.MonkeyP
     assert math.isfinite(ms) and ms > 0
     timed = starts[2:]  # after the two warm-up frames
     assert len(timed) == 4
-    gaps = np.diff(timed)
-    assert gaps.min() >= 0.095, gaps  # 0.1 s apart (back to back they are ~10 ms apart)
+    # Each in its slot, 0.1 s after the one before (back to back they are ~10 ms apart); a
+    # frame late to its slot leaves the next a shorter wait, so the slots are what is held.
+    since_first = np.array(timed) - timed[0]
+    assert (since_first >= np.arange(4) * 0.1 - 0.02).all(), since_first
+    assert np.diff(timed).min() > 0.05, np.diff(timed)
