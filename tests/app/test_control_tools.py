@@ -4,7 +4,6 @@ real firmware in the emulated Uno."""
 from __future__ import annotations
 
 import itertools
-import struct
 import sys
 from pathlib import Path
 
@@ -17,7 +16,7 @@ from board_fixtures import ssc32
 from fake_devices.maestro import FakeMaestro
 from fake_devices.ssc32 import FakeSSC32
 from profile_files import write_profile
-from uno_rig import UnoRig, firmware_ready
+from uno_rig import UnoRig, firmware_ready, payload_entries
 
 from facesynth.app.cli import main
 from facesynth.services.control.drivers.arduino import protocol as proto
@@ -82,12 +81,9 @@ def asked(uno: UnoRig, channel: int) -> list[int]:
     widths = []
     for frame in uno.commands():
         if frame.code == proto.COMMANDS["SET_ALL"].code:
-            entries = [(ch, us) for ch, (us,) in enumerate(struct.iter_unpack("<H", frame.payload))]
+            widths.append(payload_entries(frame)[channel][0])
         elif frame.code == proto.COMMANDS["SET_SOME"].code:
-            entries = list(struct.iter_unpack("<BH", frame.payload))
-        else:
-            continue
-        widths += [us for ch, us in entries if ch == channel]
+            widths += [us for ch, us in payload_entries(frame) if ch == channel]
     return widths
 
 

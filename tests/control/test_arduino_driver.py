@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 from profile_files import write_profile
-from uno_rig import UnoRig, near
+from uno_rig import UnoRig, near, payload_entries
 from waiting import eventually
 
 from facesynth.runtime.profiles import Profile, load_profile
@@ -69,14 +69,6 @@ async def hold(
             return
         await asyncio.sleep(0.05)
     raise AssertionError(f"widths {rig.widths()} never reached {want}")
-
-
-def payload_entries(frame: proto.Frame) -> list[tuple[int, ...]]:
-    message = next(m for m in proto.COMMANDS.values() if m.code == frame.code)
-    size = message.size
-    return [
-        message.struct.unpack_from(frame.payload, i) for i in range(0, len(frame.payload), size)
-    ]
 
 
 async def test_connect_sends_the_watchdog_and_the_profile_limits(

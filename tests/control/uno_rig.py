@@ -39,6 +39,15 @@ def near(width: float, us: float) -> bool:
     return abs(width - us) <= TICK_US / 2 + 0.02
 
 
+def payload_entries(frame: proto.Frame) -> list[tuple[int, ...]]:
+    """A command frame's payload as the protocol table lays it out: one tuple per entry."""
+    message = next(m for m in proto.COMMANDS.values() if m.code == frame.code)
+    size = message.size
+    return [
+        message.struct.unpack_from(frame.payload, i) for i in range(0, len(frame.payload), size)
+    ]
+
+
 class UnoRig:
     """An emulated Uno for a driver at ``workdir/ttyUno``."""
 

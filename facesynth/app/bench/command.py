@@ -135,10 +135,10 @@ def _bench_chain(args: argparse.Namespace) -> int:
     # the chain's frame rate (as the stage makes them).
     model_ms = {}
     if not args.openface_csv:
+        video = Path(args.video or sample_video())
         for variant in chosen:
             key = (variant.model, variant.threads)
             if key not in model_ms:
-                video = Path(args.video or sample_video())
                 model_ms[key] = model_calls_ms(*key, video, fps=args.fps)
     print(format_chain_bench(figures, model_ms))
     return 0
