@@ -72,12 +72,12 @@ def test_the_budget_of_a_learned_profile_end_to_end() -> None:
     performance = track_performer(str(sample_video()), frames=60)
     result = budget(performance, profile, "seed:2", oracle_every=10)
     names = [stage.name for stage in result.stages]
-    assert names[:4] == ["target", "oracle", "plan", "sent@0"]
-    assert names[5] == "live@0" and names[6] == f"live@{result.best_lag}"
+    assert names[:5] == ["target", "oracle", "sequence", "plan", "sent@0"]
+    assert names[6] == "live@0" and names[7] == f"live@{result.best_lag}"
     assert 0 <= result.best_lag <= likeness_budget.LAGS
     by_name = {stage.name: stage for stage in result.stages}
     assert by_name["target"].mean_rho > 0.9  # the target follows her, within the reach
-    assert by_name[names[6]].mean_rho >= by_name["live@0"].mean_rho
+    assert by_name[names[7]].mean_rho >= by_name["live@0"].mean_rho
     assert all(math.isfinite(stage.mean_rho) for stage in result.stages)
     assert result.noise and all(v >= 0 for v in result.noise.values() if math.isfinite(v))
     text = report(result)
@@ -93,6 +93,7 @@ def test_the_budget_of_a_learned_profile_end_to_end() -> None:
         ("an unknown head", ["--head", "nohead", "--profile", "head16"], "nohead"),
         ("no profile file", ["--profile", "./missing.learned"], "missing.learned"),
         ("oracle every 0", ["--profile", "head16", "--oracle-every", "0"], "at least 1 (got 0)"),
+        ("rounds below 0", ["--profile", "head16", "--rounds", "-1"], "0 or more (got -1)"),
     ],
 )
 def test_bad_input_is_one_line_and_exit_2(

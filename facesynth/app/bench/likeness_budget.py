@@ -16,6 +16,11 @@ reach* (against her change clipped into the profile's reach box, gain 1:
   ceiling this head and tracker allow (a local search: 6 iterations instead of 2 raised it by
   0.04 of rho on 180 frames, 12 no further; it stalls on the noise of the head's settled face,
   docs/learning.md);
+* **sequence**: the commands that follow the *whole* performance best by the lead figures'
+  own measure (correlation, with the amplitude kept), searched through the self-model and
+  rehearsed on the true head (:mod:`~facesynth.app.bench.likeness_sequence`): not causal, a
+  frame's command knows the frames to come; what this head can show of this performance by
+  the likeness measure (the oracle answers least squares per frame, a different question);
 * **plan**: T's commands before its smoothing (inverse model + plan), the head settled at each
   (no dynamics): the inverse model and plan against the oracle;
 * **sent**: the pulses C sent (T's smoothing and C's motion limits), settled at each;
@@ -39,12 +44,13 @@ from typing import Protocol
 
 import numpy as np
 
+from facesynth.app.bench.likeness_sequence import ROUNDS, sequence_faces
 from facesynth.app.bench.robot import Performance, reach_box, run_profile, track_performer
 from facesynth.app.bench.robot_compare import FeatureRow, FeatureStream, compare, lead
 from facesynth.app.learn.inprocess import SimBabbler
 from facesynth.runtime.feature_names import NAMES
 from facesynth.runtime.profiles import Profile, load_profile
-from facesynth.runtime.profiles.learned import shown_inputs
+from facesynth.runtime.profiles.learned import PolyRidge, shown_inputs
 from facesynth.services.translator.learned import LearnedTargets
 
 __all__ = ["LAGS", "Budget", "Faces", "Stage", "budget", "oracle_commands", "report", "still_noise"]
@@ -211,11 +217,14 @@ def budget(
     *,
     oracle: bool = True,
     oracle_every: int = 1,
+    rounds: int = ROUNDS,
     progress: Callable[[str], None] | None = None,
 ) -> Budget:
     """The loss budget of ``profile`` (learned, with a ``poly_ridge`` self-model or not) on the
     simulated ``head`` over ``performance`` (see the module's docstring); the oracle on every
-    ``oracle_every``-th frame only (the other frames of its stage have no value)."""
+    ``oracle_every``-th frame only (the other frames of its stage have no value); the
+    sequence stage rehearsed ``rounds`` times (0, or a profile without a ``poly_ridge``
+    self-model: no sequence stage)."""
     from facesynth.app.simhead import SimHead, load_head
 
     learned = profile.learned
@@ -255,6 +264,11 @@ def budget(
             if index % 25 == 0:
                 say(f"oracle frame {index}, {looker.looks} looks")
         stages.append(stage("oracle", _stream(performance, inputs, found)))
+    if rounds and isinstance(learned.forward, PolyRidge):
+        say("sequence")
+        chosen = lead(stages[0].rows, shown).features
+        faces = sequence_faces(profile, looker.face, wanted, planned, chosen, rounds)
+        stages.append(stage("sequence", _stream(performance, inputs, faces)))
     say("plan")
     plan_faces = [
         None if t is None else looker.face(u) for t, u in zip(wanted, planned, strict=True)
@@ -352,10 +366,15 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--frames", type=int, default=None, help="performer frames (all)")
     parser.add_argument("--no-oracle", action="store_true", help="skip the (slow) oracle")
     parser.add_argument("--oracle-every", type=int, default=1, help="the oracle on every Nth frame")
+    parser.add_argument(
+        "--rounds", type=int, default=ROUNDS, help="rehearsals of the sequence stage (0: none)"
+    )
     args = parser.parse_args(argv)
     try:
         if args.oracle_every < 1:
             raise ValueError(f"--oracle-every must be at least 1 (got {args.oracle_every})")
+        if args.rounds < 0:
+            raise ValueError(f"--rounds must be 0 or more (got {args.rounds})")
         load_head(args.head)
         profile = load_profile(args.profile)
         if profile.learned is None:
@@ -367,6 +386,7 @@ def main(argv: list[str] | None = None) -> int:
             args.head,
             oracle=not args.no_oracle,
             oracle_every=args.oracle_every,
+            rounds=args.rounds,
             progress=lambda what: print(what, file=sys.stderr, flush=True),
         )
     except ValueError as exc:  # RobotError, ProfileError and a head's errors are ValueErrors
