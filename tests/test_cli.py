@@ -32,6 +32,7 @@ COMMANDS = [
     "profile",
     "bench",
     "track",
+    "plan",
     "compose",
     "calibrate",
     "firmware",
@@ -832,6 +833,31 @@ CASES = [
         "ros2 image type",
         ["sensor", "--ros2-image-topic", "/cam", "--ros2-image-type", "jpeg"],
         "--ros2-image-type: Invalid enum value 'jpeg'",
+    ),
+    (
+        "plan a written profile",
+        ["plan", "x.mp4", "--profile", "head16", "--out", "p.mcap"],
+        "profile head16 is not learned (facesynth learn writes one)",
+    ),
+    (
+        "plan over a file",
+        ["plan", "x.mp4", "--profile", "head16", "--out", "{bad.toml}"],
+        "exists (a plan is never written over)",
+    ),
+    (
+        "plan into no folder",
+        ["plan", "x.mp4", "--profile", "head16", "--out", "{a-folder}/no/more/p.mcap"],
+        "does not exist",
+    ),
+    (
+        "plan amplitude",
+        ["plan", "x.mp4", "--profile", "head16", "--out", "p.mcap", "--amplitude", "-1"],
+        "--amplitude must be within 0..100 (got -1)",
+    ),
+    (
+        "plan lead",
+        ["plan", "x.mp4", "--profile", "head16", "--out", "p.mcap", "--lead", "1e9"],
+        "--lead must be within 0..100",
     ),
     (
         "rosbag2 from landmarks",

@@ -35,6 +35,7 @@ COMMAND_MODULES = (
     "facesynth.app.commands.profile",
     "facesynth.app.commands.bench",
     "facesynth.app.commands.track",
+    "facesynth.app.commands.plan",
     "facesynth.app.recording.cli",
     "facesynth.app.learn.arguments",
     "facesynth.app.simhead.command",

@@ -18,7 +18,7 @@ reach* (against her change clipped into the profile's reach box, gain 1:
   docs/learning.md);
 * **sequence**: the commands that follow the *whole* performance best by the lead figures'
   own measure (correlation, with the amplitude kept), searched through the self-model and
-  rehearsed on the true head (:mod:`~facesynth.app.bench.likeness_sequence`): not causal, a
+  rehearsed on the true head (:mod:`~facesynth.app.plan.sequence`): not causal, a
   frame's command knows the frames to come; what this head can show of this performance by
   the likeness measure (the oracle answers least squares per frame, a different question);
 * **plan**: T's commands before its smoothing (inverse model + plan), the head settled at each
@@ -44,14 +44,14 @@ from typing import Protocol
 
 import numpy as np
 
-from facesynth.app.bench.likeness_sequence import ROUNDS, sequence_faces
 from facesynth.app.bench.robot import Performance, reach_box, run_profile, track_performer
 from facesynth.app.bench.robot_compare import FeatureRow, FeatureStream, compare, lead
 from facesynth.app.learn.inprocess import SimBabbler
+from facesynth.app.plan.sequence import ROUNDS, sequence_faces
+from facesynth.app.plan.targets import translate
 from facesynth.runtime.feature_names import NAMES
 from facesynth.runtime.profiles import Profile, load_profile
 from facesynth.runtime.profiles.learned import PolyRidge, shown_inputs
-from facesynth.services.translator.learned import LearnedTargets
 
 __all__ = ["LAGS", "Budget", "Faces", "Stage", "budget", "oracle_commands", "report", "still_noise"]
 
@@ -113,35 +113,6 @@ class Looker:
         self.looks += 1
         out: np.ndarray = self.babbler.look(full)[self.columns]
         return out
-
-
-Frames = list[np.ndarray | None]
-
-
-def translate(
-    profile: Profile, performance: Performance
-) -> tuple[Frames, list[np.ndarray], list[np.ndarray]]:
-    """Per performer frame: T's target (None: none), its weights and its unsmoothed command."""
-    targets = LearnedTargets(profile, {})
-    held = np.zeros(len(targets.outputs))
-    wanted: Frames = []
-    weights: list[np.ndarray] = []
-    commands: list[np.ndarray] = []
-    for features in performance.features:
-        tracking = features.face and features.neutral_ready and features.raw
-        t = (
-            targets.retarget(features.raw, features.named, features.t_media_ns)
-            if tracking
-            else None
-        )
-        if t is not None:
-            u = targets.commands(t)
-            held = np.where(np.isfinite(u), u, held)
-        wanted.append(t)
-        w = targets.plan_weights()
-        weights.append(np.ones(len(targets.inputs)) if w is None else w.copy())
-        commands.append(held.copy())
-    return wanted, weights, commands
 
 
 def oracle_commands(
@@ -248,7 +219,7 @@ def budget(
         return Stage(name, figures.mean_rho, figures.median_ratio, rows, figures.median_reach_ratio)
 
     stages = []
-    wanted, weights, planned = translate(profile, performance)
+    wanted, weights, planned = translate(profile, performance.features)
     stages.append(stage("target", _stream(performance, inputs, wanted)))
     looker = Looker(profile, head)
     if oracle:

@@ -31,22 +31,18 @@ from typing import Final
 
 import numpy as np
 
+from facesynth.app.engine.performer import track_video
 from facesynth.app.engine.robot_loop import (
     MODEL,
-    NEUTRAL_S,
     Head,
     RobotError,
     RobotLoop,
     robot_features,
-    tracker,
 )
-from facesynth.app.engine.stepped import SteppedChain, sensor_frame
 from facesynth.runtime.calibration import Calibration
 from facesynth.runtime.profiles import Profile, load_profile
 from facesynth.runtime.profiles.learned import shown_inputs, unpack
 from facesynth.schemas.messages import Features
-from facesynth.services.features.core import FeatureProcessor
-from facesynth.services.sensor.sources.video import VideoConfig, VideoSource
 
 from .robot_compare import (
     FeatureRow,
@@ -114,42 +110,9 @@ def track_performer(
     """The performer's features from ``frames`` frames of ``video`` (all: None) from frame
     ``start`` on; a segment plays as a video of its own (media time from 0 at ``start``, F's
     neutral from its first second, or ``calibration``'s neutral when given)."""
-    if frames is not None and frames < 1:
-        raise RobotError("--frames must be at least 1")
-    if start < 0:
-        raise RobotError("the first frame must be 0 or later")
-    started = time.monotonic()
-    source = VideoSource(VideoConfig(path=video))
-    processor = (
-        FeatureProcessor(neutral_seconds=NEUTRAL_S)
-        if calibration is None
-        else FeatureProcessor.from_calibration(calibration, neutral_seconds=NEUTRAL_S)
-    )
-    chain = SteppedChain(tracker(model), processor)
-    out: list[Features] = []
-    origin_ns: int | None = None
-    try:
-        for index, (image, media_ns) in enumerate(source.frames()):
-            seq = index - start
-            if seq < 0:
-                continue
-            if frames is not None and seq >= frames:
-                break
-            if image is None:  # pragma: no cover - a video file always has pixels
-                raise RobotError(f"{video}: a frame without pixels")
-            origin_ns = media_ns if origin_ns is None else origin_ns
-            t_media_ns = media_ns - origin_ns
-            frame = sensor_frame(image, seq, t_media_ns, t_capture_ns=t_media_ns)
-            step = chain.step(frame)
-            assert step.features is not None
-            out.append(step.features)
-    finally:
-        source.close()
-    if not any(robot_features(f) for f in out):
-        raise RobotError(f"{video}: the tracker never found the performer's face with a neutral")
-    stream = FeatureStream.from_frames([robot_features(f) for f in out])
-    seconds = time.monotonic() - started
-    return Performance(video, source.info.fps, out, stream, seconds, calibration)
+    tracked = track_video(video, frames=frames, model=model, start=start, calibration=calibration)
+    stream = FeatureStream.from_frames([robot_features(f) for f in tracked.features])
+    return Performance(video, tracked.fps, tracked.features, stream, tracked.seconds, calibration)
 
 
 @dataclass(frozen=True)

@@ -30,6 +30,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Collection, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -132,7 +133,7 @@ def sequence_commands(
     ValueError for fewer than 3 frames, shapes that do not match, targets, starts or offsets
     that are not finite, a feature the targets do not move (its correlation has no meaning),
     bounds with ``low > high``, or negative weights."""
-    from scipy.optimize import minimize  # the learn extra (scikit-learn's dependency)
+    minimize = _minimizer()
 
     targets = np.asarray(targets, dtype=np.float64)
     start = np.asarray(start, dtype=np.float64)
@@ -165,6 +166,16 @@ def sequence_commands(
     if not np.isfinite(found).all():  # the self-model overflowed: keep where it started
         return Followed(first, start_value, start_value, int(result.nit))
     return Followed(found, start_value, -float(result.fun), int(result.nit))
+
+
+def _minimizer() -> Any:
+    """SciPy's ``minimize`` (the ``learn`` extra brings SciPy with scikit-learn), or a
+    ValueError naming the extra."""
+    try:
+        from scipy.optimize import minimize
+    except ImportError:
+        raise ValueError("planning needs SciPy: pip install 'facesynth[learn]'") from None
+    return minimize
 
 
 def likeness_gradient(

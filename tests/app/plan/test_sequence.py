@@ -1,5 +1,5 @@
 """The commands that follow a whole performance best through a self-model
-(facesynth/app/bench/likeness_sequence.py): the objective's gradient, the search, its bounds,
+(facesynth/app/plan/sequence.py): the objective's gradient, the search, its bounds,
 smoothing and amplitude terms, the rehearsal on a robot the self-model gets wrong, bad input."""
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ from collections.abc import Callable
 import numpy as np
 import pytest
 
-from facesynth.app.bench.likeness_sequence import (
+from facesynth.app.plan.sequence import (
     Likeness,
     likeness_gradient,
     rehearsed_commands,
