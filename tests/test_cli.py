@@ -668,6 +668,22 @@ CASES = [
         "--closed-loop drives the simulated heads in process; omit --driver",
     ),
     (
+        "bench robot planned written",
+        ["bench", "robot", "--planned", "--profile", "head16"],
+        "--planned needs a learned --profile (e.g. runs/head.learned) or --learn-poses (it "
+        "plays plans to learned profiles only)",
+    ),
+    (
+        "bench robot planned live",
+        ["bench", "robot", "--planned", "--driver", "maestro", "--camera", "0"],
+        "--planned drives the simulated heads in process; omit --driver",
+    ),
+    (
+        "bench planned elsewhere",
+        ["bench", "chain", "--planned"],
+        "--planned",
+    ),
+    (
         "bench robot malformed seed",
         ["bench", "robot", "--head", "seed:-1"],
         "head 'seed:-1': the seed must be a whole number within 0..4294967295 (e.g. seed:7)",

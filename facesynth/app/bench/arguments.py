@@ -34,6 +34,7 @@ READERS: Final[dict[str, frozenset[str]]] = {
         "camera": "robot",
         "ros2_image_topic": "robot",
         "closed_loop": "robot",
+        "planned": "robot",
         "learn_poses": "robot",
         "calibration": "robot",
         "track": "smoothing",
@@ -242,6 +243,12 @@ def add_bench_arguments(p: argparse.ArgumentParser) -> None:
         action="store_true",
         help="robot: also drive each learned --profile with T's loop closed through the "
         "head's camera, beside its open loop (simulated heads in process)",
+    )
+    p.add_argument(
+        "--planned",
+        action="store_true",
+        help="robot: also drive each learned --profile with its plan of the whole video "
+        "(facesynth plan) played through C, beside its open loop (simulated heads in process)",
     )
     p.add_argument(
         "--learn-poses",

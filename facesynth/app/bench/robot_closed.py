@@ -11,17 +11,16 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterable, Sequence
 
-import msgspec
-
 from facesynth.app.engine.closed_robot_loop import ClosedRobotLoop
 from facesynth.app.engine.robot_loop import Head
 from facesynth.runtime.profiles import Profile
 from facesynth.services.translator.closed_loop import LoopOptions, LoopState
 
-from .robot import Performance, RobotBench, load, measure, play, run_profile
+from .robot import Performance, RobotBench, play
 from .robot_compare import FeatureStream
+from .robot_variants import Runner, bench_variants
 
-__all__ = ["CLOSED_SUFFIX", "ClosedRobotLoop", "bench_closed", "run_closed"]
+__all__ = ["CLOSED_SUFFIX", "ClosedRobotLoop", "bench_closed", "closed_runner", "run_closed"]
 
 #: How a closed-loop run of a profile is named beside its open-loop run.
 CLOSED_SUFFIX = " (closed loop)"
@@ -60,29 +59,21 @@ def bench_closed(
     """Every profile on every head as ``bench robot`` runs it, and each learned one again with
     the loop closed (named ``NAME (closed loop)``), side by side; ``learn`` as
     :func:`~.robot.measure` takes it (each profile it learns runs open and closed too)."""
+    return bench_variants(
+        performance,
+        heads,
+        profiles,
+        open_head,
+        {CLOSED_SUFFIX: closed_runner(options)},
+        progress=progress,
+        learn=learn,
+    )
 
-    def closed_name(profile: Profile) -> str:
-        return profile.name + CLOSED_SUFFIX
 
-    def run(head: str, profile: Profile) -> FeatureStream:
-        if profile.name.endswith(CLOSED_SUFFIX):
-            original = msgspec.structs.replace(
-                profile, name=profile.name.removesuffix(CLOSED_SUFFIX)
-            )
-            return run_closed(performance, original, open_head(head), options)[0]
-        return run_profile(performance, profile, open_head(head))
+def closed_runner(options: LoopOptions | None = None) -> Runner:
+    """A :data:`~.robot_variants.Runner` that closes the loop (with ``options``)."""
 
-    def open_and_closed(name: str) -> list[Profile]:
-        profile = load(name)
-        if profile.learned is None:
-            return [profile]
-        return [profile, msgspec.structs.replace(profile, name=closed_name(profile))]
+    def run(performance: Performance, profile: Profile, head: Head) -> FeatureStream:
+        return run_closed(performance, profile, head, options)[0]
 
-    def learn_both(head: str) -> list[Profile]:
-        assert learn is not None
-        mine = learn(head)
-        return mine + [msgspec.structs.replace(p, name=closed_name(p)) for p in mine]
-
-    loaded = [p for name in profiles for p in open_and_closed(name)]
-    both = learn_both if learn is not None else None
-    return measure(performance, heads, loaded, run, progress=progress, learn=both)
+    return run

@@ -21,6 +21,7 @@ from facesynth.runtime.profiles import Profile
 from .robot import DEFAULT_PROFILES, RobotBench, bench_robot, measure, track_performer
 from .robot_compare import FeatureStream
 from .robot_report import format_robot, robot_json
+from .robot_variants import Runner
 
 
 def simulated_heads(names: list[str] | None) -> tuple[list[str], Callable[[str], Head]]:
@@ -70,8 +71,9 @@ def bench_robot_command(args: argparse.Namespace) -> int:
             raise RobotError(f"--profile {name}: {exc}") from None
     calibration = performer_calibration(getattr(args, "calibration", None))
     live = any(v is not None for v in (args.driver, args.camera, args.ros2_image_topic))
-    if getattr(args, "closed_loop", False):
-        _check_closed_loop(profiles, live, args.learn_poses is not None)
+    ways = [flag for flag in ("closed_loop", "planned") if getattr(args, flag, False)]
+    for flag in ways:
+        _check_variant(flag, profiles, live, args.learn_poses is not None)
     if args.learn_poses is not None:
         _check_learn(args.learn_poses, live)
 
@@ -89,11 +91,17 @@ def bench_robot_command(args: argparse.Namespace) -> int:
         performance = track_performer(
             args.video or str(sample_video()), frames=args.frames, calibration=calibration
         )
-        if getattr(args, "closed_loop", False):
-            from .robot_closed import bench_closed
+        if ways:
+            from .robot_variants import bench_variants
 
-            result = bench_closed(
-                performance, heads, profiles, open_head, progress=progress, learn=learn
+            result = bench_variants(
+                performance,
+                heads,
+                profiles,
+                open_head,
+                dict(_variant(flag) for flag in ways),
+                progress=progress,
+                learn=learn,
             )
         else:
             result = bench_robot(
@@ -109,17 +117,31 @@ def bench_robot_command(args: argparse.Namespace) -> int:
     return 0
 
 
-def _check_closed_loop(profiles: list[str], live: bool, learning: bool) -> None:
-    """``--closed-loop``: simulated heads in process, and a learned profile to close it on
-    (a ``--profile``, or one ``--learn-poses`` learns)."""
+def _check_variant(flag: str, profiles: list[str], live: bool, learning: bool) -> None:
+    """``--closed-loop`` / ``--planned``: simulated heads in process, and a learned profile to
+    run that way (a ``--profile``, or one ``--learn-poses`` learns)."""
     from facesynth.runtime.profiles import load_profile
 
+    option = "--" + flag.replace("_", "-")
+    verb = {"closed_loop": "closes the loop on", "planned": "plays plans to"}[flag]
     if live:
-        raise OptionError("--closed-loop drives the simulated heads in process; omit --driver")
+        raise OptionError(f"{option} drives the simulated heads in process; omit --driver")
     if not learning and not any(load_profile(name).learned is not None for name in profiles):
         raise OptionError(
-            "--closed-loop needs a learned --profile (e.g. runs/head.learned) or --learn-poses"
+            f"{option} needs a learned --profile (e.g. runs/head.learned) or --learn-poses "
+            f"(it {verb} learned profiles only)"
         )
+
+
+def _variant(flag: str) -> tuple[str, Runner]:
+    """The suffix and runner of ``--closed-loop`` or ``--planned``."""
+    if flag == "closed_loop":
+        from .robot_closed import CLOSED_SUFFIX, closed_runner
+
+        return CLOSED_SUFFIX, closed_runner()
+    from .robot_planned import PLANNED_SUFFIX, run_planned
+
+    return PLANNED_SUFFIX, run_planned
 
 
 def _check_learn(poses: int, live: bool) -> None:
