@@ -59,8 +59,9 @@ class PlanError(ValueError):
 class PlannedPerformance:
     """A planned performance: per frame, its media time, whether F saw her face, and every
     servo's pulse (µs, within its limits); how many frames had a target; the features
-    followed; the likeness objective of T's own commands (``start_value``) and of the plan
-    through the self-model (``value``), and the search's iterations."""
+    followed; the mean correlation with her targets over those features, through the
+    self-model, of T's own commands (``rho_t``) and of the plan (``rho_plan``), and the
+    search's iterations."""
 
     profile: str
     t_media_ns: list[int]
@@ -68,8 +69,8 @@ class PlannedPerformance:
     positions: list[dict[str, float]]
     planned_frames: int
     followed: list[str]
-    start_value: float
-    value: float
+    rho_t: float
+    rho_plan: float
     iterations: int
 
     def commands(self) -> list[ServoCommands]:
@@ -170,8 +171,8 @@ def plan_performance(
         positions=positions,
         planned_frames=len(frames),
         followed=[learned.inputs[i] for i in columns],
-        start_value=found.start_value,
-        value=found.value,
+        rho_t=found.start_rho,
+        rho_plan=found.rho,
         iterations=found.iterations,
     )
 

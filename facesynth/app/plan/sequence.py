@@ -66,12 +66,15 @@ ITERATIONS = 400
 class Followed:
     """The commands found (frames × servos), the objective's value at the start (T's commands
     or whatever was given) and at the end (through the self-model, with the offsets it was
-    given), and the search's iterations."""
+    given), the search's iterations, and the mean correlation alone (the objective's first
+    term) at the start and at the end."""
 
     commands: np.ndarray
     start_value: float
     value: float
     iterations: int
+    start_rho: float = float("nan")
+    rho: float = float("nan")
 
 
 class Likeness:
@@ -86,6 +89,12 @@ class Likeness:
         self.wanted = targets[:, columns] - targets[:, columns].mean(axis=0)
         self.wanted_norm = np.sqrt(np.sum(self.wanted**2, axis=0))
         self.wanted_std = self.wanted_norm / np.sqrt(self.frames)
+
+    def mean_rho(self, faces: np.ndarray) -> float:
+        """The mean correlation of ``faces`` (frames × the columns) with the targets."""
+        shown = faces - faces.mean(axis=0)
+        norm = np.sqrt(np.sum(shown**2, axis=0)) + 1e-12
+        return float(np.mean(np.sum(shown * self.wanted, axis=0) / (norm * self.wanted_norm)))
 
     def value(self, faces: np.ndarray, u: np.ndarray) -> float:
         """The objective for ``faces`` (frames × the columns) shown at commands ``u``."""
@@ -151,7 +160,6 @@ def sequence_commands(
         return -value, -gradient.ravel()
 
     first = np.minimum(np.maximum(start, low), high)
-    start_value = -objective(first.ravel())[0]
     per_servo = list(zip(low.tolist(), high.tolist(), strict=True))
     with np.errstate(all="ignore"):
         result = minimize(
@@ -164,8 +172,14 @@ def sequence_commands(
         )
     found = np.minimum(np.maximum(result.x.reshape(frames, servos), low), high)
     if not np.isfinite(found).all():  # the self-model overflowed: keep where it started
-        return Followed(first, start_value, start_value, int(result.nit))
-    return Followed(found, start_value, -float(result.fun), int(result.nit))
+        found = first
+    values = [-objective(u.ravel())[0] for u in (first, found)]
+
+    def rho(u: np.ndarray) -> float:
+        faces = np.array([model.at(np.append(v, 1.0))[0][columns] for v in u])
+        return likeness.mean_rho(faces + added)
+
+    return Followed(found, values[0], values[1], int(result.nit), rho(first), rho(found))
 
 
 def _minimizer() -> Any:

@@ -76,7 +76,7 @@ def test_the_plan_follows_her_better_than_t_through_the_self_model(
     robot: Profile, plan: PlannedPerformance
 ) -> None:
     assert robot.learned is not None
-    assert plan.value > plan.start_value + 0.05
+    assert plan.rho_plan > plan.rho_t + 0.05
     assert plan.followed and set(plan.followed) <= set(shown_inputs(robot.learned))
 
 
@@ -139,7 +139,7 @@ def test_facesynth_plan_writes_a_plan_replay_reads(
     assert main([*argv, "--frames", "40", "--lead", "0.1"]) == 0
     summary = json.loads(capsys.readouterr().out)
     assert summary["frames"] == 40 and summary["out"] == str(out)
-    assert summary["likeness_planned"] > summary["likeness_of_t"]
+    assert summary["self_model_rho_plan"] > summary["self_model_rho_t"]
     with Recording(out) as recording:
         assert recording.stages() == ["servo_commands"]
     assert main([*argv, "--frames", "40"]) == 2  # never written over

@@ -84,6 +84,7 @@ def test_the_search_raises_the_objective_within_the_bounds() -> None:
     low, high = np.array([-0.5, -1.0]), np.array([1.0, 0.4])
     found = sequence_commands(COUPLED, targets, start, low, high)
     assert found.value > found.start_value + 0.01
+    assert -1.0 <= found.start_rho < found.rho <= 1.0
     assert np.all(found.commands >= low) and np.all(found.commands <= high)
     assert found.iterations >= 1
 
