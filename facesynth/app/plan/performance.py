@@ -9,7 +9,8 @@ amplitude kept, no jumps between frames), over the features the robot can show
 (:func:`~facesynth.runtime.profiles.learned.shown_inputs`) that the performance moves. Each
 frame's commands become pulses within the profile's limits (the learned servos within their
 responsive ranges, the dead ones at neutral); a frame without a target (no face, or F's
-neutral not yet known) holds the profile's neutral.
+neutral not yet known) holds the profile's neutral, and the jump from it into the first
+planned frame counts as any other.
 
 :func:`write_plan` writes them as ``…/servo_commands`` samples at the video's media times, a
 recording that ``facesynth replay PLAN --from servo_commands`` publishes to a robot's control
@@ -152,6 +153,7 @@ def plan_performance(
         amplitude=amplitude,
         smooth=smooth,
         iterations=iterations,
+        before=np.zeros(len(low)) if frames[0] > 0 else None,  # from the neutral it held
     )
     servo = LearnedTargets(profile, {})
     neutral = {spec.name: spec.neutral_us for spec in profile.servos}

@@ -79,13 +79,21 @@ class Followed:
 
 class Likeness:
     """The module's objective for fixed targets (frames × features, standardized) over some
-    of their ``columns``, and its derivative by each frame's face and commands."""
+    of their ``columns``, and its derivative by each frame's face and commands; with
+    ``before`` (the commands held before the first frame, e.g. neutral), the jump into the
+    first frame counts as the others do."""
 
     def __init__(
-        self, targets: np.ndarray, columns: list[int], amplitude: float, smooth: float
+        self,
+        targets: np.ndarray,
+        columns: list[int],
+        amplitude: float,
+        smooth: float,
+        before: np.ndarray | None = None,
     ) -> None:
         self.frames = len(targets)
         self.columns, self.amplitude, self.smooth = columns, amplitude, smooth
+        self.before = before
         self.wanted = targets[:, columns] - targets[:, columns].mean(axis=0)
         self.wanted_norm = np.sqrt(np.sum(self.wanted**2, axis=0))
         self.wanted_std = self.wanted_norm / np.sqrt(self.frames)
@@ -117,6 +125,10 @@ class Likeness:
         pull = np.zeros_like(u)
         pull[1:] += 2.0 * jumps
         pull[:-1] -= 2.0 * jumps
+        if self.before is not None:
+            into = u[0] - self.before
+            value -= self.smooth * float(np.sum(into**2)) / self.frames
+            pull[0] += 2.0 * into
         return value, slope / count, -self.smooth * pull / self.frames
 
 
@@ -132,12 +144,14 @@ def sequence_commands(
     smooth: float = SMOOTH,
     iterations: int = ITERATIONS,
     offsets: np.ndarray | None = None,
+    before: np.ndarray | None = None,
 ) -> Followed:
     """The commands (frames × servos, within ``low`` .. ``high``) whose self-model faces best
     follow ``targets`` (frames × the model's features, standardized) by the module's
     objective over the ``features`` (column indices; None: all), from ``start``;
     ``offsets`` (frames × those features; None: none) are added to the self-model's faces
-    (what it got wrong, seen on the robot: :func:`rehearsed_commands`).
+    (what it got wrong, seen on the robot: :func:`rehearsed_commands`); ``before`` (one per
+    servo; None: nothing) the commands held before the first frame, whose jump into it counts.
 
     ValueError for fewer than 3 frames, shapes that do not match, targets, starts or offsets
     that are not finite, a feature the targets do not move (its correlation has no meaning),
@@ -153,7 +167,11 @@ def sequence_commands(
     added = np.zeros((frames, len(columns))) if offsets is None else np.asarray(offsets, float)
     if added.shape != (frames, len(columns)) or not np.isfinite(added).all():
         raise ValueError(f"offsets must be finite, ({frames}, {len(columns)})")
-    likeness = Likeness(targets, columns, amplitude, smooth)
+    if before is not None:
+        before = np.asarray(before, dtype=np.float64)
+        if before.shape != (servos,) or not np.isfinite(before).all():
+            raise ValueError(f"before must be {servos} finite commands")
+    likeness = Likeness(targets, columns, amplitude, smooth, before)
 
     def objective(flat: np.ndarray) -> tuple[float, np.ndarray]:
         value, gradient = likeness_gradient(model, likeness, flat.reshape(frames, servos), added)

@@ -62,7 +62,7 @@ def test_the_gradient_is_the_objectives_slope() -> None:
     rng = np.random.default_rng(27)
     head = model(rng.normal(size=(3, 5)).tolist())
     targets = performance(12)
-    likeness = Likeness(targets, [0, 1, 2], amplitude=0.3, smooth=0.5)
+    likeness = Likeness(targets, [0, 1, 2], amplitude=0.3, smooth=0.5, before=np.zeros(2))
     u = rng.uniform(-0.8, 0.8, (12, 2))
     offsets = rng.normal(scale=0.1, size=(12, 3))
     _, gradient = likeness_gradient(head, likeness, u, offsets)
@@ -108,6 +108,14 @@ def test_the_jump_term_smooths_the_commands() -> None:
     smooth = sequence_commands(COUPLED, targets, start, LOW, HIGH, smooth=5.0).commands
     jumps = [float(np.mean(np.diff(u, axis=0) ** 2)) for u in (rough, smooth)]
     assert jumps[1] < 0.7 * jumps[0]
+
+
+def test_the_jump_from_the_commands_before_counts() -> None:
+    targets = performance()
+    start = least_squares(targets)
+    free = sequence_commands(COUPLED, targets, start, LOW, HIGH).commands
+    held = sequence_commands(COUPLED, targets, start, LOW, HIGH, before=np.zeros(2)).commands
+    assert np.abs(held[0]).max() < 0.8 * np.abs(free[0]).max()
 
 
 def test_the_amplitude_term_keeps_the_targets_spread() -> None:
@@ -190,6 +198,8 @@ def _bad(**change: object) -> Callable[[], object]:
         ("a negative weight", _bad(smooth=-1.0), ">= 0"),
         ("offsets of another size", _bad(offsets=np.zeros((10, 2))), "offsets must be"),
         ("infinite offsets", _bad(offsets=np.full((10, 3), np.inf)), "offsets must be"),
+        ("a command before of another size", _bad(before=np.zeros(3)), "2 finite commands"),
+        ("a NaN command before", _bad(before=np.array([0.0, np.nan])), "2 finite commands"),
     ],
 )
 def test_bad_input_is_a_clear_error(label: str, call: Callable[[], object], message: str) -> None:
