@@ -10,44 +10,33 @@ from collections.abc import Callable
 import msgspec
 import numpy as np
 import pytest
+from simhead16_laugh import HEAD, laughing, learned_simhead16
 
 from facesynth.app.bench.robot import (
     Performance,
     RobotBench,
     RobotLoop,
     robot_features,
-    track_performer,
 )
 from facesynth.app.bench.robot_closed import CLOSED_SUFFIX, ClosedRobotLoop, bench_closed
 from facesynth.app.bench.robot_compare import FeatureStream, compare, mark_reach, summarize
-from facesynth.app.data import sample_video
-from facesynth.app.learn.fit import FitOptions, fit_learned_profile
-from facesynth.app.learn.inprocess import babble_simhead
 from facesynth.app.simhead import SimHead, load_head
 from facesynth.runtime.clock import FAKE_EPOCH_NS
-from facesynth.runtime.profiles import Profile, load_profile, save_learned_profile
+from facesynth.runtime.profiles import Profile, save_learned_profile
 from facesynth.runtime.profiles.learned import shown_inputs
 from facesynth.services.translator.learned import LearnedTargets
 
 pytestmark = [pytest.mark.slow, pytest.mark.timeout(900)]
 
-HEAD = "simhead16"
-
 
 @pytest.fixture(scope="module")
 def learned() -> Profile:
-    hardware = load_profile("head16_hardware")
-    # 80 poses over 90 frames of her laugh (once 240 over 150): the closed loop leads the open
-    # one by more on this fit (mean rho +0.060, target error -0.056; once +0.022, -0.011)
-    babble = babble_simhead(hardware, 80, head=HEAD, frames=2)
-    fitted = fit_learned_profile(babble, hardware, FitOptions(candidates=("poly_ridge",)))
-    assert fitted.learned is not None and fitted.learned.plan_steps > 0
-    return fitted
+    return learned_simhead16()
 
 
 @pytest.fixture(scope="module")
 def performance() -> Performance:
-    return track_performer(str(sample_video()), frames=90, start=240)  # she laughs
+    return laughing()  # she laughs
 
 
 class RecordingHead(SimHead):

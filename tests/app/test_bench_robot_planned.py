@@ -7,34 +7,27 @@ from __future__ import annotations
 import msgspec
 import numpy as np
 import pytest
+from simhead16_laugh import HEAD, laughing, learned_simhead16
 
-from facesynth.app.bench.robot import Performance, track_performer
+from facesynth.app.bench.robot import Performance
 from facesynth.app.bench.robot_closed import CLOSED_SUFFIX, closed_runner
 from facesynth.app.bench.robot_planned import PLANNED_SUFFIX, PlannedRobotLoop, run_planned
 from facesynth.app.bench.robot_variants import bench_variants
-from facesynth.app.data import sample_video
-from facesynth.app.learn.fit import FitOptions, fit_learned_profile
-from facesynth.app.learn.inprocess import babble_simhead
 from facesynth.app.plan.performance import plan_performance
 from facesynth.app.simhead import SimHead, load_head
-from facesynth.runtime.profiles import Profile, load_profile
+from facesynth.runtime.profiles import Profile
 
 pytestmark = [pytest.mark.slow, pytest.mark.timeout(900)]
-
-HEAD = "simhead16"
 
 
 @pytest.fixture(scope="module")
 def learned() -> Profile:
-    hardware = load_profile("head16_hardware")
-    babble = babble_simhead(hardware, 80, head=HEAD, frames=2)
-    fitted = fit_learned_profile(babble, hardware, FitOptions(candidates=("poly_ridge",)))
-    return msgspec.structs.replace(fitted, name="robot")
+    return msgspec.structs.replace(learned_simhead16(), name="robot")
 
 
 @pytest.fixture(scope="module")
 def performance() -> Performance:
-    return track_performer(str(sample_video()), frames=90, start=240)  # she laughs
+    return laughing()  # she laughs
 
 
 class PulseHead(SimHead):
