@@ -111,10 +111,15 @@ def test_record_replay_and_convert_on_the_command_line(
     # In real time (3.3 s), commands allowed 5 s of age: the recorder is another session, and
     # every publication uses Zenoh's DROP congestion control, so a --fast flood may shed one
     # toward it on a starved machine (seen with two test workers beside a soak: 99 of 100).
+    # The speed limits on the commands' media time, as --fast had them and the replay below
+    # has them: on C's own clock a command arriving late on a loaded machine is limited
+    # otherwise (frame 31 differed once, beside other runs at load 2-3).
     live = run_facesynth(
         "run",
         "--openface-csv",
         str(csv),
+        "--motion-time",
+        "media",
         "--profile",
         str(patient_profile(tmp_path / "paper16-patient.toml")),
         "--connect",
