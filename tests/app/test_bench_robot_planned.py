@@ -4,6 +4,8 @@ variant beside both). A learned profile is fitted here from the head's own babbl
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import msgspec
 import numpy as np
 import pytest
@@ -13,9 +15,10 @@ from facesynth.app.bench.robot import Performance
 from facesynth.app.bench.robot_closed import CLOSED_SUFFIX, closed_runner
 from facesynth.app.bench.robot_planned import PLANNED_SUFFIX, PlannedRobotLoop, run_planned
 from facesynth.app.bench.robot_variants import bench_variants
+from facesynth.app.cli import main
 from facesynth.app.plan.performance import plan_performance
 from facesynth.app.simhead import SimHead, load_head
-from facesynth.runtime.profiles import Profile
+from facesynth.runtime.profiles import Profile, save_learned_profile
 
 pytestmark = [pytest.mark.slow, pytest.mark.timeout(900)]
 
@@ -85,3 +88,19 @@ def test_a_plan_runs_beside_the_open_and_the_closed_loop(
     assert all(np.isfinite(list(rho.values())))
     # her laugh planned whole is followed better than frame by frame (0.48 against 0.40 here)
     assert rho["robot" + PLANNED_SUFFIX] > rho["robot"] + 0.03
+
+
+@pytest.mark.parametrize("option", ["--planned", "--closed-loop"])
+def test_a_learned_profile_without_a_self_model_is_refused_before_tracking(
+    option: str, learned: Profile, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert learned.learned is not None
+    blind = msgspec.structs.replace(
+        learned, learned=msgspec.structs.replace(learned.learned, forward=None, plan_steps=0)
+    )
+    path = tmp_path / "blind.learned"
+    save_learned_profile(blind, path)
+    assert main(["bench", "robot", option, "--profile", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert f"{option}: profile {path} has no poly_ridge self-model" in err
+    assert "tracking the performer" not in err

@@ -119,18 +119,29 @@ def bench_robot_command(args: argparse.Namespace) -> int:
 
 def _check_variant(flag: str, profiles: list[str], live: bool, learning: bool) -> None:
     """``--closed-loop`` / ``--planned``: simulated heads in process, and a learned profile to
-    run that way (a ``--profile``, or one ``--learn-poses`` learns)."""
+    run that way (a ``--profile``, or one ``--learn-poses`` learns), each learned one with the
+    ``poly_ridge`` self-model both go through (checked before the performer is tracked)."""
     from facesynth.runtime.profiles import load_profile
+    from facesynth.runtime.profiles.learned import PolyRidge
 
     option = "--" + flag.replace("_", "-")
     verb = {"closed_loop": "closes the loop on", "planned": "plays plans to"}[flag]
     if live:
         raise OptionError(f"{option} drives the simulated heads in process; omit --driver")
-    if not learning and not any(load_profile(name).learned is not None for name in profiles):
+    learned = [
+        (name, mapping) for name in profiles if (mapping := load_profile(name).learned) is not None
+    ]
+    if not learning and not learned:
         raise OptionError(
             f"{option} needs a learned --profile (e.g. runs/head.learned) or --learn-poses "
             f"(it {verb} learned profiles only)"
         )
+    for name, mapping in learned:
+        if not isinstance(mapping.forward, PolyRidge):
+            raise OptionError(
+                f"{option}: profile {name} has no poly_ridge self-model (it {verb} learned "
+                "profiles through theirs; facesynth learn writes one)"
+            )
 
 
 def _variant(flag: str) -> tuple[str, Runner]:
