@@ -10,13 +10,12 @@ and limits its speed as it does T's), and the head's camera is tracked as for an
 
 from __future__ import annotations
 
-import numpy as np
-
 from facesynth.app.engine.robot_loop import Head, RobotLoop
 from facesynth.app.plan.performance import plan_performance
 from facesynth.runtime.clock import FAKE_EPOCH_NS
 from facesynth.runtime.profiles import Profile
 from facesynth.schemas.messages import Features, ServoCommands
+from facesynth.services.control.core import Move
 from facesynth.services.control.freshness import Arrival
 
 from .robot import Performance, play
@@ -40,23 +39,15 @@ class PlannedRobotLoop(RobotLoop):
         self.commands = commands
         self.played = 0
 
-    def step(self, performer: Features) -> tuple[np.ndarray, Features]:
-        """Play the next planned command at ``performer``'s instant: the head's camera image
-        and the robot's features."""
-        if self.origin_ns is None:
-            self.start()
-        assert self.origin_ns is not None
-        t_ns = max(self.now_ns, self.origin_ns + performer.t_media_ns)
-        self._advance(t_ns)
-        if self.played < len(self.commands):
-            command = self.commands[self.played]
-            self.played += 1
-            move, _ = self.control.command(command, Arrival(FAKE_EPOCH_NS + t_ns, t_ns))
-            self._send(move)
-        self.now_ns = t_ns
-        self.head.step(t_ns)
-        image = self.head.render()
-        return image, self._look(image)
+    def _move(self, performer: Features, t_ns: int) -> Move | None:
+        """C's move for the next planned command at ``performer``'s instant (None past the
+        plan's last)."""
+        if self.played >= len(self.commands):
+            return None
+        command = self.commands[self.played]
+        self.played += 1
+        move, _ = self.control.command(command, Arrival(FAKE_EPOCH_NS + t_ns, t_ns))
+        return move
 
 
 def run_planned(performance: Performance, profile: Profile, head: Head) -> FeatureStream:

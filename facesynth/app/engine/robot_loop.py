@@ -140,12 +140,19 @@ class RobotLoop:
         assert self.origin_ns is not None
         t_ns = max(self.now_ns, self.origin_ns + performer.t_media_ns)
         self._advance(t_ns)
-        _, move = self.cores.command(performer, t_ns)
-        self._send(move)
+        move = self._move(performer, t_ns)
+        if move is not None:
+            self._send(move)
         self.now_ns = t_ns
         self.head.step(t_ns)
         image = self.head.render()
         return image, self._look(image)
+
+    def _move(self, performer: Features, t_ns: int) -> Move | None:
+        """C's move for this performer frame at ``t_ns`` (None: no command reaches C): T's
+        command for her features; a subclass may command C otherwise."""
+        _, move = self.cores.command(performer, t_ns)
+        return move
 
     def _advance(self, t_ns: int) -> None:
         """C's own moves (catch-up steps, returns) due up to ``t_ns``, sent as they happen."""
