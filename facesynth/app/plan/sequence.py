@@ -191,13 +191,20 @@ def sequence_commands(
     found = np.minimum(np.maximum(result.x.reshape(frames, servos), low), high)
     if not np.isfinite(found).all():  # the self-model overflowed: keep where it started
         found = first
-    values = [-objective(u.ravel())[0] for u in (first, found)]
+    at_start, at_end = (model_faces(model, u, columns) + added for u in (first, found))
+    return Followed(
+        found,
+        likeness.value(at_start, first),
+        likeness.value(at_end, found),
+        int(result.nit),
+        likeness.mean_rho(at_start),
+        likeness.mean_rho(at_end),
+    )
 
-    def rho(u: np.ndarray) -> float:
-        faces = np.array([model.at(np.append(v, 1.0))[0][columns] for v in u])
-        return likeness.mean_rho(faces + added)
 
-    return Followed(found, values[0], values[1], int(result.nit), rho(first), rho(found))
+def model_faces(model: PolyFace, u: np.ndarray, columns: list[int]) -> np.ndarray:
+    """The self-model's faces (frames × ``columns``) at commands ``u`` (frames × servos)."""
+    return np.array([model.at(np.append(v, 1.0))[0][columns] for v in u])
 
 
 def _minimizer() -> Any:
@@ -270,7 +277,7 @@ def rehearsed_commands(
     shown: list[float] = []
     for round_ in range(rounds + 1):
         seen = np.array([look(u) for u in commands])[:, columns]
-        predicted = np.array([model.at(np.append(u, 1.0))[0][columns] for u in commands])
+        predicted = model_faces(model, commands, columns)
         faces = np.where(np.isfinite(seen), seen, predicted)  # not seen: the self-model's
         tried.append(commands)
         shown.append(likeness.value(faces, commands))
