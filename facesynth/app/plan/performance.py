@@ -27,10 +27,10 @@ from pathlib import Path
 import numpy as np
 
 from facesynth.app.plan.sequence import AMPLITUDE, ITERATIONS, SMOOTH, sequence_commands
-from facesynth.app.plan.targets import translate
+from facesynth.app.plan.targets import standardized, translate
 from facesynth.runtime import codec, keys
 from facesynth.runtime.profiles import Profile
-from facesynth.runtime.profiles.learned import PolyRidge, command_range, shown_inputs, unpack
+from facesynth.runtime.profiles.learned import PolyRidge, command_range, shown_inputs
 from facesynth.schemas.messages import Features, ServoCommands
 from facesynth.services.translator.learned import LearnedTargets
 from facesynth.services.translator.self_model_face import PolyFace
@@ -125,14 +125,12 @@ def plan_performance(
     learned = profile.learned
     assert learned is not None  # (self_model checked it)
     wanted, _, planned = translate(profile, features)
-    frames = [i for i, t in enumerate(wanted) if t is not None]
+    frames, targets = standardized(learned, wanted)
     if len(frames) < 3:
         raise PlanError(
             f"{len(frames)} frames with her face and a neutral (F's first second is its "
             "neutral); a plan needs 3 or more"
         )
-    mean, scale = unpack(learned.input_mean), unpack(learned.input_scale)
-    targets = np.array([(wanted[i] - mean) / scale for i in frames])
     shown = set(shown_inputs(learned))
     spread = targets.std(axis=0)
     columns = [

@@ -34,6 +34,7 @@ from typing import Any
 
 import numpy as np
 
+from facesynth.app.plan.targets import standardized
 from facesynth.runtime.profiles import Profile
 from facesynth.runtime.profiles.learned import PolyRidge, command_range, unpack
 from facesynth.services.translator.self_model_face import PolyFace
@@ -346,8 +347,7 @@ def sequence_faces(
         raise ValueError(f"profile {profile.name} has no poly_ridge self-model to follow with")
     mean, scale = unpack(learned.input_mean), unpack(learned.input_scale)
     low, high = command_range(learned)
-    frames = [i for i, t in enumerate(wanted) if t is not None]
-    targets = np.array([(wanted[i] - mean) / scale for i in frames])
+    frames, targets = standardized(learned, list(wanted))
     moving = np.ptp(targets, axis=0) > 0
     columns = [i for i, name in enumerate(learned.inputs) if name in chosen and moving[i]]
     rehearsed = rehearsed_commands(
@@ -362,5 +362,5 @@ def sequence_faces(
     )
     faces: list[np.ndarray | None] = [None] * len(wanted)
     for index, u in zip(frames, rehearsed.best, strict=True):
-        faces[index] = look(u)
+        faces[index] = look(u)  # looked at anew: the round was chosen on its own looks
     return faces

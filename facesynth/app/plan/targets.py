@@ -11,11 +11,12 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from facesynth.runtime.profiles import Profile
+from facesynth.runtime.profiles import Learned, Profile
+from facesynth.runtime.profiles.learned import unpack
 from facesynth.schemas.messages import Features
 from facesynth.services.translator.learned import LearnedTargets
 
-__all__ = ["Frames", "translate"]
+__all__ = ["Frames", "standardized", "translate"]
 
 #: One value per performer frame (None: T had no target there).
 Frames = list[np.ndarray | None]
@@ -44,3 +45,11 @@ def translate(
         weights.append(np.ones(len(targets.inputs)) if w is None else w.copy())
         commands.append(held.copy())
     return wanted, weights, commands
+
+
+def standardized(learned: Learned, wanted: Frames) -> tuple[list[int], np.ndarray]:
+    """The frames where T has a target (of :func:`translate`'s ``wanted``), and those targets
+    as the learned models see them, standardized (frames × inputs)."""
+    mean, scale = unpack(learned.input_mean), unpack(learned.input_scale)
+    frames = [i for i, t in enumerate(wanted) if t is not None]
+    return frames, np.array([(wanted[i] - mean) / scale for i in frames])
