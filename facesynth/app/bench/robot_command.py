@@ -64,16 +64,17 @@ def bench_robot_command(args: argparse.Namespace) -> int:
     if args.json not in (None, "-"):
         check_output(Path(args.json), "JSON")  # before any tracking
     profiles = profiles_of(args)
+    loaded: dict[str, Profile] = {}
     for name in profiles:
         try:
-            load_profile(name)  # before any tracking
+            loaded[name] = load_profile(name)  # before any tracking
         except ValueError as exc:
             raise RobotError(f"--profile {name}: {exc}") from None
     calibration = performer_calibration(getattr(args, "calibration", None))
     live = any(v is not None for v in (args.driver, args.camera, args.ros2_image_topic))
     ways = [flag for flag in ("closed_loop", "planned") if getattr(args, flag, False)]
     for flag in ways:
-        _check_variant(flag, profiles, live, args.learn_poses is not None)
+        _check_variant(flag, loaded, live, args.learn_poses is not None)
     if args.learn_poses is not None:
         _check_learn(args.learn_poses, live)
 
@@ -117,20 +118,18 @@ def bench_robot_command(args: argparse.Namespace) -> int:
     return 0
 
 
-def _check_variant(flag: str, profiles: list[str], live: bool, learning: bool) -> None:
+def _check_variant(flag: str, profiles: dict[str, Profile], live: bool, learning: bool) -> None:
     """``--closed-loop`` / ``--planned``: simulated heads in process, and a learned profile to
-    run that way (a ``--profile``, or one ``--learn-poses`` learns), each learned one with the
-    ``poly_ridge`` self-model both go through (checked before the performer is tracked)."""
-    from facesynth.runtime.profiles import load_profile
+    run that way (one of ``profiles``, loaded by name, or one ``--learn-poses`` learns), each
+    learned one with the ``poly_ridge`` self-model both go through (checked before the
+    performer is tracked)."""
     from facesynth.runtime.profiles.learned import PolyRidge
 
     option = "--" + flag.replace("_", "-")
     verb = {"closed_loop": "closes the loop on", "planned": "plays plans to"}[flag]
     if live:
         raise OptionError(f"{option} drives the simulated heads in process; omit --driver")
-    learned = [
-        (name, mapping) for name in profiles if (mapping := load_profile(name).learned) is not None
-    ]
+    learned = [(name, p.learned) for name, p in profiles.items() if p.learned is not None]
     if not learning and not learned:
         raise OptionError(
             f"{option} needs a learned --profile (e.g. runs/head.learned) or --learn-poses "
