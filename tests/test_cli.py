@@ -876,6 +876,11 @@ CASES = [
         "--lead must be within 0..100",
     ),
     (
+        "plan robot name",
+        ["plan", "x.mp4", "--profile", "head16", "--out", "p.mcap", "--robot", "a/b"],
+        "invalid robot name 'a/b': use 1-64 letters",
+    ),
+    (
         "rosbag2 from landmarks",
         ["convert", "{garbage.csv}", "--to", "rosbag2", "out"],
         "--to rosbag2 converts a recording (.mcap)",

@@ -98,8 +98,12 @@ class ServiceContext:
         maxsize: int,
         message: type[Any] | None = None,
         check: Callable[[Any], object] | None = None,
+        *,
+        every_robot: bool = False,
     ) -> Subscription:
-        """Subscribe to a stage: latest-only when ``maxsize`` is 1, else queued.
+        """Subscribe to a stage: latest-only when ``maxsize`` is 1, else queued. With
+        ``every_robot``, to every robot's key of a per-robot stage too (:func:`keys.robots_pattern`:
+        observers of a whole rig, such as the recorder).
 
         Payloads over the stage's size limit (:mod:`facesynth.runtime.limits`) are refused on
         arrival, undecoded; with ``message`` (the stage's message type) every payload is also
@@ -113,7 +117,7 @@ class ServiceContext:
         with the same checks but no decoding (:func:`codec.check`, then ``check``); without
         ``message`` the mailbox gets its bytes.
         """
-        key = self.key(stage)
+        key = keys.robots_pattern(self.rig, stage) if every_robot else self.key(stage)
         if maxsize <= 1:
             subscription = self.bus.subscribe_latest(key)
         else:

@@ -4,7 +4,8 @@ planned for a learned robot, offline (:mod:`facesynth.app.plan`).
 The video is tracked in process (the ``full`` model, blendshapes on, F's neutral from her
 first second or ``--calibration``'s neutral step, as ``bench robot`` tracks a performer); the
 servo commands that follow the whole performance best through the robot's self-model are
-written as a recording of ``…/servo_commands``, which ``facesynth replay PLAN.mcap --from
+written as a recording of ``…/servo_commands`` (``--robot NAME``: of that robot's
+``…/servo_commands/NAME`` on a multi-robot rig), which ``facesynth replay PLAN.mcap --from
 servo_commands`` plays to the robot's control service. One JSON line says what was planned.
 """
 
@@ -15,6 +16,7 @@ import json
 import time
 
 from facesynth.app.command_registry import Command
+from facesynth.runtime import keys
 from facesynth.runtime.outputs import check_output
 
 
@@ -44,7 +46,7 @@ def cmd_plan(args: argparse.Namespace) -> int:
         smooth=args.smooth,
         lead_frames=round(args.lead * tracked.fps),
     )
-    written = write_plan(plan, args.out, rig=args.rig, source=args.video)
+    written = write_plan(plan, args.out, rig=args.rig, robot=args.robot, source=args.video)
     summary = {
         "out": args.out,
         "profile": plan.profile,
@@ -62,6 +64,9 @@ def cmd_plan(args: argparse.Namespace) -> int:
 
 
 def _check_options(args: argparse.Namespace) -> None:
+    keys.check_name(args.rig)
+    if args.robot is not None:
+        keys.check_name(args.robot, "robot")
     for name in ("amplitude", "smooth", "lead"):
         value = getattr(args, name)
         if not 0 <= value <= 100:
@@ -110,6 +115,12 @@ def _arguments(p: argparse.ArgumentParser) -> None:
         "lag (facesynth learn reports it; default 0)",
     )
     p.add_argument("--rig", default="default", help="the rig whose …/servo_commands it is on")
+    p.add_argument(
+        "--robot",
+        metavar="NAME",
+        help="a multi-robot rig's robot: the plan is on its …/servo_commands/NAME "
+        "(its control service's --robot)",
+    )
 
 
 COMMANDS = (Command("plan", HELP, cmd_plan, _arguments),)

@@ -182,17 +182,19 @@ def write_plan(
     out: str | Path,
     *,
     rig: str = "default",
+    robot: str | None = None,
     source: str = "",
     overwrite: bool = False,
 ) -> int:
-    """Write ``plan`` as a recording of the rig's ``…/servo_commands``; the number of
+    """Write ``plan`` as a recording of the rig's ``…/servo_commands`` (with ``robot``, of
+    that robot's ``…/servo_commands/<robot>`` of a multi-robot rig); the number of
     commands written. The recording's own errors
     (:class:`~facesynth.app.recording.writer.RecordingFileError`) for a file that exists or
     a folder that does not."""
     from facesynth.app.recording.layout import LAYOUT_VERSION, Layout
     from facesynth.app.recording.writer import SessionWriter
 
-    key = keys.stage_key(rig, "servo_commands")
+    key = keys.stage_key(rig, "servo_commands", robot)
     frames = len(plan.t_media_ns)
     seconds = plan.t_media_ns[-1] / 1e9 if frames > 1 else 0.0
     metadata = {
@@ -202,6 +204,7 @@ def write_plan(
         "fps": f"{(frames - 1) / seconds:g}" if seconds > 0 else "0",
         "layout": LAYOUT_VERSION,
         "profile": plan.profile,
+        **({"robot": robot} if robot else {}),
     }
     writer = SessionWriter(out, metadata=metadata, fsync=False, overwrite=overwrite)
     layout = Layout()

@@ -22,7 +22,8 @@ def record_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--keys",
         metavar="LIST",
-        help=f"comma-separated, from {','.join(RECORDABLE)} (default: all)",
+        help=f"comma-separated, from {','.join(RECORDABLE)} (default: all); servo_commands "
+        "and servo_state take every robot's too (…/servo_commands/ROBOT)",
     )
     p.add_argument(
         "--frame-every",
@@ -67,7 +68,8 @@ def replay_arguments(p: argparse.ArgumentParser) -> None:
         "--from",
         dest="from_stage",
         choices=REPLAYABLE,
-        help="stage to replay (default: the earliest recorded)",
+        help="stage to replay (default: the earliest recorded); servo_commands: every "
+        "robot's too, each on its robot's key",
     )
     pace = p.add_mutually_exclusive_group()
     pace.add_argument(
@@ -153,6 +155,12 @@ def convert_arguments(p: argparse.ArgumentParser) -> None:
         "--stage",
         choices=("servo_state", "servo_commands", "features"),
         help="what to export (default servo_state, else servo_commands)",
+    )
+    p.add_argument(
+        "--robot",
+        metavar="NAME",
+        help="a multi-robot rig's recording: export this robot's commands "
+        "(…/servo_state/NAME; needed when several robots are recorded)",
     )
     p.add_argument(
         "--rig", default="default", help="landmarks: rig of the recorded keys (default 'default')"

@@ -224,7 +224,7 @@ def cmd_convert(args: argparse.Namespace) -> int:
             raise ConvertError(f"{source}: --to rosbag2 converts a recording (.mcap)")
         with Recording(source) as recording:
             counts = export_rosbag2(
-                recording, target, profile=args.profile, overwrite=args.overwrite
+                recording, target, profile=args.profile, overwrite=args.overwrite, robot=args.robot
             )
         print(json.dumps({"input": str(source), "output": str(target), "topics": counts}))
         return 0
@@ -234,7 +234,7 @@ def cmd_convert(args: argparse.Namespace) -> int:
         if exporter is None:
             raise ConvertError(f"{target}: a recording converts to .jsonl or .csv")
         with Recording(source) as recording:
-            count = exporter(recording, target, args.stage)
+            count = exporter(recording, target, args.stage, args.robot)
     else:
         if target.suffix.lower() != ".mcap":
             raise ConvertError(f"{target}: landmarks convert to a .mcap recording")

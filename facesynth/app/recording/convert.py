@@ -123,26 +123,51 @@ def _export_source(recording: Recording, stage: str | None) -> str:
     return stage
 
 
-def _messages(recording: Recording, stage: str) -> Iterator[tuple[Any, int]]:
-    """The stage's messages; on ``servo_state`` only the commands applied (a controller's own
-    moves, ``move`` other than ``"command"``, are in the recording, not in an export by frame).
+def export_keys(recording: Recording, stage: str, robot: str | None = None) -> list[str]:
+    """The recorded keys an export of ``stage`` takes: the stage's one key, or, from a
+    multi-robot rig's recording (``…/servo_state/a``, ``…/servo_state/b``), ``robot``'s."""
+    found = recording.stage_keys(stage)
+    if robot is not None:
+        keys.check_name(robot, "robot")
+        chosen = [key for key in found if keys.robot_of(key) == robot]
+        if not chosen:
+            raise ConvertError(
+                f"{recording.path} holds no {stage} of robot {robot!r} "
+                f"(it has: {', '.join(found) or 'none'})"
+            )
+        return chosen
+    if len(found) > 1:
+        raise ConvertError(
+            f"{recording.path} holds the {stage} of several robots ({', '.join(found)}): "
+            "give --robot NAME"
+        )
+    return found
+
+
+def _messages(recording: Recording, sources: list[str]) -> Iterator[tuple[Any, int]]:
+    """The messages of ``sources`` (:func:`export_keys`); of servo state only the commands
+    applied (a controller's own moves, ``move`` other than ``"command"``, are in the
+    recording, not in an export by frame).
     """
-    sources = [key for key in recording.bus_keys() if key.endswith("/" + stage)]
     for _, message, log_time in recording.messages(sources):
         if isinstance(message, ServoCommands) and message.move != "command":
             continue
         yield message, log_time
 
 
-def export_jsonl(recording: Recording, out: str | Path, stage: str | None = None) -> int:
-    """The commands as the record driver's JSON lines (``t_sent_ns`` = when they were seen)."""
+def export_jsonl(
+    recording: Recording, out: str | Path, stage: str | None = None, robot: str | None = None
+) -> int:
+    """The commands (``robot``'s, see :func:`export_keys`) as the record driver's JSON lines
+    (``t_sent_ns`` = when they were seen)."""
     chosen = _export_source(recording, stage)
+    sources = export_keys(recording, chosen, robot)
     if chosen == "features":
         raise ConvertError("JSON lines hold servo commands: use a .csv output for features")
     encoder = msgspec.json.Encoder()
     count = 0
     with open_atomic(out) as handle:
-        for message, log_time in _messages(recording, chosen):
+        for message, log_time in _messages(recording, sources):
             assert isinstance(message, ServoCommands)
             line = RecordLine(
                 seq=count,
@@ -157,15 +182,19 @@ def export_jsonl(recording: Recording, out: str | Path, stage: str | None = None
     return count
 
 
-def export_csv(recording: Recording, out: str | Path, stage: str | None = None) -> int:
-    """One row per message: frame, times, face, then one column per servo (or named feature)."""
+def export_csv(
+    recording: Recording, out: str | Path, stage: str | None = None, robot: str | None = None
+) -> int:
+    """One row per message: frame, times, face, then one column per servo (or named feature);
+    ``robot``'s commands from a multi-robot rig's recording (see :func:`export_keys`)."""
     chosen = _export_source(recording, stage)
+    sources = export_keys(recording, chosen, robot)
     columns: list[str] | None = None
     count = 0
     with open_atomic(out) as handle:
         text = io.TextIOWrapper(handle, encoding="utf-8", newline="")
         writer = csv.writer(text)
-        for message, log_time in _messages(recording, chosen):
+        for message, log_time in _messages(recording, sources):
             values = message.positions if isinstance(message, ServoCommands) else message.named
             if columns is None:
                 columns = list(values) if isinstance(message, ServoCommands) else list(NAMES)

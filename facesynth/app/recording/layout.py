@@ -1,6 +1,7 @@
 """How bus messages are laid out in MCAP channels, and how the exact bus payloads come back.
 
-For a bus key ``K`` (``facesynth/<rig>/<stage>`` or ``facesynth/<rig>/stats/<service>/<id>``):
+For a bus key ``K`` (``facesynth/<rig>/<stage>``; a robot's ``…/servo_commands/<robot>`` or
+``…/servo_state/<robot>``, typed as its stage's; or ``facesynth/<rig>/stats/<service>/<id>``):
 
 ==================  ==========================================  ===============================
 topic               what                                        schema (encoding)
@@ -72,15 +73,28 @@ STATS: Final = "stats"
 
 def key_kind(key: str) -> str | None:
     """``input`` … ``servo_state`` (or ``babble``) for a data key, ``stats`` for a stats key,
-    else ``None``."""
+    else ``None``.
+
+    A robot's key of a multi-robot rig (``…/servo_commands/<robot>``, ``…/servo_state/<robot>``:
+    :data:`keys.ROBOT_STAGES`, a valid robot name) is of its stage's kind, like the rig's own."""
     parts = key.split("/")
     if parts[0] != keys.PREFIX:
         return None
     if len(parts) == 3 and parts[2] in STAGE_TYPES:
         return parts[2]
+    if len(parts) == 4 and parts[2] in keys.ROBOT_STAGES and _valid_name(parts[3]):
+        return parts[2]
     if len(parts) == 5 and parts[2] == STATS:
         return STATS
     return None
+
+
+def _valid_name(chunk: str) -> bool:
+    try:
+        keys.check_name(chunk, "robot")
+    except keys.KeyNameError:
+        return False
+    return True
 
 
 def message_type(key: str) -> type[Any] | None:

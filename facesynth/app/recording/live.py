@@ -90,7 +90,7 @@ class FoxgloveBridge:
 
     def advertise(self, rig: str) -> None:
         """Create the rig's stage channels now, before any message (stats channels, named by
-        instance, appear with their first message).
+        instance, and each robot's commands and state appear with their first message).
 
         A client sees them as soon as it connects, and never subscribes to a channel in the
         instant it is being created (which the SDK's server can refuse as unknown).
@@ -157,8 +157,10 @@ class FoxgloveBridge:
         self.shown += 1
 
     async def serve(self, ctx: ServiceContext) -> None:
-        """Show every data and stats key of ``ctx``'s rig until cancelled."""
-        subscriptions: list[Subscription] = [ctx.subscribe(stage, 16) for stage in keys.STAGES]
+        """Show every data and stats key of ``ctx``'s rig (each robot's too) until cancelled."""
+        subscriptions: list[Subscription] = [
+            ctx.subscribe(stage, 16, every_robot=True) for stage in keys.STAGES
+        ]
         stats = ctx.bus.subscribe_queued(keys.stats_pattern(ctx.rig), 64)
         ctx.subscriptions.append(stats)
         subscriptions.append(stats)

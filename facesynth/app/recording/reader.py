@@ -197,13 +197,19 @@ class Recording:
         )
 
     def stages(self) -> list[str]:
-        """The stages (``input`` … ``servo_state``) with messages in the recording."""
+        """The stages (``input`` … ``servo_state``) with messages in the recording (a robot's
+        commands or state count as their stage's)."""
         kinds = {key_kind(key) for key in self.bus_keys()}
         return [
             stage
             for stage in ("input", "points", "features", "servo_commands", "servo_state")
             if stage in kinds
         ]
+
+    def stage_keys(self, stage: str) -> list[str]:
+        """The bus keys of ``stage`` with messages: the rig's own and, for the per-robot
+        stages, each robot's (``…/servo_commands/<robot>``)."""
+        return [key for key in self.bus_keys() if key_kind(key) == stage]
 
     def _topics(self, keys: Iterable[str]) -> list[str]:
         wanted = set(keys)

@@ -1,5 +1,8 @@
 """The ``record`` service: every key of a rig (or the chosen ones) into a session file.
 
+``servo_commands`` and ``servo_state`` are recorded on the rig's own key and on each robot's
+(``…/servo_commands/<robot>``), each on its own channel.
+
 One queued subscription per key, so nothing is dropped while the file is written (drops, if
 the disk cannot keep up, are counted in the service's stats); frames can be left out or
 thinned (every Nth). A timer cuts the chunk in progress every ``chunk_seconds`` so that a kill
@@ -118,7 +121,8 @@ class Recorder:
                     continue
                 subscription = ctx.subscribe("input", self.options.frame_queue)
             else:
-                subscription = ctx.subscribe(name, self.options.queue)  # type: ignore[arg-type]
+                # every robot's commands and state too (…/servo_commands/<robot>)
+                subscription = ctx.subscribe(name, self.options.queue, every_robot=True)  # type: ignore[arg-type]
             subscriptions.append(subscription)
         return subscriptions
 

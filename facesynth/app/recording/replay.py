@@ -2,7 +2,10 @@
 the chain takes it.
 
 One stage is replayed (``--from``): by default the earliest one recorded (frames when there
-are frames), so the stages after it run live on the recorded input. The payloads published
+are frames), so the stages after it run live on the recorded input. A multi-robot rig's
+commands are replayed on their own robots' keys of the replay's rig (``--from servo_commands``
+takes the rig's ``…/servo_commands`` and every ``…/servo_commands/<robot>``, the robot named
+as recorded), so each robot's control interface takes its own. The payloads published
 are the recorded ones, byte for byte, but for the ``capture_host`` of a live capture, which is
 cleared: a recording's capture stamps are no live clock, so the stages and the control interface
 do not age them from capture (a replay at another speed, or ``fast``, would look stale).
@@ -29,7 +32,7 @@ from dataclasses import dataclass, field
 import msgspec
 
 from facesynth.app.recording import REPLAYABLE
-from facesynth.app.recording.layout import key_kind, message_type
+from facesynth.app.recording.layout import message_type
 from facesynth.app.recording.reader import Recording
 from facesynth.runtime import codec, keys
 from facesynth.runtime.bus.link import LinkFigures
@@ -169,7 +172,8 @@ class Replayer:
         self.recording = recording
         self.options = options
         self.stage: keys.Stage = choose_stage(recording, options.stage)  # type: ignore[assignment]
-        self.sources = [key for key in recording.bus_keys() if key_kind(key) == self.stage]
+        #: The recorded keys replayed: the stage's, each robot's too (``…/servo_commands/a``).
+        self.sources = recording.stage_keys(self.stage)
         self.sent = 0
         self.link = ReplayLinkTally()
         self.last_seq = -1
@@ -190,6 +194,17 @@ class Replayer:
         if self.stage == "servo_commands":
             return "servo_state"
         return await ack_stage(ctx)
+
+    def targets(self, ctx: ServiceContext) -> dict[str, str]:
+        """The key each recorded key is published on: the stage's key of ``ctx``'s rig, or, for
+        a robot's key, that robot's key of ``ctx``'s rig."""
+        targets = {}
+        for source in self.sources:
+            robot = keys.robot_of(source)
+            targets[source] = (
+                keys.stage_key(ctx.rig, self.stage, robot) if robot else ctx.key(self.stage)
+            )
+        return targets
 
     def _restamp(self, payload: bytes) -> bytes:
         cls = message_type(self.sources[0])
@@ -239,7 +254,7 @@ class Replayer:
         options = self.options
         ctx.ready()
         await wait_for_services(ctx, options.wait_for, options.wait_timeout)
-        target = ctx.key(self.stage)
+        targets = self.targets(ctx)
         ack_task = None
         if options.fast:
             ack_stage = await self._ack_stage(ctx)
@@ -254,7 +269,7 @@ class Replayer:
             self.stage,
             sum(map(self.recording.count, self.sources)),
             self.recording.path,
-            target,
+            ", ".join(sorted(set(targets.values()))),
         )
         try:
             for item in self.recording.payloads(self.sources):
@@ -275,7 +290,7 @@ class Replayer:
                 if self.stage == "servo_commands":
                     payload = self._send_as_sender(payload, ctx)
                 ctx.stats.received += 1
-                ctx.bus.publish(target, payload)
+                ctx.bus.publish(targets[item.key], payload)
                 self.sent += 1
                 if self.link.published(ctx.bus.link(), time.monotonic() - started):
                     ctx.stats.record_published(0)  # the stats count what reached the router

@@ -7,8 +7,9 @@ extra). Topics, each message's bag time being when the recorder received it:
 
 * ``/facesynth/joint_commands`` — ``sensor_msgs/msg/JointState``: every pose C sent to its
   driver (``…/servo_state``, its idle reports left out), or, in a recording without it, the
-  translator's commands; names and radians as the ``ros2`` driver publishes them (the
-  profile's angle maps), the header stamp the frame's capture time;
+  translator's commands (of a multi-robot rig's recording, one robot's: ``--robot``); names
+  and radians as the ``ros2`` driver publishes them (the profile's angle maps), the header
+  stamp the frame's capture time;
 * ``/facesynth/camera/image_raw/compressed`` — ``sensor_msgs/msg/CompressedImage``: the
   performer's frames, JPEG as recorded (raw pixels are encoded; ticks without pixels left out);
 * ``/facesynth/features`` — ``std_msgs/msg/Float32MultiArray``: the named features, one
@@ -32,6 +33,7 @@ from typing import Any, Final
 
 import numpy as np
 
+from facesynth.app.recording.convert import export_keys
 from facesynth.app.recording.reader import Recording
 from facesynth.runtime.feature_names import NAMES
 from facesynth.runtime.profiles import Profile, ProfileError, load_profile
@@ -69,13 +71,12 @@ def commands_stage(recording: Recording) -> str | None:
     return None
 
 
-def recorded_profile(recording: Recording, stage: str, given: str | None) -> Profile:
-    """The profile whose angle maps turn the commands into radians: ``given``, else the one
-    the commands name (a name known here)."""
+def recorded_profile(recording: Recording, sources: list[str], given: str | None) -> Profile:
+    """The profile whose angle maps turn the commands on ``sources`` into radians: ``given``,
+    else the one the commands name (a name known here)."""
     name = given
     if name is None:
-        key = next(k for k in recording.bus_keys() if k.endswith("/" + stage))
-        first = next(recording.messages([key]), None)
+        first = next(recording.messages(sources[:1]), None)
         if first is None or not isinstance(first[1], ServoCommands):
             raise Rosbag2Error(f"{recording.path}: no servo commands to convert")
         name = first[1].profile
@@ -172,9 +173,15 @@ def _features(bag: _Bag, features: Features) -> Any:
 
 
 def export_rosbag2(
-    recording: Recording, out: str | Path, *, profile: str | None = None, overwrite: bool = False
+    recording: Recording,
+    out: str | Path,
+    *,
+    profile: str | None = None,
+    overwrite: bool = False,
+    robot: str | None = None,
 ) -> dict[str, int]:
-    """Write ``recording`` as the rosbag2 folder ``out``; the messages per topic."""
+    """Write ``recording`` as the rosbag2 folder ``out``; the messages per topic. From a
+    multi-robot rig's recording, ``robot``'s commands (:func:`~.convert.export_keys`)."""
     writer_class, storage, typestore = _rosbags()
     target = Path(out)
     if target.exists() and not (overwrite and target.is_dir()):
@@ -183,12 +190,9 @@ def export_rosbag2(
     if not target.parent.is_dir():
         raise Rosbag2Error(f"{target}: its folder {target.parent} does not exist")
     stage = commands_stage(recording)
-    chosen = recorded_profile(recording, stage, profile) if stage else None
-    keys = [
-        key
-        for key in recording.bus_keys()
-        if key.rsplit("/", 1)[-1] in ("input", "features") or (stage and key.endswith(stage))
-    ]
+    commands = export_keys(recording, stage, robot) if stage else []
+    chosen = recorded_profile(recording, commands, profile) if stage else None
+    keys = [*recording.stage_keys("input"), *recording.stage_keys("features"), *commands]
     if stage is None and not keys:
         raise Rosbag2Error(f"{recording.path}: no commands, frames or features to convert")
     work = Path(tempfile.mkdtemp(prefix=f".{target.name}.", dir=target.parent))

@@ -155,3 +155,27 @@ def test_facesynth_plan_writes_a_plan_replay_reads(
     for line in lines:
         for spec in robot.servos:
             assert spec.min_us <= line["servos"][spec.name] <= spec.max_us
+
+
+def test_a_plan_for_one_robot_of_a_rig_is_on_its_key_and_replays_to_it(
+    robot: Profile, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    path = tmp_path / "robot.learned"
+    save_learned_profile(robot, path)
+    out = tmp_path / "a.mcap"
+    argv = ["plan", str(sample_video()), "--profile", str(path), "--out", str(out)]
+    assert main([*argv, "--frames", "40", "--rig", "lab", "--robot", "a"]) == 0
+    assert json.loads(capsys.readouterr().out)["frames"] == 40
+    with Recording(out) as recording:
+        assert recording.bus_keys() == ["facesynth/lab/servo_commands/a"]
+        assert recording.stages() == ["servo_commands"] and recording.metadata["robot"] == "a"
+        read = [message for _, message, _ in recording.messages(recording.bus_keys())]
+    assert len(read) == 40 and all(isinstance(m, ServoCommands) for m in read)
+    # replay keeps the robot on the key: robot a's C (here the record driver) takes it
+    played = tmp_path / "played.jsonl"
+    replay = ["replay", str(out), "--from", "servo_commands", "--graph", "--speed", "4"]
+    control = ["--robot", "a", "--profile", str(path), "--driver", "record", "--out", str(played)]
+    assert main([*replay, *control, "--log-level", "WARNING"]) == 0
+    assert json.loads(capsys.readouterr().out.splitlines()[-1])["commands"] == 40
+    lines = [json.loads(line) for line in played.read_text().splitlines()[1:]]
+    assert sorted({line["frame"] for line in lines if line["frame"] is not None}) == list(range(40))

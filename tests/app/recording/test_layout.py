@@ -21,6 +21,7 @@ from facesynth.app.recording.layout import (
     Layout,
     Rebuilder,
     RebuildError,
+    key_kind,
 )
 from facesynth.app.recording.views import IBUG68_OUTLINES
 from facesynth.runtime import codec
@@ -204,3 +205,36 @@ def test_a_damaged_stored_message_is_a_clear_error() -> None:
         Rebuilder().feed(
             "facesynth/default/servo_state", MESSAGE, b'{"type": "servo_commands", "seq": "x"}', 0
         )
+
+
+COMMANDS = dict(SAMPLES)["facesynth/default/servo_commands"]
+FEATURES = dict(SAMPLES)["facesynth/default/features"]
+#: (key, payload, kind): a robot's commands and state are typed as their stage's; keys that
+#: only look like a robot's stay untyped (kept verbatim, as any key facesynth does not define).
+ROBOT_KEYS = [
+    ("facesynth/default/servo_commands/head1", COMMANDS, "servo_commands"),
+    ("facesynth/lab/servo_state/r.07", COMMANDS, "servo_state"),
+    ("facesynth/default/servo_commands/a/b", COMMANDS, None),  # five parts
+    ("facesynth/default/servo_commands/", COMMANDS, None),  # no robot
+    ("facesynth/default/servo_state/a b", COMMANDS, None),  # not a name
+    ("facesynth/default/features/x", FEATURES, None),  # one feed for every robot
+    ("facesynth/default/babble/x", COMMANDS, None),
+    ("other/default/servo_commands/head1", COMMANDS, None),
+]
+
+
+def test_a_robots_commands_and_state_are_typed_like_their_stage_and_nothing_else() -> None:
+    for key, payload, kind in ROBOT_KEYS:
+        assert key_kind(key) == kind, key
+        layout = Layout()
+        entries = layout.entries(key, payload, 5, 1)
+        (entry,) = entries
+        if kind is None:
+            assert entry.channel.role == RAW and layout.raw[key] == 1, key
+            continue
+        assert entry.channel.role == MESSAGE and entry.channel.topic == "/" + key
+        assert entry.channel.schema is not None
+        assert entry.channel.schema.name == "facesynth.ServoCommands"
+        assert json.loads(entry.data)["positions"]["jaw"] == 1500.125
+        assert not layout.raw
+        assert rebuild(entries, Rebuilder()) == [payload]
