@@ -115,9 +115,12 @@ test-arm64: $(BIN)/.installed
 ## other processes against facesynth, in a network namespace with only loopback (DDS discovery
 ## never leaves the machine; each test also sets ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST and a
 ## ROS_DOMAIN_ID of its own).
+## ROS2_PIP: how the [ros2] extra is installed first (.ci/run installs it up front and sets it
+## empty: a reinstall of the editable package mid-run would race the other lane's processes).
+ROS2_PIP ?= $(BIN)/python -m pip install -q -e '.[ros2]'
 test-ros2: $(BIN)/.installed
 	@$(SYSTEM_PACKAGES) ros2
-	$(BIN)/python -m pip install -q -e '.[ros2]'
+	$(ROS2_PIP)
 	unshare -n sh -c 'ip link set lo up && exec $(BIN)/python -m pytest -q -s -m ros2 tests/ros2'
 
 lint: $(BIN)/.installed

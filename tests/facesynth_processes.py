@@ -13,6 +13,8 @@ import socket
 import subprocess
 import sys
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 
@@ -74,6 +76,27 @@ class Processes:
             except subprocess.TimeoutExpired:
                 proc.kill()
                 proc.wait()
+
+
+@contextmanager
+def simhead_device(folder: Path) -> Iterator[tuple[str, str]]:
+    """``facesynth simhead`` (simhead16) running in ``folder``, its own state there: its
+    Maestro's serial link and its camera's URL; stopped on the way out."""
+    processes = Processes(folder)
+    saved = os.environ.get("FACESYNTH_STATE")
+    try:
+        os.environ["FACESYNTH_STATE"] = str(folder / "facesynth-state")  # not the user's
+        try:
+            link = str(folder / "simhead-tty")
+            camera = processes.start_simhead(link)
+        finally:
+            if saved is None:
+                os.environ.pop("FACESYNTH_STATE", None)
+            else:
+                os.environ["FACESYNTH_STATE"] = saved
+        yield link, camera
+    finally:
+        processes.stop()
 
 
 def free_port() -> int:

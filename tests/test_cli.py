@@ -881,6 +881,24 @@ CASES = [
         "invalid robot name 'a/b': use 1-64 letters",
     ),
     (
+        "plan driver without camera",
+        ["plan", "x.mp4", "--profile", "head16", "--out", "p.mcap", "--driver", "maestro"],
+        "a rehearsal on the robot needs both --driver and --camera",
+    ),
+    (
+        "plan rounds without robot",
+        ["plan", "x.mp4", "--profile", "head16", "--out", "p.mcap", "--rounds", "2"],
+        "--rounds goes with --driver and --camera (a rehearsal)",
+    ),
+    (
+        "plan look every 0",
+        [
+            *("plan", "x.mp4", "--profile", "head16", "--out", "p.mcap"),
+            *("--driver", "maestro", "--camera", "0", "--look-every", "0"),
+        ],
+        "--look-every must be at least 1 (got 0)",
+    ),
+    (
         "rosbag2 from landmarks",
         ["convert", "{garbage.csv}", "--to", "rosbag2", "out"],
         "--to rosbag2 converts a recording (.mcap)",

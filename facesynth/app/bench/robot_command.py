@@ -181,28 +181,6 @@ def _learner(poses: int) -> Callable[[str], list[Profile]]:
     return learn
 
 
-def driver_config(name: str, port: str | None) -> msgspec.Struct:
-    """``--driver NAME [--port PORT]`` as a checked driver config."""
-    from facesynth.services.control.drivers.registry import DRIVERS
-
-    data = {"driver": name} if port is None else {"driver": name, "port": port}
-    return DRIVERS.parse(data, "--driver")
-
-
-def camera_config(value: str) -> msgspec.Struct:
-    """``--camera VALUE`` as a checked config of the camera source (its ``--camera`` field)."""
-    from facesynth.services.sensor.sources.registry import SOURCES
-
-    plugin = SOURCES.get("camera")
-    for field in plugin.fields():
-        meta = field.type
-        if isinstance(meta, msgspec.inspect.Metadata) and (meta.extra or {}).get("flag") == (
-            "--camera"
-        ):
-            return SOURCES.parse({"source": "camera", field.name: value}, "--camera")
-    raise OptionError("--camera: the camera source has no --camera field")  # pragma: no cover
-
-
 def ros2_camera_config(topic: str) -> msgspec.Struct:
     """``--ros2-image-topic TOPIC`` as a checked config of the ``ros2`` source."""
     from facesynth.services.sensor.sources.registry import SOURCES
@@ -219,6 +197,7 @@ def _live(
     """Every profile on the head behind ``--driver``, watched through ``--camera`` (or the
     robot's camera on ROS 2, ``--ros2-image-topic``)."""
     from facesynth.app.data import sample_video
+    from facesynth.app.robot_rig import camera_config, driver_config
     from facesynth.services.control.drivers.registry import DRIVERS
     from facesynth.services.sensor.sources.registry import SOURCES
 

@@ -7,6 +7,11 @@ servo commands that follow the whole performance best through the robot's self-m
 written as a recording of ``…/servo_commands`` (``--robot NAME``: of that robot's
 ``…/servo_commands/NAME`` on a multi-robot rig), which ``facesynth replay PLAN.mcap --from
 servo_commands`` plays to the robot's control service. One JSON line says what was planned.
+
+With ``--driver NAME [--port PORT] --camera CAMERA`` the plan is rehearsed on the robot
+(:mod:`facesynth.app.plan.rehearsal`): ``--rounds`` times, the robot is posed at the planned
+frames (every ``--look-every``-th), its settled faces read through its camera, and what the
+self-model got wrong corrected for; the round the robot showed best is written.
 """
 
 from __future__ import annotations
@@ -14,10 +19,17 @@ from __future__ import annotations
 import argparse
 import json
 import time
+from pathlib import Path
+from typing import TYPE_CHECKING
 
 from facesynth.app.command_registry import Command
+from facesynth.app.learn.babble_flags import add_babble_flags
 from facesynth.runtime import keys
 from facesynth.runtime.outputs import check_output
+
+if TYPE_CHECKING:
+    from facesynth.app.plan.performance import RobotLook
+    from facesynth.runtime.profiles import Profile
 
 
 def cmd_plan(args: argparse.Namespace) -> int:
@@ -35,6 +47,7 @@ def cmd_plan(args: argparse.Namespace) -> int:
         raise ValueError(f"{args.out} exists (a plan is never written over)")
     profile = load_profile(args.profile)
     self_model(profile)
+    look = _rehearsal(args, profile, out)
     calibration = None if args.calibration is None else load_calibration(args.calibration)
     tracked = track_video(args.video, frames=args.frames, calibration=calibration)
     planning = time.monotonic()
@@ -45,6 +58,8 @@ def cmd_plan(args: argparse.Namespace) -> int:
         amplitude=args.amplitude,
         smooth=args.smooth,
         lead_frames=round(args.lead * tracked.fps),
+        look=look,
+        rounds=args.rounds or 1,
     )
     written = write_plan(plan, args.out, rig=args.rig, robot=args.robot, source=args.video)
     summary = {
@@ -59,8 +74,49 @@ def cmd_plan(args: argparse.Namespace) -> int:
         "tracking_s": round(tracked.seconds, 1),
         "planning_s": round(time.monotonic() - planning, 1),
     }
+    if look is not None:
+        summary.update(
+            {
+                "robot_rho_rounds": [round(rho, 3) for rho in plan.robot_rho],
+                "kept_round": plan.kept_round,
+                "rehearsal_stopped": plan.stopped,
+            }
+        )
     print(json.dumps(summary))
-    return 0
+    return 130 if plan.stopped else 0
+
+
+def _rehearsal(args: argparse.Namespace, profile: Profile, out: Path) -> RobotLook | None:
+    """The robot that ``--driver``/``--camera`` name, to rehearse the plan on (its servo board
+    opened once), or None without them."""
+    if args.driver is None:
+        return None
+    from facesynth.app.learn.babble_flags import babble_options
+    from facesynth.app.plan.rehearsal import RobotRehearsal, round_path
+    from facesynth.app.robot_rig import camera_config, driver_config, newest, preflight
+    from facesynth.runtime.service import run_async
+    from facesynth.services.control.drivers.registry import DRIVERS
+    from facesynth.services.points.backends.registry import BACKENDS
+
+    for path in (round_path(out, k) for k in range(args.rounds + 1)):
+        if path.exists():
+            raise ValueError(f"{path} exists (a rehearsal's round is never written over)")
+    configs = {
+        "sensor": newest(camera_config(args.camera)),
+        "points": BACKENDS.parse({"backend": "tracker"}, "--backend"),
+        "control": driver_config(args.driver, args.port),
+    }
+    if DRIVERS.build(configs["control"], profile).moves_hardware:
+        run_async(preflight(configs["control"], profile))
+    return RobotRehearsal(
+        profile,
+        args.profile,
+        configs,
+        out,
+        babble_options(args),
+        look_every=args.look_every or 1,
+        frame_every=args.frame_every,
+    )
 
 
 def _check_options(args: argparse.Namespace) -> None:
@@ -71,6 +127,23 @@ def _check_options(args: argparse.Namespace) -> None:
         value = getattr(args, name)
         if not 0 <= value <= 100:
             raise ValueError(f"--{name} must be within 0..100 (got {value:g})")
+    if args.driver is None and args.camera is None:
+        for name in ("port", "rounds", "look_every"):
+            if getattr(args, name) is not None:
+                flag = "--" + name.replace("_", "-")
+                raise ValueError(f"{flag} goes with --driver and --camera (a rehearsal)")
+        return
+    if args.driver is None or args.camera is None:
+        raise ValueError("a rehearsal on the robot needs both --driver and --camera")
+    from facesynth.app.plan.sequence import REHEARSALS
+
+    args.rounds = REHEARSALS if args.rounds is None else args.rounds
+    if args.rounds < 1:
+        raise ValueError(f"--rounds must be at least 1 (got {args.rounds})")
+    if args.look_every is not None and args.look_every < 1:
+        raise ValueError(f"--look-every must be at least 1 (got {args.look_every})")
+    if args.frame_every < 0:
+        raise ValueError("--frame-every must be >= 0 (0: no frames)")
 
 
 HELP = (
@@ -80,7 +153,7 @@ HELP = (
 
 
 def _arguments(p: argparse.ArgumentParser) -> None:
-    from facesynth.app.plan.sequence import AMPLITUDE, SMOOTH
+    from facesynth.app.plan.sequence import AMPLITUDE, REHEARSALS, SMOOTH
 
     p.add_argument("video", help="the performer's video")
     p.add_argument(
@@ -121,6 +194,36 @@ def _arguments(p: argparse.ArgumentParser) -> None:
         help="a multi-robot rig's robot: the plan is on its …/servo_commands/NAME "
         "(its control service's --robot)",
     )
+
+    robot = p.add_argument_group(
+        "rehearsal on the robot",
+        "pose the robot at the planned frames, read its settled faces through its camera and "
+        "correct what the self-model got wrong (each round recorded beside the plan as "
+        "PLAN.round<K>.mcap)",
+    )
+    robot.add_argument(
+        "--driver", metavar="NAME", help="the robot's servo driver (maestro, arduino, ssc32, …)"
+    )
+    robot.add_argument("--port", metavar="PORT", help="the --driver's serial port")
+    robot.add_argument(
+        "--camera",
+        metavar="CAMERA",
+        help="the camera watching the robot's face: a device index, a /dev/video* path or a "
+        "stream URL",
+    )
+    robot.add_argument(
+        "--rounds",
+        type=int,
+        help=f"rehearsals after the robot shows the plan (default {REHEARSALS})",
+    )
+    robot.add_argument(
+        "--look-every",
+        type=int,
+        metavar="K",
+        help="pose every Kth planned frame only (and the last): a round takes a Kth of the "
+        "time (default 1)",
+    )
+    add_babble_flags(robot)
 
 
 COMMANDS = (Command("plan", HELP, cmd_plan, _arguments),)

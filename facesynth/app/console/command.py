@@ -30,6 +30,7 @@ from facesynth.app.engine.router import RUN_LISTEN, embedded_bus
 from facesynth.app.graph import Graph
 from facesynth.app.nodes import ControlNode, SensorNode
 from facesynth.app.profile_choice import check_fit
+from facesynth.app.robot_rig import preflight
 from facesynth.app.stage_args import PLUGIN_FLAGS, apply_arguments
 from facesynth.app.wiring import OptionError, StageParts, build_node, zenoh_options
 from facesynth.runtime.bus.zenoh_bus import endpoints
@@ -142,7 +143,7 @@ def cmd_console(args: argparse.Namespace) -> int:
     check_name(rig, "rig")
     calibration = _calibration_factory(args)
     if DRIVERS.build(config, profile).moves_hardware:
-        run_async(_preflight(config, profile))
+        run_async(preflight(config, profile))
     graph = Graph(rig=rig, nodes={"control": node})
 
     def control(profile_file: str) -> StageParts:
@@ -151,13 +152,6 @@ def cmd_console(args: argparse.Namespace) -> int:
 
     with rig_lock(rig):
         return run_async(_serve(args, rig, core, control, node, save_to, host, port, calibration))
-
-
-async def _preflight(config: msgspec.Struct, profile: Any) -> None:
-    """Open the servo board once (a clear error if it is not there), then let it go."""
-    driver = DRIVERS.build(config, profile)
-    await driver.connect_once(query_only=True)
-    await driver.close()
 
 
 async def _serve(

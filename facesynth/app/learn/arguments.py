@@ -11,6 +11,7 @@ import argparse
 
 from facesynth.app.command_registry import Command
 from facesynth.app.common_arguments import zenoh_arguments
+from facesynth.app.learn.babble_flags import add_babble_flags
 from facesynth.app.stage_args import PLUGIN_FLAGS
 
 #: The adaptive plan's own options (docs/learning.md); a resume keeps the session's.
@@ -19,34 +20,6 @@ ADAPTIVE_FLAGS = (
     ("--batch", "least-sure poses chosen at a time (25)"),
     ("--candidates", "random poses each batch is chosen from (400)"),
     ("--members", "self-models in the ensemble that judges them (5)"),
-)
-
-#: How babbling moves and settles: flag, type, default, help (which ends with the default).
-BABBLE_FLAGS: tuple[tuple[str, type[float] | type[int], float, str], ...] = (
-    ("--pace", float, 0.8, "command speed as a fraction of each servo's max_speed (0.8)"),
-    ("--settle-frames", int, 4, "frames the face must hold still (4)"),
-    ("--settle-tolerance", float, 0.05, "largest change of the features over those frames (0.05)"),
-    (
-        "--min-wait",
-        float,
-        0.25,
-        "seconds after the servos got there before the face's frames count (0.25)",
-    ),
-    ("--max-wait", float, 3.0, "longest wait for a pose to settle (3 s)"),
-    (
-        "--measured-tolerance",
-        float,
-        20.0,
-        "where the driver reads the servos back: how close (µs) "
-        "their measured positions must come to the command; no --min-wait then (20)",
-    ),
-    (
-        "--measured-timeout",
-        float,
-        3.0,
-        "seconds a read-back servo may take to get there before the pose is taken (3)",
-    ),
-    ("--frame-every", int, 30, "record every Nth camera frame into the session (30; 0: none)"),
 )
 
 
@@ -105,8 +78,7 @@ def _arguments(p: argparse.ArgumentParser) -> None:
     )
     for flag, what in ADAPTIVE_FLAGS:
         group.add_argument(flag, type=int, help=f"--plan adaptive: {what}")
-    for flag, kind, default, what in BABBLE_FLAGS:
-        group.add_argument(flag, type=kind, default=default, help=what)
+    add_babble_flags(group)
     seen = {"--out", "--profile"}
     for stage in ("sensor", "points", "control"):
         flags, _ = PLUGIN_FLAGS[stage]

@@ -28,8 +28,8 @@ import msgspec
 from facesynth.app.arguments import flag_dest
 from facesynth.app.chain import freeze_startup_objects
 from facesynth.app.engine.router import embedded_bus
-from facesynth.app.graph import Graph
 from facesynth.app.learn.adaptive import AdaptivePlan
+from facesynth.app.learn.babble_flags import babble_options
 from facesynth.app.learn.core import BabbleOptions, Babbler, Budget
 from facesynth.app.learn.coverage import UnsweptError
 from facesynth.app.learn.dataset import BabbleSet
@@ -48,12 +48,11 @@ from facesynth.app.learn.session import (
     read_session,
 )
 from facesynth.app.learn.session_lag import session_lags
-from facesynth.app.learn.settle import SettleOptions
 from facesynth.app.learn.shell import RECORD_KEYS, BabbleShell, LearnResult, babble
 from facesynth.app.learn.sweeps import sweep_report
-from facesynth.app.nodes import ControlNode, FeaturesNode, PointsNode, SensorNode
+from facesynth.app.robot_rig import build_parts, newest, preflight
 from facesynth.app.stage_args import PLUGIN_FLAGS
-from facesynth.app.wiring import StageParts, build_node, zenoh_options
+from facesynth.app.wiring import StageParts, zenoh_options
 from facesynth.runtime import keys
 from facesynth.runtime.bus.zenoh_bus import endpoints
 from facesynth.runtime.feature_names import NAMES
@@ -61,7 +60,6 @@ from facesynth.runtime.outputs import check_output
 from facesynth.runtime.profiles import Profile, load_profile, save_learned_profile
 from facesynth.runtime.service import run_async
 from facesynth.services.control.drivers.registry import DRIVERS
-from facesynth.services.sensor.sources.camera import CameraConfig
 
 log = logging.getLogger("facesynth.learn")
 
@@ -108,25 +106,15 @@ def cmd_learn(args: argparse.Namespace) -> int:
     choice = choose(args, kind, seed, resume.options if resume is not None else None, out)
     plan_options = choice.base()
     plan = make_plan(choice, profile, resume)
-    options = BabbleOptions(
-        settle=SettleOptions(
-            frames=args.settle_frames,
-            feature_tol=args.settle_tolerance,
-            max_wait_s=args.max_wait,
-            min_wait_s=args.min_wait,
-            measured_tol_us=args.measured_tolerance,
-            measured_timeout_s=args.measured_timeout,
-        ),
-        pace=args.pace,
-    )
+    options = babble_options(args)
     first = resume.next_pose if resume is not None else 0
     if first >= poses:
         print(f"{out} already holds {first} poses (--poses {poses}): nothing to babble")
     else:
         configs = _plugin_configs(args, out)
         if DRIVERS.build(configs["control"], profile).moves_hardware:
-            run_async(_preflight(configs["control"], profile))
-        parts = _build_parts(args, rig, profile, configs)
+            run_async(preflight(configs["control"], profile))
+        parts = build_parts(args.profile, rig, profile, configs)
         result = _babble(
             args, rig, profile, (choice, plan), options, first, poses, seed, parts, resume
         )
@@ -291,41 +279,14 @@ def _plugin_configs(args: argparse.Namespace, out: Path) -> dict[str, msgspec.St
     ):
         raise LearnError("give the robot's camera with --camera (or --video FILE for a dry run)")
     source = sensor_flags.config(args, None)
-    if isinstance(source, CameraConfig) and not hasattr(args, NEWEST_FRAME):
-        # the face of a pose is judged from frames taken after it was reached: a frame that
-        # waited in the camera's stream must be dropped, not passed on as a new one
-        source = msgspec.structs.replace(source, newest=True)
+    if not hasattr(args, NEWEST_FRAME):  # unless --newest-frame/--no-newest-frame says
+        source = newest(source)
     backend = PLUGIN_FLAGS["points"][0].config(args, {"backend": "tracker"})
     driver_base = None
     if getattr(args, "plugin_driver", "record") == "record":
         driver_base = {"driver": "record", "out": str(out.with_suffix(".commands.jsonl"))}
     driver = PLUGIN_FLAGS["control"][0].config(args, driver_base)
     return {"sensor": source, "points": backend, "control": driver}
-
-
-def _build_parts(
-    args: argparse.Namespace, rig: str, profile: Profile, configs: dict[str, msgspec.Struct]
-) -> dict[str, StageParts]:
-    """The robot's nodes, built as ``facesynth run`` builds a graph's."""
-    source, backend, driver = configs["sensor"], configs["points"], configs["control"]
-    nodes: dict[str, Any] = {
-        # The robot's camera measures the face: its frames are never dropped for their age.
-        "sensor": SensorNode(source=msgspec.to_builtins(source), capture_age=False),
-        "points": PointsNode(backend=msgspec.to_builtins(backend), queue=1),
-        "features": FeaturesNode(
-            neutral_seconds=profile.neutral_seconds, keep_state=False, neutral_held=True
-        ),
-        "control": ControlNode(profile=args.profile, driver=msgspec.to_builtins(driver)),
-    }
-    graph = Graph(rig=rig, nodes=nodes)
-    return {name: build_node(name, node, graph, configs.get(name)) for name, node in nodes.items()}
-
-
-async def _preflight(config: msgspec.Struct, profile: Profile) -> None:
-    """Open the servo board once (a clear error if it is not there), then let it go."""
-    driver = DRIVERS.build(config, profile)
-    await driver.connect_once(query_only=True)
-    await driver.close()
 
 
 def _babble(

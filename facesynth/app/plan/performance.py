@@ -20,17 +20,24 @@ does T's.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from dataclasses import dataclass
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from facesynth.app.plan.sequence import AMPLITUDE, ITERATIONS, SMOOTH, sequence_commands
+from facesynth.app.plan.sequence import (
+    AMPLITUDE,
+    ITERATIONS,
+    REHEARSALS,
+    SMOOTH,
+    rehearsed_commands,
+    sequence_commands,
+)
 from facesynth.app.plan.targets import standardized, translate
 from facesynth.runtime import codec, keys
 from facesynth.runtime.profiles import Profile
-from facesynth.runtime.profiles.learned import PolyRidge, command_range, shown_inputs
+from facesynth.runtime.profiles.learned import PolyRidge, command_range, shown_inputs, unpack
 from facesynth.schemas.messages import Features, ServoCommands
 from facesynth.services.translator.learned import LearnedTargets
 from facesynth.services.translator.self_model_face import PolyFace
@@ -40,7 +47,9 @@ __all__ = [
     "SENDER",
     "PlanError",
     "PlannedPerformance",
+    "RobotLook",
     "plan_performance",
+    "pulses",
     "self_model",
     "write_plan",
 ]
@@ -50,6 +59,12 @@ __all__ = [
 MIN_SPREAD = 0.05
 #: The ``sender`` of a plan's commands.
 SENDER = "plan"
+
+
+#: A robot shown a plan (``plan --camera``): the planned frames' commands (frames × the
+#: learned outputs, normalized) → its settled faces (frames × the learned inputs, raw; a row
+#: of NaN: not looked at or not seen), or None: the rehearsal was stopped.
+RobotLook = Callable[[np.ndarray], np.ndarray | None]
 
 
 class PlanError(ValueError):
@@ -62,7 +77,9 @@ class PlannedPerformance:
     servo's pulse (µs, within its limits); how many frames had a target; the features
     followed; the mean correlation with her targets over those features, through the
     self-model, of T's own commands (``rho_t``) and of the plan (``rho_plan``), and the
-    search's iterations."""
+    search's iterations. Rehearsed on the robot: the mean correlation in what it showed,
+    round by round (``robot_rho``, the first the plan before any rehearsal), the round kept
+    (``kept_round``: the one the robot showed best) and whether the rehearsal was stopped."""
 
     profile: str
     t_media_ns: list[int]
@@ -73,6 +90,9 @@ class PlannedPerformance:
     rho_t: float
     rho_plan: float
     iterations: int
+    robot_rho: list[float] = field(default_factory=list)
+    kept_round: int | None = None
+    stopped: bool = False
 
     def commands(self) -> list[ServoCommands]:
         """The plan as servo commands, one per frame (``sender`` :data:`SENDER`, not aged)."""
@@ -112,15 +132,21 @@ def plan_performance(
     smooth: float = SMOOTH,
     iterations: int = ITERATIONS,
     lead_frames: int = 0,
+    look: RobotLook | None = None,
+    rounds: int = REHEARSALS,
 ) -> PlannedPerformance:
     """The commands of ``profile`` for the performance F saw as ``features`` (one per video
     frame, in order; see the module), each frame's sent ``lead_frames`` frames early (against
-    the head's own lag; the last frame's held at the end). :class:`PlanError` for a profile
-    that is not learned or has no ``poly_ridge`` self-model, fewer than 3 frames with a
-    target, a performance that moves none of the features the robot can show, or a negative
-    lead."""
+    the head's own lag; the last frame's held at the end). With ``look`` (the robot itself),
+    the plan is rehearsed ``rounds`` times (:func:`~facesynth.app.plan.sequence.
+    rehearsed_commands`, from the plan found through the self-model) and the round the robot
+    showed best is kept. :class:`PlanError` for a profile that is not learned or has no
+    ``poly_ridge`` self-model, fewer than 3 frames with a target, a performance that moves
+    none of the features the robot can show, a negative lead or fewer than 1 round."""
     if lead_frames < 0:
         raise PlanError(f"the lead must be 0 frames or more (got {lead_frames})")
+    if look is not None and rounds < 1:
+        raise PlanError(f"a rehearsal takes 1 round or more (got {rounds})")
     forward = self_model(profile)
     learned = profile.learned
     assert learned is not None  # (self_model checked it)
@@ -141,8 +167,10 @@ def plan_performance(
     if not columns:
         raise PlanError("the performance moves none of the features the robot can show")
     low, high = command_range(learned)
+    model = PolyFace(forward)
+    before = np.zeros(len(low)) if frames[0] > 0 else None  # from the neutral it held
     found = sequence_commands(
-        PolyFace(forward),
+        model,
         targets,
         np.array([planned[i] for i in frames]),
         low,
@@ -151,14 +179,36 @@ def plan_performance(
         amplitude=amplitude,
         smooth=smooth,
         iterations=iterations,
-        before=np.zeros(len(low)) if frames[0] > 0 else None,  # from the neutral it held
+        before=before,
     )
-    servo = LearnedTargets(profile, {})
+    commands, rehearsed = found.commands, None
+    if look is not None:
+        mean, scale = unpack(learned.input_mean), unpack(learned.input_scale)
+
+        def standardized_look(u: np.ndarray) -> np.ndarray | None:
+            seen = look(u)
+            return None if seen is None else (seen - mean) / scale
+
+        rehearsed = rehearsed_commands(
+            model,
+            standardized_look,
+            targets,
+            found.commands,
+            low,
+            high,
+            features=columns,
+            rounds=rounds,
+            amplitude=amplitude,
+            smooth=smooth,
+            iterations=iterations,
+            before=before,
+        )
+        if rehearsed.commands:
+            commands = rehearsed.best
     neutral = {spec.name: spec.neutral_us for spec in profile.servos}
     positions = [dict(neutral) for _ in features]
-    for index, u in zip(frames, found.commands, strict=True):
-        pulses = servo.positions(u)  # within each servo's limits
-        positions[index].update(zip(servo.outputs, pulses.tolist(), strict=True))
+    for index, frame in zip(frames, pulses(profile, commands), strict=True):
+        positions[index].update(frame)
     faces = [bool(f.face) for f in features]
     if lead_frames:
         last = len(features) - 1
@@ -174,7 +224,20 @@ def plan_performance(
         rho_t=found.start_rho,
         rho_plan=found.rho,
         iterations=found.iterations,
+        robot_rho=[] if rehearsed is None else rehearsed.shown_rho,
+        kept_round=(
+            None if rehearsed is None or not rehearsed.commands else int(np.argmax(rehearsed.shown))
+        ),
+        stopped=rehearsed is not None and rehearsed.stopped,
     )
+
+
+def pulses(profile: Profile, commands: np.ndarray) -> list[dict[str, float]]:
+    """Each frame's normalized commands of the learned outputs (frames × outputs) as pulses
+    (µs) by servo, each within its servo's limits (the servos a learned profile does not
+    drive are not in them)."""
+    servo = LearnedTargets(profile, {})
+    return [dict(zip(servo.outputs, servo.positions(u).tolist(), strict=True)) for u in commands]
 
 
 def write_plan(

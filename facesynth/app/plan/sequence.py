@@ -41,12 +41,15 @@ from facesynth.services.translator.self_model_face import PolyFace
 
 __all__ = [
     "AMPLITUDE",
+    "REHEARSALS",
     "ROUNDS",
     "SMOOTH",
     "Followed",
     "Likeness",
+    "Look",
     "Rehearsal",
     "likeness_gradient",
+    "missed",
     "rehearsed_commands",
     "sequence_commands",
     "sequence_faces",
@@ -59,6 +62,10 @@ SMOOTH = 0.5
 #: Rehearsals of :func:`rehearsed_commands` (on simhead16, whole video: the true head's ρ
 #: 0.70, 0.71, 0.75, 0.75, 0.75, 0.75 after rounds 1 to 6).
 ROUNDS = 3
+#: Rehearsals on a real robot after it shows the plan (``facesynth plan --rounds``): through
+#: simhead16's camera a round's gain was within what two looks at one plan differ by
+#: (docs/learning.md, "Rehearsed on the robot").
+REHEARSALS = 1
 #: The search's iterations at most (L-BFGS-B; the whole video's 472 frames stop by ~300).
 ITERATIONS = 400
 
@@ -236,12 +243,15 @@ def likeness_gradient(
 
 @dataclass(frozen=True)
 class Rehearsal:
-    """The commands each rehearsal round tried (the first: the start) and the objective on
-    what the robot showed for each (``look``'s faces, a face not seen as the self-model's);
-    ``best``: the round whose commands the robot showed best."""
+    """The commands each rehearsal round tried (the first: the start), the objective on what
+    the robot showed for each (``look``'s faces, see :func:`rehearsed_commands`) and the mean
+    correlation in it; ``best``: the round whose commands the robot showed best;
+    ``stopped``: the rehearsal ended early (``look`` said so)."""
 
     commands: list[np.ndarray]
     shown: list[float]
+    shown_rho: list[float]
+    stopped: bool = False
 
     @property
     def best(self) -> np.ndarray:
@@ -249,9 +259,14 @@ class Rehearsal:
         return self.commands[int(np.argmax(self.shown))]
 
 
+#: What a rehearsal looks at: every frame's commands (frames × servos) → the robot's faces
+#: (frames × features, standardized; a row of NaN: not looked at or not seen), or None: stop.
+Look = Callable[[np.ndarray], np.ndarray | None]
+
+
 def rehearsed_commands(
     model: PolyFace,
-    look: Callable[[np.ndarray], np.ndarray],
+    look: Look,
     targets: np.ndarray,
     start: np.ndarray,
     low: np.ndarray,
@@ -261,27 +276,37 @@ def rehearsed_commands(
     rounds: int = ROUNDS,
     amplitude: float = AMPLITUDE,
     smooth: float = SMOOTH,
+    iterations: int = ITERATIONS,
+    before: np.ndarray | None = None,
 ) -> Rehearsal:
     """:func:`sequence_commands`, rehearsed on the robot ``rounds`` times: the robot shows the
-    commands so far (``look``: commands → its standardized face, NaN where not seen), and what
-    the self-model got wrong at each frame is added to its faces for the next search
-    (iterative learning control, the self-model's Jacobian kept). The robot shows the last
-    round's commands too, so every round is judged on what it showed, not on the self-model:
-    a round that made it worse (the self-model's slopes wrong there) is not the one kept."""
+    commands so far (``look``, a round at a time), and what the self-model got wrong at each
+    frame is added to its faces for the next search (iterative learning control, the
+    self-model's Jacobian kept). Where the robot showed no face (a frame not looked at, a face
+    not seen), what the self-model got wrong is interpolated in time between the frames it
+    did show (none shown: nothing added). The robot shows the last round's commands too, so
+    every round is judged on what it showed, not on the self-model: a round that made it worse
+    (the self-model's slopes wrong there) is not the one kept. ``look`` returning None stops
+    the rehearsal: the rounds shown so far are returned (none: ``commands`` empty)."""
     if rounds < 1:
         raise ValueError(f"rounds must be at least 1 (got {rounds})")
     targets = np.asarray(targets, dtype=np.float64)
     columns = list(range(targets.shape[1])) if features is None else list(features)
-    likeness = Likeness(targets, columns, amplitude, smooth)
+    likeness = Likeness(targets, columns, amplitude, smooth, before)
     commands = np.asarray(start, dtype=np.float64)
     tried: list[np.ndarray] = []
     shown: list[float] = []
+    shown_rho: list[float] = []
     for round_ in range(rounds + 1):
-        seen = np.array([look(u) for u in commands])[:, columns]
+        seen = look(commands)
+        if seen is None:
+            return Rehearsal(tried, shown, shown_rho, stopped=True)
         predicted = model_faces(model, commands, columns)
-        faces = np.where(np.isfinite(seen), seen, predicted)  # not seen: the self-model's
+        errors = missed(np.asarray(seen, dtype=np.float64)[:, columns] - predicted)
+        faces = predicted + errors
         tried.append(commands)
         shown.append(likeness.value(faces, commands))
+        shown_rho.append(likeness.mean_rho(faces))
         if round_ == rounds:
             break
         commands = sequence_commands(
@@ -293,9 +318,24 @@ def rehearsed_commands(
             features=columns,
             amplitude=amplitude,
             smooth=smooth,
-            offsets=faces - predicted,
+            iterations=iterations,
+            offsets=errors,
+            before=before,
         ).commands
-    return Rehearsal(tried, shown)
+    return Rehearsal(tried, shown, shown_rho)
+
+
+def missed(errors: np.ndarray) -> np.ndarray:
+    """What the self-model got wrong per frame (frames × features; NaN: not shown), with
+    each feature's gaps filled by linear interpolation in time between the frames shown
+    (before the first and after the last: the nearest; never shown: 0)."""
+    filled = np.zeros_like(errors)
+    frames = np.arange(len(errors))
+    for j in range(errors.shape[1]):
+        shown = np.isfinite(errors[:, j])
+        if shown.any():
+            filled[:, j] = np.interp(frames, frames[shown], errors[shown, j])
+    return filled
 
 
 def _check(
@@ -352,7 +392,7 @@ def sequence_faces(
     columns = [i for i, name in enumerate(learned.inputs) if name in chosen and moving[i]]
     rehearsed = rehearsed_commands(
         PolyFace(learned.forward),
-        lambda u: (look(u) - mean) / scale,
+        lambda commands: np.array([(look(u) - mean) / scale for u in commands]),
         targets,
         np.array([planned[i] for i in frames]),
         low,

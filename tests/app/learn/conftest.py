@@ -7,7 +7,7 @@ from __future__ import annotations
 from collections.abc import Iterator
 
 import pytest
-from facesynth_processes import Processes
+from facesynth_processes import simhead_device
 from threadpoolctl import threadpool_limits
 
 
@@ -28,13 +28,5 @@ def simhead(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[str, str
     camera's URL. Each ``facesynth learn`` run starts by sending it to neutral and ends there
     (a run stopped with Ctrl-C too), so no test sees another's pose; its start-up (the
     renderer's face, the camera) is paid once a module."""
-    folder = tmp_path_factory.mktemp("simhead")
-    processes = Processes(folder)
-    try:
-        with pytest.MonkeyPatch.context() as patch:  # the head's own state, not the user's
-            patch.setenv("FACESYNTH_STATE", str(folder / "facesynth-state"))
-            link = str(folder / "simhead-tty")
-            camera = processes.start_simhead(link)
-        yield link, camera
-    finally:
-        processes.stop()
+    with simhead_device(tmp_path_factory.mktemp("simhead")) as device:
+        yield device

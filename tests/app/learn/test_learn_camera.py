@@ -6,7 +6,8 @@ from __future__ import annotations
 from pathlib import Path
 
 from facesynth.app.cli import build_parser
-from facesynth.app.learn.cli import _build_parts, _plugin_configs
+from facesynth.app.learn.cli import _plugin_configs
+from facesynth.app.robot_rig import build_parts
 from facesynth.runtime.profiles import load_profile
 
 DATA = Path(__file__).resolve().parents[3] / "facesynth" / "app" / "data"
@@ -17,6 +18,8 @@ def test_the_robot_cameras_frames_are_never_aged_from_capture(tmp_path: Path) ->
     out = tmp_path / "s.mcap"
     argv = ["learn", "--profile", "paper16", "--video", str(VIDEO), "--out", str(out)]
     args = build_parser().parse_args(argv)
-    parts = _build_parts(args, "default", load_profile("paper16"), _plugin_configs(args, out))
+    parts = build_parts(
+        args.profile, "default", load_profile("paper16"), _plugin_configs(args, out)
+    )
     assert parts["sensor"].service.options.capture_age is False
     assert parts["sensor"].service.capture_host == ""

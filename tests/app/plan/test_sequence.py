@@ -12,6 +12,7 @@ import pytest
 from facesynth.app.plan.sequence import (
     Likeness,
     likeness_gradient,
+    missed,
     rehearsed_commands,
     sequence_commands,
     sequence_faces,
@@ -137,17 +138,17 @@ def test_a_rehearsal_keeps_what_the_robot_showed_best() -> None:
     start = least_squares(targets)
     looks: list[np.ndarray] = []
 
-    def look(u: np.ndarray) -> np.ndarray:
-        looks.append(u)
-        out: np.ndarray = TRUE.at(np.append(u, 1.0))[0]
-        return out
+    def look(commands: np.ndarray) -> np.ndarray:
+        looks.append(commands)
+        return faces(TRUE, commands)
 
     rehearsal = rehearsed_commands(COUPLED, look, targets, start, LOW, HIGH, rounds=3)
     assert len(rehearsal.commands) == len(rehearsal.shown) == 4  # the start and three rounds
-    assert len(looks) == 4 * len(targets)
+    assert len(looks) == 4 and not rehearsal.stopped
     likeness = Likeness(targets, [0, 1, 2], 0.3, 0.5)
     on_robot = [likeness.value(faces(TRUE, u), u) for u in rehearsal.commands]
     assert rehearsal.shown == pytest.approx(on_robot)
+    assert rehearsal.shown_rho == pytest.approx([likeness.mean_rho(faces(TRUE, u)) for u in looks])
     assert likeness.value(faces(TRUE, rehearsal.best), rehearsal.best) == max(on_robot)
     plain = sequence_commands(COUPLED, targets, start, LOW, HIGH).commands
     assert max(on_robot) > likeness.value(faces(TRUE, plain), plain) + 0.01
@@ -157,8 +158,8 @@ def test_a_face_the_robot_did_not_show_counts_as_the_self_models() -> None:
     targets = performance(20)
     start = least_squares(targets)
 
-    def blind(u: np.ndarray) -> np.ndarray:
-        return np.full(3, np.nan)
+    def blind(commands: np.ndarray) -> np.ndarray:
+        return np.full((len(commands), 3), np.nan)
 
     rehearsal = rehearsed_commands(COUPLED, blind, targets, start, LOW, HIGH, rounds=1)
     likeness = Likeness(targets, [0, 1, 2], 0.3, 0.5)
@@ -214,3 +215,42 @@ def test_no_rehearsal_is_refused() -> None:
         rehearsed_commands(
             COUPLED, lambda u: u, targets, least_squares(targets), LOW, HIGH, rounds=0
         )
+
+
+def test_a_robot_looked_at_every_third_frame_still_corrects_the_plan() -> None:
+    targets = performance()
+    start = least_squares(targets)
+    every_third = np.arange(len(targets)) % 3 == 0
+
+    def glance(commands: np.ndarray) -> np.ndarray:
+        seen = faces(TRUE, commands)
+        seen[~every_third] = np.nan
+        return seen
+
+    rehearsal = rehearsed_commands(COUPLED, glance, targets, start, LOW, HIGH, rounds=3)
+    likeness = Likeness(targets, [0, 1, 2], 0.3, 0.5)
+    best = likeness.value(faces(TRUE, rehearsal.best), rehearsal.best)
+    plain = sequence_commands(COUPLED, targets, start, LOW, HIGH).commands
+    assert best > likeness.value(faces(TRUE, plain), plain) + 0.01
+
+
+def test_what_the_self_model_missed_is_interpolated_between_the_frames_shown() -> None:
+    errors = np.array([[np.nan, np.nan], [1.0, np.nan], [np.nan, np.nan], [3.0, np.nan]])
+    filled = missed(errors)
+    assert filled[:, 0].tolist() == [1.0, 1.0, 2.0, 3.0]  # the nearest before the first
+    assert filled[:, 1].tolist() == [0.0] * 4  # never shown: nothing added
+
+
+def test_a_rehearsal_stopped_keeps_the_rounds_shown() -> None:
+    targets = performance(20)
+    start = least_squares(targets)
+    answers = iter([faces(TRUE, start), None])
+
+    def stopping(commands: np.ndarray) -> np.ndarray | None:
+        return next(answers)
+
+    rehearsal = rehearsed_commands(COUPLED, stopping, targets, start, LOW, HIGH, rounds=3)
+    assert rehearsal.stopped and len(rehearsal.commands) == len(rehearsal.shown) == 1
+    assert np.array_equal(rehearsal.best, start)
+    none = rehearsed_commands(COUPLED, lambda u: None, targets, start, LOW, HIGH, rounds=3)
+    assert none.stopped and none.commands == []
