@@ -15,13 +15,15 @@ pip_wheel=$(ls /usr/share/python-wheels/pip-*.whl)
 pip() { /tmp/venv/bin/python "$pip_wheel/pip" "$@"; }
 pip install -q --no-compile /tmp/project
 echo "plain install: $(( $(date +%s) - start )) s" >>/out/times.txt
-/tmp/venv/bin/python - >/out/plain.json <<'PY'
+# (written aside, then renamed: the test reads it as soon as it appears)
+/tmp/venv/bin/python - >/out/plain.json.part <<'PY'
 import importlib.util, json, platform
 print(json.dumps({
     "machine": platform.machine(),
     "missing": [m for m in ("cv2", "ai_edge_litert", "sklearn") if importlib.util.find_spec(m) is None],
 }))
 PY
+mv /out/plain.json.part /out/plain.json
 for stage in control translator features router; do
   /tmp/venv/bin/facesynth "$stage" --help >/dev/null
 done

@@ -42,8 +42,6 @@ log = logging.getLogger("facesynth.plan")
 
 #: The robot's own rig during a rehearsal (an embedded router of this process).
 RIG = "self"
-#: What each round's session records (frames too, every ``frame_every``-th).
-RECORD = ["features", "servo_commands", "servo_state", "babble", "input"]
 
 
 def normalized(profile: Profile, positions: Mapping[str, float]) -> tuple[float, ...]:
@@ -118,7 +116,7 @@ class RobotRehearsal:
         round was stopped (Ctrl-C)."""
         from facesynth.app.engine.router import embedded_bus
         from facesynth.app.learn.session import SessionFile
-        from facesynth.app.learn.shell import BabbleShell, babble
+        from facesynth.app.learn.shell import RECORD_KEYS, BabbleShell, babble
         from facesynth.app.robot_rig import build_parts
         from facesynth.runtime.bus.zenoh_bus import ZenohOptions
         from facesynth.runtime.service import run_async
@@ -144,7 +142,7 @@ class RobotRehearsal:
         )
         progress = Progress(sys.stderr, first=0, total=len(rows), started_s=started)
         shell = BabbleShell(babbler, seed=0, progress=progress, on_neutral=lambda: None)
-        record = RECORD if self.frame_every else [k for k in RECORD if k != "input"]
+        record = [k for k in RECORD_KEYS if self.frame_every or k != "input"]
         meta = metadata(RIG, self.profile, 0, record)
         meta.update({"rehearsal_round": str(self.rounds), "frame_every": str(self.frame_every)})
         session = SessionFile(path, meta, None)
