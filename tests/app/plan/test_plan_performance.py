@@ -127,6 +127,8 @@ def test_what_cannot_be_planned_is_refused(robot: Profile, performer: TrackedVid
         plan_performance(robot, performer.features[:10])  # within F's neutral second
     with pytest.raises(PlanError, match="0 frames or more"):
         plan_performance(robot, performer.features, lead_frames=-1)
+    with pytest.raises(PlanError, match="1 round or more"):
+        plan_performance(robot, performer.features, look=lambda u: None, rounds=0)
 
 
 def test_facesynth_plan_writes_a_plan_replay_reads(
