@@ -48,6 +48,7 @@ __all__ = [
     "Likeness",
     "Look",
     "Rehearsal",
+    "correlation_shown",
     "likeness_gradient",
     "missed",
     "rehearsed_commands",
@@ -245,7 +246,8 @@ def likeness_gradient(
 class Rehearsal:
     """The commands each rehearsal round tried (the first: the start), the objective on what
     the robot showed for each (``look``'s faces, see :func:`rehearsed_commands`) and the mean
-    correlation in it; ``best``: the round whose commands the robot showed best;
+    correlation with the targets over the frames it showed (:func:`correlation_shown`);
+    ``best``: the round whose commands the robot showed best;
     ``stopped``: the rehearsal ended early (``look`` said so)."""
 
     commands: list[np.ndarray]
@@ -306,7 +308,8 @@ def rehearsed_commands(
         faces = predicted + errors
         tried.append(commands)
         shown.append(likeness.value(faces, commands))
-        shown_rho.append(likeness.mean_rho(faces))
+        seen_rho = correlation_shown(targets[:, columns], np.asarray(seen)[:, columns])
+        shown_rho.append(likeness.mean_rho(faces) if np.isnan(seen_rho) else seen_rho)
         if round_ == rounds:
             break
         commands = sequence_commands(
@@ -323,6 +326,22 @@ def rehearsed_commands(
             before=before,
         ).commands
     return Rehearsal(tried, shown, shown_rho)
+
+
+def correlation_shown(targets: np.ndarray, seen: np.ndarray) -> float:
+    """The mean correlation per feature between ``targets`` and the faces the robot showed
+    (``seen``, frames × the same features; rows with a NaN: not shown), over the frames it
+    showed; NaN when it showed fewer than 3 or no feature moves in both."""
+    rows = np.isfinite(seen).all(axis=1)
+    if rows.sum() < 3:
+        return float("nan")
+    x = targets[rows] - targets[rows].mean(axis=0)
+    y = seen[rows] - seen[rows].mean(axis=0)
+    norms = np.sqrt(np.sum(x**2, axis=0) * np.sum(y**2, axis=0))
+    moving = norms > 0
+    if not moving.any():
+        return float("nan")
+    return float(np.mean(np.sum(x * y, axis=0)[moving] / norms[moving]))
 
 
 def missed(errors: np.ndarray) -> np.ndarray:

@@ -11,6 +11,7 @@ import pytest
 
 from facesynth.app.plan.sequence import (
     Likeness,
+    correlation_shown,
     likeness_gradient,
     missed,
     rehearsed_commands,
@@ -229,9 +230,23 @@ def test_a_robot_looked_at_every_third_frame_still_corrects_the_plan() -> None:
 
     rehearsal = rehearsed_commands(COUPLED, glance, targets, start, LOW, HIGH, rounds=3)
     likeness = Likeness(targets, [0, 1, 2], 0.3, 0.5)
+    shown = faces(TRUE, start)[every_third]
+    on_those = Likeness(targets[every_third], [0, 1, 2], 0.3, 0.5).mean_rho(shown)
+    assert rehearsal.shown_rho[0] == pytest.approx(on_those)  # over the frames it showed
     best = likeness.value(faces(TRUE, rehearsal.best), rehearsal.best)
     plain = sequence_commands(COUPLED, targets, start, LOW, HIGH).commands
     assert best > likeness.value(faces(TRUE, plain), plain) + 0.01
+
+
+def test_the_correlation_shown_counts_the_frames_and_features_shown() -> None:
+    t = np.linspace(0, 6, 12)
+    targets = np.c_[np.sin(t), np.cos(t), np.ones(12)]
+    seen = np.c_[2 * np.sin(t) + 1, -np.cos(t), np.arange(12.0)]
+    seen[5] = np.nan  # not shown: left out
+    assert correlation_shown(targets[:, :2], seen[:, :2]) == pytest.approx(0.0)  # 1 and -1
+    assert correlation_shown(targets, seen) == pytest.approx(0.0)  # a still target: left out
+    assert np.isnan(correlation_shown(targets[:3], np.full((3, 3), np.nan)))
+    assert np.isnan(correlation_shown(targets[:, 2:], seen[:, 2:]))  # nothing moves in both
 
 
 def test_what_the_self_model_missed_is_interpolated_between_the_frames_shown() -> None:
