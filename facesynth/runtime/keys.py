@@ -100,11 +100,11 @@ def robots_pattern(rig: str, stage: Stage) -> str:
 
 
 def robot_of(key: str) -> str | None:
-    """The robot named in a per-robot command or state key, else ``None``."""
+    """The robot named in a per-robot command or state key, else ``None`` (an empty or invalid
+    robot name too: such a key is no robot's)."""
     parts = key.split("/")
-    if len(parts) == 4 and parts[0] == PREFIX and parts[2] in ROBOT_STAGES:
-        return parts[3]
-    return None
+    robot = len(parts) == 4 and parts[0] == PREFIX and parts[2] in ROBOT_STAGES
+    return parts[3] if robot and _NAME.fullmatch(parts[3]) else None
 
 
 def health_key(rig: str, service: str, instance: str) -> str:

@@ -180,3 +180,5 @@ def test_robot_of_reads_the_robot_of_a_robot_key_only() -> None:
     assert keys.robot_of("facesynth/lab/points") is None
     assert keys.robot_of("facesynth/lab/stats/translator/x") is None
     assert keys.robot_of("other/lab/servo_state/r1") is None
+    assert keys.robot_of("facesynth/lab/servo_state/") is None  # no robot named
+    assert keys.robot_of("facesynth/lab/servo_state/a b") is None  # not a robot's name

@@ -82,19 +82,11 @@ def key_kind(key: str) -> str | None:
         return None
     if len(parts) == 3 and parts[2] in STAGE_TYPES:
         return parts[2]
-    if len(parts) == 4 and parts[2] in keys.ROBOT_STAGES and _valid_name(parts[3]):
+    if keys.robot_of(key) is not None:
         return parts[2]
     if len(parts) == 5 and parts[2] == STATS:
         return STATS
     return None
-
-
-def _valid_name(chunk: str) -> bool:
-    try:
-        keys.check_name(chunk, "robot")
-    except keys.KeyNameError:
-        return False
-    return True
 
 
 def message_type(key: str) -> type[Any] | None:
