@@ -303,12 +303,13 @@ def rehearsed_commands(
         seen = look(commands)
         if seen is None:
             return Rehearsal(tried, shown, shown_rho, stopped=True)
+        shown_faces = np.asarray(seen, dtype=np.float64)[:, columns]
         predicted = model_faces(model, commands, columns)
-        errors = missed(np.asarray(seen, dtype=np.float64)[:, columns] - predicted)
+        errors = missed(shown_faces - predicted)
         faces = predicted + errors
         tried.append(commands)
         shown.append(likeness.value(faces, commands))
-        seen_rho = correlation_shown(targets[:, columns], np.asarray(seen)[:, columns])
+        seen_rho = correlation_shown(targets[:, columns], shown_faces)
         shown_rho.append(likeness.mean_rho(faces) if np.isnan(seen_rho) else seen_rho)
         if round_ == rounds:
             break
