@@ -891,6 +891,14 @@ CASES = [
         "--rounds goes with --driver and --camera (a rehearsal)",
     ),
     (
+        "plan no rounds",
+        [
+            *("plan", "x.mp4", "--profile", "head16", "--out", "p.mcap"),
+            *("--driver", "maestro", "--camera", "0", "--rounds", "0"),
+        ],
+        "--rounds must be at least 1 (got 0)",
+    ),
+    (
         "plan look every 0",
         [
             *("plan", "x.mp4", "--profile", "head16", "--out", "p.mcap"),
