@@ -163,6 +163,10 @@ def test_the_arm64_board_image_runs_the_board_graph_like_x86(
             ",".join(BOARD_NODES),
             "--wait-timeout",
             "600",
+            # The emulated router answers a session's handshake slowly while the install job
+            # and the other CI lane load both cores (2 s, the default, ran out on CI once).
+            "--router-timeout",
+            "300",
             timeout=900,
         )
         assert json.loads(fed.stdout.strip().splitlines()[-1])["published"] == 100
