@@ -888,7 +888,20 @@ CASES = [
     (
         "plan rounds without robot",
         ["plan", "x.mp4", "--profile", "head16", "--out", "p.mcap", "--rounds", "2"],
-        "--rounds goes with --driver and --camera (a rehearsal)",
+        "--rounds is for a rehearsal on the robot, which needs --driver and --camera",
+    ),
+    (
+        "plan camera without driver",
+        ["plan", "x.mp4", "--profile", "head16", "--out", "p.mcap", "--camera", "0"],
+        "--camera is for a rehearsal on the robot, which needs --driver and --camera",
+    ),
+    (
+        "plan another driver's option",
+        [
+            *("plan", "x.mp4", "--profile", "head16", "--out", "p.mcap"),
+            *("--driver", "maestro", "--camera", "0", "--i2c-bus", "1"),
+        ],
+        "--i2c-bus does not apply to driver maestro",
     ),
     (
         "plan no rounds",

@@ -8,8 +8,9 @@ written as a recording of ``…/servo_commands`` (``--robot NAME``: of that robo
 ``…/servo_commands/NAME`` on a multi-robot rig), which ``facesynth replay PLAN.mcap --from
 servo_commands`` plays to the robot's control service. One JSON line says what was planned.
 
-With ``--driver NAME [--port PORT] --camera CAMERA`` the plan is rehearsed on the robot
-(:mod:`facesynth.app.plan.rehearsal`): ``--rounds`` times, the robot is posed at the planned
+With ``--driver NAME [--port PORT] --camera CAMERA`` (any servo driver and camera source with
+their options, as ``facesynth learn`` takes them: :mod:`facesynth.app.learn.babble_flags`) the
+plan is rehearsed on the robot (:mod:`facesynth.app.plan.rehearsal`): ``--rounds`` times, the robot is posed at the planned
 frames (every ``--look-every``-th), its settled faces read through its camera, and what the
 self-model got wrong corrected for; the round the robot showed best is written.
 """
@@ -23,7 +24,12 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from facesynth.app.command_registry import Command
-from facesynth.app.learn.babble_flags import add_babble_flags
+from facesynth.app.learn.babble_flags import (
+    add_babble_flags,
+    add_rig_flags,
+    camera_given,
+    rig_flags_given,
+)
 from facesynth.runtime import keys
 from facesynth.runtime.outputs import check_output
 
@@ -32,6 +38,8 @@ from facesynth.runtime.outputs import check_output
 LOOK_EVERY = 3
 
 if TYPE_CHECKING:
+    import msgspec
+
     from facesynth.app.plan.performance import RobotLook
     from facesynth.runtime.profiles import Profile
 
@@ -49,9 +57,14 @@ def cmd_plan(args: argparse.Namespace) -> int:
     out = check_output(args.out, "plan file")
     if out.exists():
         raise ValueError(f"{args.out} exists (a plan is never written over)")
+    configs = None  # the robot's rig, checked before anything is loaded
+    if _rehearsing(args):
+        from facesynth.app.learn.babble_flags import rig_configs
+
+        configs = rig_configs(args, out.with_suffix(".commands.jsonl"))
     profile = load_profile(args.profile)
     self_model(profile)
-    look = _rehearsal(args, profile, out)
+    look = None if configs is None else _rehearsal(args, profile, out, configs)
     calibration = None if args.calibration is None else load_calibration(args.calibration)
     tracked = track_video(args.video, frames=args.frames, calibration=calibration)
     planning = time.monotonic()
@@ -90,26 +103,20 @@ def cmd_plan(args: argparse.Namespace) -> int:
     return 130 if plan.stopped else 0
 
 
-def _rehearsal(args: argparse.Namespace, profile: Profile, out: Path) -> RobotLook | None:
-    """The robot that ``--driver``/``--camera`` name, to rehearse the plan on (its servo board
-    opened once), or None without them."""
-    if args.driver is None:
-        return None
+def _rehearsal(
+    args: argparse.Namespace, profile: Profile, out: Path, configs: dict[str, msgspec.Struct]
+) -> RobotLook:
+    """The robot of ``configs`` (its camera, tracker and servo driver), to rehearse the plan on
+    (its servo board opened once)."""
     from facesynth.app.learn.babble_flags import babble_options
     from facesynth.app.plan.rehearsal import RobotRehearsal, round_path
-    from facesynth.app.robot_rig import camera_config, driver_config, newest, preflight
+    from facesynth.app.robot_rig import preflight
     from facesynth.runtime.service import run_async
     from facesynth.services.control.drivers.registry import DRIVERS
-    from facesynth.services.points.backends.registry import BACKENDS
 
     for path in (round_path(out, k) for k in range(args.rounds + 1)):
         if path.exists():
             raise ValueError(f"{path} exists (a rehearsal's round is never written over)")
-    configs = {
-        "sensor": newest(camera_config(args.camera)),
-        "points": BACKENDS.parse({"backend": "tracker"}, "--backend"),
-        "control": driver_config(args.driver, args.port),
-    }
     if DRIVERS.build(configs["control"], profile).moves_hardware:
         run_async(preflight(configs["control"], profile))
     return RobotRehearsal(
@@ -123,6 +130,12 @@ def _rehearsal(args: argparse.Namespace, profile: Profile, out: Path) -> RobotLo
     )
 
 
+def _rehearsing(args: argparse.Namespace) -> bool:
+    """Whether the command line names a servo driver (``--driver``, ``--driver-config``): the
+    plan is then rehearsed on that robot."""
+    return hasattr(args, "plugin_driver") or hasattr(args, "plugin_driver_file")
+
+
 def _check_options(args: argparse.Namespace) -> None:
     keys.check_name(args.rig)
     if args.robot is not None:
@@ -131,13 +144,19 @@ def _check_options(args: argparse.Namespace) -> None:
         value = getattr(args, name)
         if not 0 <= value <= 100:
             raise ValueError(f"--{name} must be within 0..100 (got {value:g})")
-    if args.driver is None and args.camera is None:
-        for name in ("port", "rounds", "look_every"):
-            if getattr(args, name) is not None:
-                flag = "--" + name.replace("_", "-")
-                raise ValueError(f"{flag} goes with --driver and --camera (a rehearsal)")
+    if not _rehearsing(args):
+        given = rig_flags_given(args)
+        given += [
+            f"--{n.replace('_', '-')}"
+            for n in ("rounds", "look_every")
+            if getattr(args, n) is not None
+        ]
+        if given:
+            raise ValueError(
+                f"{given[0]} is for a rehearsal on the robot, which needs --driver and --camera"
+            )
         return
-    if args.driver is None or args.camera is None:
+    if not camera_given(args):
         raise ValueError("a rehearsal on the robot needs both --driver and --camera")
     from facesynth.app.plan.sequence import REHEARSALS
 
@@ -206,16 +225,6 @@ def _arguments(p: argparse.ArgumentParser) -> None:
         "PLAN.round<K>.mcap)",
     )
     robot.add_argument(
-        "--driver", metavar="NAME", help="the robot's servo driver (maestro, arduino, ssc32, …)"
-    )
-    robot.add_argument("--port", metavar="PORT", help="the --driver's serial port")
-    robot.add_argument(
-        "--camera",
-        metavar="CAMERA",
-        help="the camera watching the robot's face: a device index, a /dev/video* path or a "
-        "stream URL",
-    )
-    robot.add_argument(
         "--rounds",
         type=int,
         help=f"rehearsals after the robot shows the plan (default {REHEARSALS})",
@@ -228,6 +237,9 @@ def _arguments(p: argparse.ArgumentParser) -> None:
         f"interpolated between: a round takes a Kth of the time (default {LOOK_EVERY})",
     )
     add_babble_flags(robot)
+    # The robot's camera, the tracker on its frames and its servo driver: every plugin's
+    # flags, as facesynth learn takes them (``--driver NAME --port PORT --camera URL``, …).
+    add_rig_flags(p, {"--out", "--profile"})
 
 
 COMMANDS = (Command("plan", HELP, cmd_plan, _arguments),)

@@ -11,8 +11,7 @@ import argparse
 
 from facesynth.app.command_registry import Command
 from facesynth.app.common_arguments import zenoh_arguments
-from facesynth.app.learn.babble_flags import add_babble_flags
-from facesynth.app.stage_args import PLUGIN_FLAGS
+from facesynth.app.learn.babble_flags import add_babble_flags, add_rig_flags
 
 #: The adaptive plan's own options (docs/learning.md); a resume keeps the session's.
 ADAPTIVE_FLAGS = (
@@ -79,10 +78,7 @@ def _arguments(p: argparse.ArgumentParser) -> None:
     for flag, what in ADAPTIVE_FLAGS:
         group.add_argument(flag, type=int, help=f"--plan adaptive: {what}")
     add_babble_flags(group)
-    seen = {"--out", "--profile"}
-    for stage in ("sensor", "points", "control"):
-        flags, _ = PLUGIN_FLAGS[stage]
-        flags.add(p, seen, {"sensor": None, "points": "tracker", "control": "record"}[stage])
+    add_rig_flags(p, {"--out", "--profile"})
     zenoh_arguments(p)
 
 

@@ -1,16 +1,39 @@
 """How a robot is posed and its face read while babbling (``facesynth learn``) or rehearsing a
-plan (``facesynth plan --camera``): the command-line flags, declared without importing what
-runs them, and the :class:`~facesynth.app.learn.core.BabbleOptions` they give."""
+plan (``facesynth plan --driver … --camera …``): the command-line flags, declared without
+importing what runs them, the :class:`~facesynth.app.learn.core.BabbleOptions` they give, and
+the robot's rig they name (:func:`add_rig_flags`: every camera source's, tracker's and servo
+driver's flags, from their registries; :func:`rig_configs`: their checked configs)."""
 
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 from typing import TYPE_CHECKING
 
+from facesynth.app.arguments import OptionError, flag_dest
+from facesynth.app.stage_args import PLUGIN_FLAGS
+
 if TYPE_CHECKING:
+    import msgspec
+
     from facesynth.app.learn.core import BabbleOptions
 
-__all__ = ["BABBLE_FLAGS", "add_babble_flags", "babble_options"]
+__all__ = [
+    "BABBLE_FLAGS",
+    "RIG_DEFAULTS",
+    "add_babble_flags",
+    "add_rig_flags",
+    "babble_options",
+    "camera_given",
+    "rig_configs",
+    "rig_flags_given",
+]
+
+#: The robot rig's stages and the plugin each runs when the command line names none (no
+#: camera: one must be given; the servo driver ``record``: a dry run writes the commands).
+RIG_DEFAULTS: dict[str, str | None] = {"sensor": None, "points": "tracker", "control": "record"}
+#: Where argparse keeps ``--newest-frame``/``--no-newest-frame`` (default here: on).
+NEWEST_FRAME = flag_dest("--newest-frame")
 
 #: How babbling moves and settles: flag, type, default, help (which ends with the default).
 BABBLE_FLAGS: tuple[tuple[str, type[float] | type[int], float, str], ...] = (
@@ -63,3 +86,58 @@ def babble_options(args: argparse.Namespace) -> BabbleOptions:
         ),
         pace=args.pace,
     )
+
+
+def add_rig_flags(parser: argparse.ArgumentParser, seen: set[str]) -> None:
+    """The robot's camera (``--camera``, ``--ros2-image-topic``, … ``--video`` for a dry run),
+    the tracker on its frames and its servo driver (``--driver`` with every driver's options,
+    ``--driver-config FILE``), from the plugin registries; ``seen``: flags ``parser`` has."""
+    for stage, default in RIG_DEFAULTS.items():
+        flags, _ = PLUGIN_FLAGS[stage]
+        flags.add(parser, seen, default)
+
+
+def camera_given(args: argparse.Namespace) -> bool:
+    """Whether the command line names the robot's camera (a source, or a flag that picks one)."""
+    sensor_flags, _ = PLUGIN_FLAGS["sensor"]
+    return hasattr(args, "plugin_source") or any(
+        hasattr(args, flag.dest) for flag in sensor_flags.flags() if flag.selects
+    )
+
+
+def rig_flags_given(args: argparse.Namespace) -> list[str]:
+    """The rig's flags the command line gives (``--driver``, ``--port``, ``--camera``, …)."""
+    given = []
+    for stage in RIG_DEFAULTS:
+        flags, _ = PLUGIN_FLAGS[stage]
+        kind = flags.registry.kind
+        if hasattr(args, f"plugin_{kind}"):
+            given.append(flags.selector)
+        if hasattr(args, f"plugin_{kind}_file") and flags.config_file:
+            given.append(flags.config_file)
+        given += sorted({f.flag for f in flags.flags() if hasattr(args, f.dest)})
+    return given
+
+
+def rig_configs(args: argparse.Namespace, record_out: Path) -> dict[str, msgspec.Struct]:
+    """The camera's, the tracker's and the servo driver's checked configs from the command
+    line (``sensor``, ``points``, ``control``); a camera keeps only its newest frame unless
+    ``--no-newest-frame``, and the ``record`` driver writes to ``record_out``.
+
+    Raises:
+        OptionError: no camera given, or flags that do not fit the plugins chosen.
+    """
+    from facesynth.app.robot_rig import newest
+
+    if not camera_given(args):
+        raise OptionError("give the robot's camera with --camera (or --video FILE for a dry run)")
+    sensor_flags, _ = PLUGIN_FLAGS["sensor"]
+    source = sensor_flags.config(args, None)
+    if not hasattr(args, NEWEST_FRAME):
+        source = newest(source)
+    backend = PLUGIN_FLAGS["points"][0].config(args, {"backend": "tracker"})
+    driver_base = None
+    if getattr(args, "plugin_driver", "record") == "record":
+        driver_base = {"driver": "record", "out": str(record_out)}
+    driver = PLUGIN_FLAGS["control"][0].config(args, driver_base)
+    return {"sensor": source, "points": backend, "control": driver}

@@ -25,11 +25,10 @@ from typing import Any
 
 import msgspec
 
-from facesynth.app.arguments import flag_dest
 from facesynth.app.chain import freeze_startup_objects
 from facesynth.app.engine.router import embedded_bus
 from facesynth.app.learn.adaptive import AdaptivePlan
-from facesynth.app.learn.babble_flags import babble_options
+from facesynth.app.learn.babble_flags import babble_options, rig_configs
 from facesynth.app.learn.core import BabbleOptions, Babbler, Budget
 from facesynth.app.learn.coverage import UnsweptError
 from facesynth.app.learn.dataset import BabbleSet
@@ -50,8 +49,7 @@ from facesynth.app.learn.session import (
 from facesynth.app.learn.session_lag import session_lags
 from facesynth.app.learn.shell import RECORD_KEYS, BabbleShell, LearnResult, babble
 from facesynth.app.learn.sweeps import sweep_report
-from facesynth.app.robot_rig import build_parts, newest, preflight
-from facesynth.app.stage_args import PLUGIN_FLAGS
+from facesynth.app.robot_rig import build_parts, preflight
 from facesynth.app.wiring import StageParts, zenoh_options
 from facesynth.runtime import keys
 from facesynth.runtime.bus.zenoh_bus import endpoints
@@ -65,8 +63,6 @@ log = logging.getLogger("facesynth.learn")
 
 #: The robot's own rig, apart from any performer's.
 DEFAULT_RIG = "self"
-#: Where argparse keeps ``--newest-frame``/``--no-newest-frame`` (learn's default: on).
-NEWEST_FRAME = flag_dest("--newest-frame")
 
 
 class LearnError(ValueError):
@@ -111,7 +107,7 @@ def cmd_learn(args: argparse.Namespace) -> int:
     if first >= poses:
         print(f"{out} already holds {first} poses (--poses {poses}): nothing to babble")
     else:
-        configs = _plugin_configs(args, out)
+        configs = rig_configs(args, out.with_suffix(".commands.jsonl"))
         if DRIVERS.build(configs["control"], profile).moves_hardware:
             run_async(preflight(configs["control"], profile))
         parts = build_parts(args.profile, rig, profile, configs)
@@ -269,24 +265,6 @@ def _resume(out: Path, profile: Profile, seed: int | None) -> Session | None:
         "resuming %s: %d poses taken, from pose %d", out, len(session.samples), session.next_pose
     )
     return session
-
-
-def _plugin_configs(args: argparse.Namespace, out: Path) -> dict[str, msgspec.Struct]:
-    """The camera's, the tracker's and the servo driver's configs from the command line."""
-    sensor_flags, _ = PLUGIN_FLAGS["sensor"]
-    if getattr(args, "plugin_source", None) is None and not any(
-        hasattr(args, flag.dest) for flag in sensor_flags.flags() if flag.selects
-    ):
-        raise LearnError("give the robot's camera with --camera (or --video FILE for a dry run)")
-    source = sensor_flags.config(args, None)
-    if not hasattr(args, NEWEST_FRAME):  # unless --newest-frame/--no-newest-frame says
-        source = newest(source)
-    backend = PLUGIN_FLAGS["points"][0].config(args, {"backend": "tracker"})
-    driver_base = None
-    if getattr(args, "plugin_driver", "record") == "record":
-        driver_base = {"driver": "record", "out": str(out.with_suffix(".commands.jsonl"))}
-    driver = PLUGIN_FLAGS["control"][0].config(args, driver_base)
-    return {"sensor": source, "points": backend, "control": driver}
 
 
 def _babble(

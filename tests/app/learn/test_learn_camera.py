@@ -6,7 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from facesynth.app.cli import build_parser
-from facesynth.app.learn.cli import _plugin_configs
+from facesynth.app.learn.babble_flags import rig_configs
 from facesynth.app.robot_rig import build_parts
 from facesynth.runtime.profiles import load_profile
 
@@ -19,7 +19,10 @@ def test_the_robot_cameras_frames_are_never_aged_from_capture(tmp_path: Path) ->
     argv = ["learn", "--profile", "paper16", "--video", str(VIDEO), "--out", str(out)]
     args = build_parser().parse_args(argv)
     parts = build_parts(
-        args.profile, "default", load_profile("paper16"), _plugin_configs(args, out)
+        args.profile,
+        "default",
+        load_profile("paper16"),
+        rig_configs(args, out.with_suffix(".commands.jsonl")),
     )
     assert parts["sensor"].service.options.capture_age is False
     assert parts["sensor"].service.capture_host == ""
