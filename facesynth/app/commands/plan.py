@@ -10,9 +10,10 @@ servo_commands`` plays to the robot's control service. One JSON line says what w
 
 With ``--driver NAME [--port PORT] --camera CAMERA`` (any servo driver and camera source with
 their options, as ``facesynth learn`` takes them: :mod:`facesynth.app.learn.babble_flags`) the
-plan is rehearsed on the robot (:mod:`facesynth.app.plan.rehearsal`): ``--rounds`` times, the robot is posed at the planned
-frames (every ``--look-every``-th), its settled faces read through its camera, and what the
-self-model got wrong corrected for; the round the robot showed best is written.
+plan is rehearsed on the robot (:mod:`facesynth.app.plan.rehearsal`): ``--rounds`` times, the
+robot is posed at the planned frames (every ``--look-every``-th), its settled faces read
+through its camera, and what the self-model got wrong corrected for; the round the robot
+showed best is written.
 """
 
 from __future__ import annotations

@@ -25,8 +25,6 @@ from typing import Any
 
 import msgspec
 
-from facesynth.app.chain import freeze_startup_objects
-from facesynth.app.engine.router import embedded_bus
 from facesynth.app.learn.adaptive import AdaptivePlan
 from facesynth.app.learn.babble_flags import babble_options, rig_configs
 from facesynth.app.learn.core import BabbleOptions, Babbler, Budget
@@ -47,7 +45,12 @@ from facesynth.app.learn.session import (
     read_session,
 )
 from facesynth.app.learn.session_lag import session_lags
-from facesynth.app.learn.shell import RECORD_KEYS, BabbleShell, LearnResult, babble
+from facesynth.app.learn.shell import (
+    RECORD_KEYS,
+    BabbleShell,
+    LearnResult,
+    babble_on_embedded_router,
+)
 from facesynth.app.learn.sweeps import sweep_report
 from facesynth.app.robot_rig import build_parts, preflight
 from facesynth.app.wiring import StageParts, zenoh_options
@@ -296,17 +299,16 @@ def _babble(
         meta = metadata(rig, profile, seed, record, plan[0].kind, plan[0].metadata())
         meta["frame_every"] = str(args.frame_every)
         session = SessionFile(out, meta, resume)
-        async with embedded_bus(listen, zenoh, rig=rig) as (bus, _):
-            freeze_startup_objects()
-            return await babble(
-                bus,
-                rig,
-                parts,
-                shell,
-                session,
-                frame_every=args.frame_every,
-                record=record,
-                stats_interval=args.stats_interval,
-            )
+        return await babble_on_embedded_router(
+            listen,
+            zenoh,
+            rig,
+            parts,
+            shell,
+            session,
+            frame_every=args.frame_every,
+            record=record,
+            stats_interval=args.stats_interval,
+        )
 
     return run_async(main())

@@ -28,7 +28,8 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
-from facesynth.app.chain import node_context
+from facesynth.app.chain import freeze_startup_objects, node_context
+from facesynth.app.engine.router import embedded_bus
 from facesynth.app.learn.core import Babbler, Sample
 from facesynth.app.learn.progress import Progress
 from facesynth.app.learn.session import SessionFile
@@ -38,6 +39,7 @@ from facesynth.app.servo_sender import ServoSender
 from facesynth.app.wiring import StageParts
 from facesynth.runtime import codec, keys
 from facesynth.runtime.bus.base import Bus, Subscription
+from facesynth.runtime.bus.zenoh_bus import ZenohOptions
 from facesynth.runtime.service import ServiceContext, run_service
 from facesynth.runtime.tasks import cancel_and_wait, stop_tasks
 from facesynth.schemas.messages import BabbleSample, Features, ServoCommands
@@ -197,6 +199,35 @@ class BabbleShell:
         )
         ctx.bus.publish(keys.stage_key(ctx.rig, "babble"), codec.encode(message))
         self.samples += 1
+
+
+async def babble_on_embedded_router(
+    listen: list[str],
+    zenoh: ZenohOptions,
+    rig: str,
+    parts: dict[str, StageParts],
+    shell: BabbleShell,
+    session: SessionFile,
+    *,
+    frame_every: int = 30,
+    record: list[str] | None = None,
+    stats_interval: float = 1.0,
+) -> LearnResult:
+    """:func:`babble` on a Zenoh router embedded in this process (listening on ``listen``),
+    the robot's nodes its local clients: how ``facesynth learn`` babbles and ``facesynth plan``
+    rehearses."""
+    async with embedded_bus(listen, zenoh, rig=rig) as (bus, _):
+        freeze_startup_objects()
+        return await babble(
+            bus,
+            rig,
+            parts,
+            shell,
+            session,
+            frame_every=frame_every,
+            record=record,
+            stats_interval=stats_interval,
+        )
 
 
 async def babble(

@@ -114,9 +114,8 @@ class RobotRehearsal:
         """The robot's settled faces at ``commands`` (planned frames × the learned outputs):
         the learned inputs, raw (NaN rows: frames not posed, or a face lost); None when the
         round was stopped (Ctrl-C)."""
-        from facesynth.app.engine.router import embedded_bus
         from facesynth.app.learn.session import SessionFile
-        from facesynth.app.learn.shell import RECORD_KEYS, BabbleShell, babble
+        from facesynth.app.learn.shell import RECORD_KEYS, BabbleShell, babble_on_embedded_router
         from facesynth.app.robot_rig import build_parts
         from facesynth.runtime.bus.zenoh_bus import ZenohOptions
         from facesynth.runtime.service import run_async
@@ -148,15 +147,19 @@ class RobotRehearsal:
         session = SessionFile(path, meta, None)
         parts = build_parts(self.profile_ref, RIG, self.profile, self.configs)
 
-        async def main() -> bool:
-            options = ZenohOptions(mode="router")
-            async with embedded_bus(["tcp/127.0.0.1:0"], options, rig=RIG) as (bus, _):
-                result = await babble(
-                    bus, RIG, parts, shell, session, frame_every=self.frame_every, record=record
-                )
-            return result.interrupted
-
-        interrupted = run_async(main())
+        result = run_async(
+            babble_on_embedded_router(
+                ["tcp/127.0.0.1:0"],
+                ZenohOptions(mode="router"),
+                RIG,
+                parts,
+                shell,
+                session,
+                frame_every=self.frame_every,
+                record=record,
+            )
+        )
+        interrupted = result.interrupted
         self.rounds += 1
         if interrupted:
             log.warning("rehearsal stopped in round %d (%s kept)", self.rounds - 1, path)
