@@ -49,7 +49,8 @@ from facesynth.app.learn.shell import (
     RECORD_KEYS,
     BabbleShell,
     LearnResult,
-    babble_on_embedded_router,
+    babble,
+    on_embedded_router,
 )
 from facesynth.app.learn.sweeps import sweep_report
 from facesynth.app.robot_rig import build_parts, preflight
@@ -299,16 +300,20 @@ def _babble(
         meta = metadata(rig, profile, seed, record, plan[0].kind, plan[0].metadata())
         meta["frame_every"] = str(args.frame_every)
         session = SessionFile(out, meta, resume)
-        return await babble_on_embedded_router(
+        return await on_embedded_router(
             listen,
             zenoh,
             rig,
-            parts,
-            shell,
-            session,
-            frame_every=args.frame_every,
-            record=record,
-            stats_interval=args.stats_interval,
+            lambda bus: babble(
+                bus,
+                rig,
+                parts,
+                shell,
+                session,
+                frame_every=args.frame_every,
+                record=record,
+                stats_interval=args.stats_interval,
+            ),
         )
 
     return run_async(main())

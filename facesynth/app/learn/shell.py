@@ -24,7 +24,7 @@ import logging
 import secrets
 import signal
 import time
-from collections.abc import Callable
+from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -201,33 +201,18 @@ class BabbleShell:
         self.samples += 1
 
 
-async def babble_on_embedded_router(
+async def on_embedded_router(
     listen: list[str],
     zenoh: ZenohOptions,
     rig: str,
-    parts: dict[str, StageParts],
-    shell: BabbleShell,
-    session: SessionFile,
-    *,
-    frame_every: int = 30,
-    record: list[str] | None = None,
-    stats_interval: float = 1.0,
+    run: Callable[[Bus], Awaitable[LearnResult]],
 ) -> LearnResult:
-    """:func:`babble` on a Zenoh router embedded in this process (listening on ``listen``),
-    the robot's nodes its local clients: how ``facesynth learn`` babbles and ``facesynth plan``
-    rehearses."""
+    """``run`` (e.g. :func:`babble`) on the bus of a Zenoh router embedded in this process
+    (listening on ``listen``), the robot's nodes its local clients: how ``facesynth learn``
+    babbles and ``facesynth plan`` rehearses."""
     async with embedded_bus(listen, zenoh, rig=rig) as (bus, _):
         freeze_startup_objects()
-        return await babble(
-            bus,
-            rig,
-            parts,
-            shell,
-            session,
-            frame_every=frame_every,
-            record=record,
-            stats_interval=stats_interval,
-        )
+        return await run(bus)
 
 
 async def babble(

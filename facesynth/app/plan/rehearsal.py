@@ -115,7 +115,12 @@ class RobotRehearsal:
         the learned inputs, raw (NaN rows: frames not posed, or a face lost); None when the
         round was stopped (Ctrl-C)."""
         from facesynth.app.learn.session import SessionFile
-        from facesynth.app.learn.shell import RECORD_KEYS, BabbleShell, babble_on_embedded_router
+        from facesynth.app.learn.shell import (
+            RECORD_KEYS,
+            BabbleShell,
+            babble,
+            on_embedded_router,
+        )
         from facesynth.app.robot_rig import build_parts
         from facesynth.runtime.bus.zenoh_bus import ZenohOptions
         from facesynth.runtime.service import run_async
@@ -148,15 +153,13 @@ class RobotRehearsal:
         parts = build_parts(self.profile_ref, RIG, self.profile, self.configs)
 
         result = run_async(
-            babble_on_embedded_router(
+            on_embedded_router(
                 ["tcp/127.0.0.1:0"],
                 ZenohOptions(mode="router"),
                 RIG,
-                parts,
-                shell,
-                session,
-                frame_every=self.frame_every,
-                record=record,
+                lambda bus: babble(
+                    bus, RIG, parts, shell, session, frame_every=self.frame_every, record=record
+                ),
             )
         )
         interrupted = result.interrupted
