@@ -28,6 +28,7 @@ import numpy as np
 
 from facesynth.app.plan.sequence import (
     AMPLITUDE,
+    DAMPING,
     ITERATIONS,
     REHEARSALS,
     SMOOTH,
@@ -139,8 +140,8 @@ def plan_performance(
     frame, in order; see the module), each frame's sent ``lead_frames`` frames early (against
     the head's own lag; the last frame's held at the end). With ``look`` (the robot itself),
     the plan is rehearsed ``rounds`` times (:func:`~facesynth.app.plan.sequence.
-    rehearsed_commands`, from the plan found through the self-model) and the round the robot
-    showed best is kept. :class:`PlanError` for a profile that is not learned or has no
+    rehearsed_commands`, from the plan found through the self-model, damped by
+    :data:`~facesynth.app.plan.sequence.DAMPING`) and the round the robot showed best is kept. :class:`PlanError` for a profile that is not learned or has no
     ``poly_ridge`` self-model, fewer than 3 frames with a target, a performance that moves
     none of the features the robot can show, a negative lead or fewer than 1 round."""
     if lead_frames < 0:
@@ -202,6 +203,7 @@ def plan_performance(
             smooth=smooth,
             iterations=iterations,
             before=before,
+            damping=DAMPING,
         )
         if rehearsed.commands:
             commands = rehearsed.best

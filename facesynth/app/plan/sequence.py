@@ -41,6 +41,7 @@ from facesynth.services.translator.self_model_face import PolyFace
 
 __all__ = [
     "AMPLITUDE",
+    "DAMPING",
     "REHEARSALS",
     "ROUNDS",
     "SMOOTH",
@@ -63,10 +64,16 @@ SMOOTH = 0.5
 #: Rehearsals of :func:`rehearsed_commands` (on simhead16, whole video: the true head's ρ
 #: 0.70, 0.71, 0.75, 0.75, 0.75, 0.75 after rounds 1 to 6).
 ROUNDS = 3
-#: Rehearsals on a real robot after it shows the plan (``facesynth plan --rounds``): through
-#: simhead16's camera the first round gained 0.02 on the frames posed (ten times what two looks
-#: at one plan differ by) and a second gave it back (docs/learning.md, "Rehearsed on the robot").
-REHEARSALS = 1
+#: Rehearsals on a real robot after it shows the plan (``facesynth plan --rounds``), with
+#: :data:`DAMPING`: through simhead16's camera (whole video, every 3rd frame posed) the rounds
+#: showed 0.695 / 0.707 / 0.719 and 0.693 / 0.717 / 0.731; undamped, the second round gave back
+#: (0.695 / 0.719 / 0.718, and 0.696 / 0.718 / 0.708) (docs/learning.md, "Rehearsed on the
+#: robot").
+REHEARSALS = 2
+#: How much of what the self-model newly got wrong a rehearsal round after the first adds to
+#: the corrections already made (iterative learning control's gain; 1: replace them): the
+#: plan's rehearsal on a robot seen through a camera (see :data:`REHEARSALS`).
+DAMPING = 0.5
 #: The search's iterations at most (L-BFGS-B; the whole video's 472 frames stop by ~300).
 ITERATIONS = 400
 
@@ -280,6 +287,7 @@ def rehearsed_commands(
     smooth: float = SMOOTH,
     iterations: int = ITERATIONS,
     before: np.ndarray | None = None,
+    damping: float = 1.0,
 ) -> Rehearsal:
     """:func:`sequence_commands`, rehearsed on the robot ``rounds`` times: the robot shows the
     commands so far (``look``, a round at a time), and what the self-model got wrong at each
@@ -288,10 +296,15 @@ def rehearsed_commands(
     not seen), what the self-model got wrong is interpolated in time between the frames it
     did show (none shown: nothing added). The robot shows the last round's commands too, so
     every round is judged on what it showed, not on the self-model: a round that made it worse
-    (the self-model's slopes wrong there) is not the one kept. ``look`` returning None stops
-    the rehearsal: the rounds shown so far are returned (none: ``commands`` empty)."""
+    (the self-model's slopes wrong there) is not the one kept. After the first round each
+    round's corrections move ``damping`` of the way from the last ones to what the self-model
+    got wrong at the commands just shown (1: to it; less: a noisy look counts for less).
+    ``look`` returning None stops the rehearsal: the rounds shown so far are returned (none:
+    ``commands`` empty)."""
     if rounds < 1:
         raise ValueError(f"rounds must be at least 1 (got {rounds})")
+    if not 0 < damping <= 1:
+        raise ValueError(f"damping must be within (0, 1] (got {damping:g})")
     targets = np.asarray(targets, dtype=np.float64)
     columns = list(range(targets.shape[1])) if features is None else list(features)
     likeness = Likeness(targets, columns, amplitude, smooth, before)
@@ -299,6 +312,7 @@ def rehearsed_commands(
     tried: list[np.ndarray] = []
     shown: list[float] = []
     shown_rho: list[float] = []
+    offsets: np.ndarray | None = None
     for round_ in range(rounds + 1):
         seen = look(commands)
         if seen is None:
@@ -313,6 +327,7 @@ def rehearsed_commands(
         shown_rho.append(likeness.mean_rho(faces) if np.isnan(seen_rho) else seen_rho)
         if round_ == rounds:
             break
+        offsets = errors if offsets is None else offsets + damping * (errors - offsets)
         commands = sequence_commands(
             model,
             targets,
@@ -323,7 +338,7 @@ def rehearsed_commands(
             amplitude=amplitude,
             smooth=smooth,
             iterations=iterations,
-            offsets=errors,
+            offsets=offsets,
             before=before,
         ).commands
     return Rehearsal(tried, shown, shown_rho)

@@ -218,6 +218,41 @@ def test_no_rehearsal_is_refused() -> None:
         )
 
 
+@pytest.mark.parametrize("damping", [0.0, -0.5, 1.5, float("nan")])
+def test_a_damping_outside_its_range_is_refused(damping: float) -> None:
+    targets = performance(10)
+    with pytest.raises(ValueError, match=r"damping must be within \(0, 1\]"):
+        rehearsed_commands(
+            COUPLED, lambda u: u, targets, least_squares(targets), LOW, HIGH, damping=damping
+        )
+
+
+def test_a_damped_round_moves_its_corrections_part_of_the_way() -> None:
+    """Round 1 corrects for all the self-model missed at the plan; round 2 for the mean of
+    that and what it missed at round 1's commands (damping 0.5); undamped, for the latter."""
+    targets = performance()
+    start = least_squares(targets)
+
+    def missed_at(u: np.ndarray) -> np.ndarray:
+        return faces(TRUE, u) - faces(COUPLED, u)
+
+    def search(after: np.ndarray, offsets: np.ndarray) -> np.ndarray:
+        found = sequence_commands(COUPLED, targets, after, LOW, HIGH, offsets=offsets)
+        return found.commands
+
+    first = search(start, missed_at(start))
+    for damping, offsets in (
+        (0.5, 0.5 * (missed_at(start) + missed_at(first))),
+        (1.0, missed_at(first)),
+    ):
+        rehearsal = rehearsed_commands(
+            COUPLED, lambda u: faces(TRUE, u), targets, start, LOW, HIGH, rounds=2, damping=damping
+        )
+        np.testing.assert_allclose(rehearsal.commands[1], first)
+        np.testing.assert_allclose(rehearsal.commands[2], search(first, offsets))
+    assert not np.allclose(missed_at(start), missed_at(first))  # so the two differ
+
+
 def test_a_robot_looked_at_every_third_frame_still_corrects_the_plan() -> None:
     targets = performance()
     start = least_squares(targets)
