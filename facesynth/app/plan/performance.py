@@ -141,8 +141,9 @@ def plan_performance(
     the head's own lag; the last frame's held at the end). With ``look`` (the robot itself),
     the plan is rehearsed ``rounds`` times (:func:`~facesynth.app.plan.sequence.
     rehearsed_commands`, from the plan found through the self-model, damped by
-    :data:`~facesynth.app.plan.sequence.DAMPING`) and the round the robot showed best is kept. :class:`PlanError` for a profile that is not learned or has no
-    ``poly_ridge`` self-model, fewer than 3 frames with a target, a performance that moves
+    :data:`~facesynth.app.plan.sequence.DAMPING`) and the round the robot showed best is
+    kept. :class:`PlanError` for a profile that is not learned or has no ``poly_ridge``
+    self-model, fewer than 3 frames with a target, a performance that moves
     none of the features the robot can show, a negative lead or fewer than 1 round."""
     if lead_frames < 0:
         raise PlanError(f"the lead must be 0 frames or more (got {lead_frames})")
