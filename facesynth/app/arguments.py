@@ -207,6 +207,25 @@ class PluginFlags:
                 text = flag.help.removeprefix(prefix) if flag.help else ""  # not said twice
                 add_flags(group, [replace(flag, help=prefix + text if text else "")], seen)
 
+    def chosen(self, args: argparse.Namespace) -> bool:
+        """Whether the command line picks a plugin: the selector (``--driver NAME``), the config
+        file or a field flag that selects one (``--camera``)."""
+        kind = self.registry.kind
+        return (
+            hasattr(args, f"plugin_{kind}")
+            or hasattr(args, f"plugin_{kind}_file")
+            or any(hasattr(args, flag.dest) for flag in self.flags() if flag.selects)
+        )
+
+    def given(self, args: argparse.Namespace) -> list[str]:
+        """The registry's flags the command line gives: the selector, the config file, then
+        the field flags (sorted)."""
+        kind = self.registry.kind
+        flags = [self.selector] if hasattr(args, f"plugin_{kind}") else []
+        if self.config_file and hasattr(args, f"plugin_{kind}_file"):
+            flags.append(self.config_file)
+        return flags + sorted({f.flag for f in self.flags() if hasattr(args, f.dest)})
+
     def config(self, args: argparse.Namespace, base: Mapping[str, Any] | None) -> msgspec.Struct:
         """The plugin config: ``base`` (from a graph) with the command line applied, validated."""
         kind, tag = self.registry.kind, self.registry.tag_field

@@ -179,3 +179,22 @@ def test_help_names_every_plugin_of_a_shared_flag(plugin_flags: PluginFlags) -> 
     text = " ".join(parser.format_help().split())
     assert "file/port: again and again" in text
     assert "reader (default file). file: Read a file; port: Read a port" in text  # no ".;"
+
+
+@pytest.mark.parametrize(
+    ("argv", "chosen", "given"),
+    [
+        ([], False, []),
+        (["--loop", "--baud", "3"], False, ["--baud", "--loop"]),  # options, no plugin picked
+        (["--reader", "port"], True, ["--reader"]),
+        (["--reader-config", "r.toml", "--loop"], True, ["--reader-config", "--loop"]),
+        (["--port", "/dev/x"], True, ["--port"]),  # a selecting flag picks its plugin
+    ],
+    ids=["nothing", "options-only", "selector", "config-file", "selecting-flag"],
+)
+def test_which_plugin_flags_the_command_line_gives(
+    plugin_flags: PluginFlags, argv: list[str], chosen: bool, given: list[str]
+) -> None:
+    args = plugin_args(plugin_flags, argv)
+    assert plugin_flags.chosen(args) is chosen
+    assert plugin_flags.given(args) == given

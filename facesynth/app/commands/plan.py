@@ -29,6 +29,7 @@ from facesynth.app.learn.babble_flags import (
     add_babble_flags,
     add_rig_flags,
     camera_given,
+    driver_given,
     rig_flags_given,
 )
 from facesynth.runtime import keys
@@ -59,7 +60,7 @@ def cmd_plan(args: argparse.Namespace) -> int:
     if out.exists():
         raise ValueError(f"{args.out} exists (a plan is never written over)")
     configs = None  # the robot's rig, checked before anything is loaded
-    if _rehearsing(args):
+    if driver_given(args):
         from facesynth.app.learn.babble_flags import rig_configs
 
         configs = rig_configs(args, out.with_suffix(".commands.jsonl"))
@@ -131,12 +132,6 @@ def _rehearsal(
     )
 
 
-def _rehearsing(args: argparse.Namespace) -> bool:
-    """Whether the command line names a servo driver (``--driver``, ``--driver-config``): the
-    plan is then rehearsed on that robot."""
-    return hasattr(args, "plugin_driver") or hasattr(args, "plugin_driver_file")
-
-
 def _check_options(args: argparse.Namespace) -> None:
     keys.check_name(args.rig)
     if args.robot is not None:
@@ -145,7 +140,7 @@ def _check_options(args: argparse.Namespace) -> None:
         value = getattr(args, name)
         if not 0 <= value <= 100:
             raise ValueError(f"--{name} must be within 0..100 (got {value:g})")
-    if not _rehearsing(args):
+    if not driver_given(args):
         given = rig_flags_given(args)
         given += [
             f"--{n.replace('_', '-')}"

@@ -97,11 +97,7 @@ def check_source(config: msgspec.Struct) -> None:
 
 def _calibration_factory(args: argparse.Namespace) -> Any:
     """Makes a :class:`CalibrationRun` per request when a camera or video was given."""
-    sensor_flags, _ = PLUGIN_FLAGS["sensor"]
-    chosen = getattr(args, "plugin_source", None) is not None or any(
-        hasattr(args, flag.dest) for flag in sensor_flags.flags() if flag.selects
-    )
-    if not chosen:
+    if not PLUGIN_FLAGS["sensor"][0].chosen(args):
         if args.schedule:
             raise OptionError(
                 "--schedule needs --video FILE (or --camera N): without one the console "
@@ -126,7 +122,7 @@ def cmd_console(args: argparse.Namespace) -> int:
         raise OptionError(
             "console needs --profile NAME (the head's profile to bring up, e.g. head16_hardware)"
         )
-    if getattr(args, "plugin_driver", None) is None and not hasattr(args, "plugin_driver_file"):
+    if not PLUGIN_FLAGS["control"][0].chosen(args):
         raise OptionError(f"console needs --driver NAME ({', '.join(DRIVERS.names())})")
     node, config = apply_arguments("control", ControlNode(), args)
     profile_file = node.profile or ""  # given: checked above

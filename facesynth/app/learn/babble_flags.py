@@ -25,6 +25,7 @@ __all__ = [
     "add_rig_flags",
     "babble_options",
     "camera_given",
+    "driver_given",
     "rig_configs",
     "rig_flags_given",
 ]
@@ -99,24 +100,18 @@ def add_rig_flags(parser: argparse.ArgumentParser, seen: set[str]) -> None:
 
 def camera_given(args: argparse.Namespace) -> bool:
     """Whether the command line names the robot's camera (a source, or a flag that picks one)."""
-    sensor_flags, _ = PLUGIN_FLAGS["sensor"]
-    return hasattr(args, "plugin_source") or any(
-        hasattr(args, flag.dest) for flag in sensor_flags.flags() if flag.selects
-    )
+    return PLUGIN_FLAGS["sensor"][0].chosen(args)
+
+
+def driver_given(args: argparse.Namespace) -> bool:
+    """Whether the command line names the robot's servo driver (``--driver``,
+    ``--driver-config``)."""
+    return PLUGIN_FLAGS["control"][0].chosen(args)
 
 
 def rig_flags_given(args: argparse.Namespace) -> list[str]:
     """The rig's flags the command line gives (``--driver``, ``--port``, ``--camera``, …)."""
-    given = []
-    for stage in RIG_DEFAULTS:
-        flags, _ = PLUGIN_FLAGS[stage]
-        kind = flags.registry.kind
-        if hasattr(args, f"plugin_{kind}"):
-            given.append(flags.selector)
-        if hasattr(args, f"plugin_{kind}_file") and flags.config_file:
-            given.append(flags.config_file)
-        given += sorted({f.flag for f in flags.flags() if hasattr(args, f.dest)})
-    return given
+    return [flag for stage in RIG_DEFAULTS for flag in PLUGIN_FLAGS[stage][0].given(args)]
 
 
 def rig_configs(args: argparse.Namespace, record_out: Path) -> dict[str, msgspec.Struct]:

@@ -162,9 +162,8 @@ class RobotRehearsal:
                 ),
             )
         )
-        interrupted = result.interrupted
         self.rounds += 1
-        if interrupted:
+        if result.interrupted:
             log.warning("rehearsal stopped in round %d (%s kept)", self.rounds - 1, path)
             return None
         faces = np.full((len(commands), len(learned.inputs)), np.nan)
