@@ -28,8 +28,10 @@ from facesynth.app.command_registry import Command
 from facesynth.app.learn.babble_flags import (
     add_babble_flags,
     add_rig_flags,
+    babble_options,
     camera_given,
     driver_given,
+    rig_configs,
     rig_flags_given,
 )
 from facesynth.runtime import keys
@@ -61,8 +63,6 @@ def cmd_plan(args: argparse.Namespace) -> int:
         raise ValueError(f"{args.out} exists (a plan is never written over)")
     configs = None  # the robot's rig, checked before anything is loaded
     if driver_given(args):
-        from facesynth.app.learn.babble_flags import rig_configs
-
         configs = rig_configs(args, out.with_suffix(".commands.jsonl"))
     profile = load_profile(args.profile)
     self_model(profile)
@@ -110,7 +110,6 @@ def _rehearsal(
 ) -> RobotLook:
     """The robot of ``configs`` (its camera, tracker and servo driver), to rehearse the plan on
     (its servo board opened once)."""
-    from facesynth.app.learn.babble_flags import babble_options
     from facesynth.app.plan.rehearsal import RobotRehearsal, round_path
     from facesynth.app.robot_rig import preflight
     from facesynth.runtime.service import run_async
