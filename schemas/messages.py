@@ -239,7 +239,10 @@ class BabbleSample(
     features (``Features.raw``, relative to the robot's neutral) averaged over the ``frames``
     settled frames, ``spread`` their standard deviations. ``seq`` is the pose's index in the
     babbling plan (``seed`` makes the plan; a resumed run continues it), ``kind`` what the pose
-    is: ``"neutral"`` (the neutral re-checked), ``"sweep"`` (one servo alone) or ``"random"``.
+    is: ``"neutral"`` (the neutral re-checked), ``"sweep"`` (one servo alone) or ``"random"``;
+    or ``"stream"``: one frame taken while the head moved along a trajectory (``facesynth learn
+    --plan stream``), ``commanded`` the commands in force when it was taken, ``t_capture_ns``
+    when it was taken, ``frames`` 1, not settled.
     ``settled`` is false when the face never held still within the longest wait (the last
     frames were taken). ``t_capture_ns`` is the wall clock when the pose settled,
     ``t_media_ns`` the time since babbling started.

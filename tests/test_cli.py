@@ -542,6 +542,14 @@ CASES = [
         "--poses must be at least 1",
     ),
     (
+        "learn a stream counted in poses",
+        [
+            *("learn", "--profile", "paper16", "--out", "s.mcap", "--source", "video"),
+            *("--plan", "stream", "--poses", "300"),
+        ],
+        "--plan stream babbles for --minutes (default 10), not a number of --poses",
+    ),
+    (
         "learn into a file that is not a session",
         ["learn", "--profile", "paper16", "--out", "{garbage.mp4}", "--source", "video"],
         "not a babbling session",
@@ -594,7 +602,7 @@ CASES = [
             *("learn", "--profile", "paper16", "--out", "s.mcap", "--video", "x"),
             *("--plan", "clever"),
         ],
-        "--plan must be one of fixed, adaptive, not 'clever'",
+        "--plan must be one of fixed, adaptive, stream, not 'clever'",
     ),
     (
         "learn resumed with another plan option",

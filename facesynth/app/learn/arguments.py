@@ -65,9 +65,10 @@ def _arguments(p: argparse.ArgumentParser) -> None:
     group.add_argument(
         "--plan",
         metavar="PLAN",
-        help="the babbling plan: fixed (sweeps, then poses that fill the space) or adaptive "
-        "(finer sweeps, then poses chosen from the faces seen so far; docs/learning.md); "
-        "default fixed, a resume keeps its own",
+        help="the babbling plan: fixed (sweeps, then poses that fill the space), adaptive "
+        "(finer sweeps, then poses chosen from the faces seen so far) or stream (sweeps, then "
+        "the head kept moving and every camera frame learned from, for --minutes, default 10; "
+        "docs/learning.md); default fixed, a resume keeps its own",
     )
     group.add_argument(
         "--sweep-steps",

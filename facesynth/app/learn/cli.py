@@ -15,7 +15,6 @@ line naming them and how to finish) unless ``--partial``, which keeps them at ne
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import json
 import logging
 import sys
@@ -27,7 +26,7 @@ import msgspec
 
 from facesynth.app.learn.adaptive import AdaptivePlan
 from facesynth.app.learn.babble_flags import babble_options, rig_configs
-from facesynth.app.learn.core import BabbleOptions, Babbler, Budget
+from facesynth.app.learn.core import BabbleOptions, Babbler, Budget, Streaming
 from facesynth.app.learn.coverage import UnsweptError
 from facesynth.app.learn.dataset import BabbleSet
 from facesynth.app.learn.fit import FitOptions, fit_learned_profile, format_report
@@ -52,6 +51,7 @@ from facesynth.app.learn.shell import (
     babble,
     on_embedded_router,
 )
+from facesynth.app.learn.stream import Trajectory
 from facesynth.app.learn.sweeps import sweep_report
 from facesynth.app.robot_rig import build_parts, preflight
 from facesynth.app.wiring import StageParts, zenoh_options
@@ -67,6 +67,12 @@ log = logging.getLogger("facesynth.learn")
 
 #: The robot's own rig, apart from any performer's.
 DEFAULT_RIG = "self"
+
+
+#: ``--plan stream``'s default budget (minutes) and its bound on the plan's poses (only the sweeps
+#: are taken as poses; the budget is the time).
+STREAM_MINUTES = 10.0
+STREAM_POSES = 1_000_000
 
 
 class LearnError(ValueError):
@@ -89,11 +95,11 @@ def cmd_learn(args: argparse.Namespace) -> int:
         raise LearnError("give the session file with --out SESSION.mcap")
     if not args.profile:
         raise LearnError("give the robot's hardware profile with --profile NAME")
+    if args.minutes is not None and not args.minutes > 0:
+        raise LearnError(f"--minutes must be positive, not {args.minutes:g}")
     poses = 600 if args.poses is None else args.poses
     if poses < 1:
         raise LearnError(f"--poses must be at least 1, not {poses}")
-    if args.minutes is not None and not args.minutes > 0:
-        raise LearnError(f"--minutes must be positive, not {args.minutes:g}")
     if args.frame_every < 0:
         raise LearnError("--frame-every must be >= 0 (0: no frames)")
     rig = keys.check_name(args.rig or DEFAULT_RIG)
@@ -108,6 +114,14 @@ def cmd_learn(args: argparse.Namespace) -> int:
     plan = make_plan(choice, profile, resume)
     options = babble_options(args)
     first = resume.next_pose if resume is not None else 0
+    if kind == "stream":  # the sweeps, then the stream until the minutes are spent
+        if args.poses is not None:
+            raise LearnError(
+                "--plan stream babbles for --minutes (default 10), not a number of --poses: "
+                "after the sweeps it learns from every frame"
+            )
+        poses = STREAM_POSES
+        args.minutes = STREAM_MINUTES if args.minutes is None else args.minutes  # _babble's
     if first >= poses:
         print(f"{out} already holds {first} poses (--poses {poses}): nothing to babble")
     else:
@@ -130,6 +144,8 @@ def cmd_learn(args: argparse.Namespace) -> int:
             # how the servos were known to be there: read back ("measured") or not
             "reached": result.reached,
         }
+        if kind == "stream":
+            summary["streamed_frames"] = result.streamed
         summary.update(_sweeps(out, profile))
         print(json.dumps(summary), flush=True)
         if result.interrupted:
@@ -164,7 +180,7 @@ def make_plan(
 ) -> BabblePlan:
     """The plan ``choice`` names, made with the options of its kind; an adaptive one (which
     reads the faces' raw ``inputs``) resuming a session is told its poses' faces first."""
-    if choice.kind != "adaptive":
+    if choice.kind != "adaptive":  # the stream plan streams after the fixed plan's sweeps
         return Plan(len(profile.servos), choice.base())
     plan = AdaptivePlan(tuple(s.name for s in profile.servos), list(inputs), choice.adaptive())
     if resume is not None:
@@ -204,8 +220,7 @@ def fit_session(
     ``partial``."""
     if not session.samples:
         raise LearnError(f"{session.path} holds no babbling poses to fit")
-    babble = babble_set(session.samples, profile)
-    babble = dataclasses.replace(babble, lags=session_lags(session.path, session.samples))
+    babble = babble_set(session.samples, profile, session_lags(session.path, session.samples))
     try:
         return fit(babble, profile, out, partial=partial)
     except UnsweptError as exc:
@@ -271,6 +286,18 @@ def _resume(out: Path, profile: Profile, seed: int | None) -> Session | None:
     return session
 
 
+def _streaming(
+    plan: tuple[PlanChoice, BabblePlan], profile: Profile, seed: int, resume: Session | None
+) -> Streaming | None:
+    """How ``--plan stream`` streams: after the sweeps, along the seed's trajectory, from where
+    a resumed session's stream stopped."""
+    choice, poses = plan
+    if choice.kind != "stream" or not isinstance(poses, Plan):
+        return None
+    trajectory = Trajectory(len(profile.servos), seed)
+    return Streaming(poses.sweep_poses, trajectory, resume.streamed_s if resume else 0.0)
+
+
 def _babble(
     args: argparse.Namespace,
     rig: str,
@@ -293,9 +320,14 @@ def _babble(
     async def main() -> LearnResult:
         now = time.monotonic()
         until = now + args.minutes * 60 if args.minutes is not None else None
-        budget = Budget(poses=poses, until_ns=round(until * 1e9) if until is not None else None)
-        babbler = Babbler(profile, plan[1], start=first, budget=budget, options=options)
-        progress = Progress(sys.stderr, first=first, total=poses, started_s=now, until_s=until)
+        until_ns = round(until * 1e9) if until is not None else None
+        stream = _streaming(plan, profile, seed, resume)
+        budget = Budget(poses=None if stream else poses, until_ns=until_ns)
+        babbler = Babbler(
+            profile, plan[1], start=first, budget=budget, options=options, stream=stream
+        )
+        total = None if stream else poses
+        progress = Progress(sys.stderr, first=first, total=total, started_s=now, until_s=until)
         shell = BabbleShell(babbler, seed=seed, progress=progress, on_neutral=lambda: None)
         meta = metadata(rig, profile, seed, record, plan[0].kind, plan[0].metadata())
         meta["frame_every"] = str(args.frame_every)

@@ -17,6 +17,13 @@ publish. Phases:
 * ``paused``: no face for ``face_lost_s``: back to neutral, the pose in progress dropped,
   until a face is seen for ``face_back_s``; then the same pose again (after
   ``max_face_retries`` losses on one pose it is skipped);
+* ``streaming`` (with ``stream``, from its ``start`` pose of the plan on, e.g. after the
+  sweeps): no more settled poses; the servos follow the stream's trajectory
+  (:class:`~facesynth.app.learn.stream.Trajectory`, paced as poses are) and every frame with a
+  face becomes a :class:`StreamFrame`, its features with the command in force when it was
+  taken; every ``neutral_every_s`` a settled neutral pose, as the plans take one every few
+  poses (the fit measures the camera's noise and the neutral's drift on them); a lost face
+  pauses it as it pauses poses;
 * ``finishing`` → ``done``: the budget is spent (poses or time): back to neutral.
 """
 
@@ -28,6 +35,7 @@ from dataclasses import dataclass, field
 
 from facesynth.app.learn.plan import BabblePlan, Pose, to_pulses
 from facesynth.app.learn.settle import Settle, Settled, SettleOptions, StalledError, near
+from facesynth.app.learn.stream import HISTORY_S, StreamFrame, Streaming
 from facesynth.runtime.profiles import Profile
 
 #: Pace of a servo whose profile sets no ``max_speed`` (µs/s).
@@ -80,11 +88,13 @@ class Sample:
 
 @dataclass(frozen=True)
 class Step:
-    """What the shell does now: command ``targets``; publish ``sample`` if there is one."""
+    """What the shell does now: command ``targets``; publish ``sample`` if there is one, and
+    the stream's ``frames`` taken since the last step."""
 
     targets: dict[str, float]
     phase: str
     sample: Sample | None = None
+    frames: tuple[StreamFrame, ...] = ()
 
 
 class Babbler:
@@ -98,6 +108,7 @@ class Babbler:
         start: int = 0,
         budget: Budget | None = None,
         options: BabbleOptions | None = None,
+        stream: Streaming | None = None,
     ) -> None:
         servos = len(plan.pose(0).u)
         if servos != len(profile.servos):
@@ -109,6 +120,7 @@ class Babbler:
         self.plan = plan
         self.options = options or BabbleOptions()
         self.budget = budget or Budget()
+        self.stream = stream
         self._tol = self.options.settle.reach_tol_us
         self.neutral = profile.neutral_positions()
         self.speeds = {
@@ -120,6 +132,8 @@ class Babbler:
         #: Poses taken in this run, and poses skipped (face lost too often).
         self.taken = 0
         self.skipped = 0
+        #: Frames taken while streaming, in this run.
+        self.streamed = 0
         self.at_neutral = False
         self.commanded = dict(self.neutral)
         self.reported: dict[str, float] | None = None
@@ -139,6 +153,10 @@ class Babbler:
         self._stopping = False
         self._homing_ns: int | None = None
         self._finishing_ns: int | None = None
+        self._stream_ns: int | None = None
+        self._neutral_ns: int | None = None
+        self._sent: collections.deque[tuple[int, dict[str, float]]] = collections.deque()
+        self._frames: list[StreamFrame] = []
 
     # --- what the bus says -------------------------------------------------------------------
 
@@ -179,6 +197,8 @@ class Babbler:
         self._neutral_ready = self._neutral_ready or neutral_ready
         if self._settle is not None and self.phase == "babbling" and raw:
             self._settle.face(raw, now_ns)
+        if self.phase == "streaming" and raw:
+            self._stream_frame(dict(raw), now_ns)
 
     @property
     def face_seen(self) -> bool:
@@ -230,12 +250,18 @@ class Babbler:
                 self._pause()
             else:
                 sample = self._babble(now_ns)
+        elif self.phase == "streaming":
+            if self._face_lost(now_ns):
+                self._pause()
+            else:
+                self._streaming(now_ns)
         elif self.phase == "paused":
             since = self._face_since_ns
             if since is not None and now_ns - since >= self.options.face_back_s * 1e9:
                 self.phase = "babbling"
                 self._begin_pose(now_ns)
-        return Step(self._paced(now_ns), self.phase, sample)
+        frames, self._frames = tuple(self._frames), []
+        return Step(self._paced(now_ns), self.phase, sample, frames)
 
     def _babble(self, now_ns: int) -> Sample | None:
         settle, pose = self._settle, self._pose
@@ -263,7 +289,13 @@ class Babbler:
         self._settle = self._pose = None
         if self._spent(now_ns):
             return
-        pose = self.plan.pose(self.index)
+        if self.stream is not None and self.index >= self.stream.start:
+            self.phase = "streaming"
+            self._streaming(now_ns)
+            return
+        self._settle_at(self.plan.pose(self.index), now_ns)
+
+    def _settle_at(self, pose: Pose, now_ns: int) -> None:
         target = to_pulses(self.profile, pose.u)
         self._pose = pose
         self._go(target)
@@ -272,9 +304,10 @@ class Babbler:
             self._settle.servos(self.reported, now_ns, self.measured)
 
     def _pause(self) -> None:
+        streaming = self.phase == "streaming"
         self.phase = "paused"
         self._face_since_ns = None
-        self._retries += 1
+        self._retries += 0 if streaming else 1  # a stream has no pose to give up on
         if self._retries > self.options.max_face_retries:
             self.plan.seen(self.plan.pose(self.index), {})
             self.skipped += 1
@@ -282,6 +315,35 @@ class Babbler:
             self._retries = 0
         self._settle = self._pose = None
         self._go(self.neutral)
+
+    def _streaming(self, now_ns: int) -> None:
+        """Head for where the trajectory is now (paced like any goal)."""
+        stream = self.stream
+        assert stream is not None
+        if self._stream_ns is None:
+            self._stream_ns = self._neutral_ns = now_ns
+        if (
+            self._neutral_ns is not None
+            and now_ns - self._neutral_ns >= stream.neutral_every_s * 1e9
+        ):
+            self._neutral_ns = now_ns
+            self.phase = "babbling"  # one settled neutral, then the stream again
+            self._settle_at(Pose(self.index, "neutral", (0.0,) * len(self.neutral)), now_ns)
+            return
+        t_s = stream.offset_s + (now_ns - self._stream_ns) / 1e9
+        self._go(to_pulses(self.profile, stream.trajectory.at(t_s)))
+
+    def _stream_frame(self, raw: dict[str, float], frame_ns: int) -> None:
+        """A frame taken at ``frame_ns`` while streaming, with the command then in force
+        (none known: a frame from before the stream began, left out)."""
+        commanded = None
+        for sent_ns, command in reversed(self._sent):
+            if sent_ns <= frame_ns:
+                commanded = command
+                break
+        if commanded is not None:
+            self._frames.append(StreamFrame(frame_ns, commanded, raw))
+            self.streamed += 1
 
     def _face_lost(self, now_ns: int) -> bool:
         last = self._last_face_ns
@@ -315,4 +377,10 @@ class Babbler:
             self.commanded[name] = (
                 goal if abs(goal - now) <= room else now + room * (1 if goal > now else -1)
             )
+        if self.phase == "streaming":  # what was in force when each frame was taken
+            self._sent.append((now_ns, dict(self.commanded)))
+            while self._sent and self._sent[0][0] < now_ns - HISTORY_S * 1e9:
+                self._sent.popleft()
+        else:
+            self._sent.clear()
         return dict(self.commanded)

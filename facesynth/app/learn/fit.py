@@ -157,11 +157,15 @@ def _choose_inputs(babble: BabbleSet, u: np.ndarray, options: FitOptions) -> _Da
             warnings.simplefilter("ignore", RuntimeWarning)
             offset = np.nan_to_num(np.nanmedian(neutral_rows[:, chosen], axis=0))
     _, groups = np.unique(np.round(babble.commands[keep], 1), axis=0, return_inverse=True)
+    groups = np.asarray(groups).reshape(-1)
+    stretches = babble.stretches()[keep]
+    streamed = stretches >= 0  # a stream's frames: grouped by stretch, never one by one
+    groups = np.where(streamed, groups.max(initial=-1) + 1 + stretches, groups)
     return _Data(
         inputs=[str(babble.inputs[c]) for c in chosen],
         t=values[keep] - offset,
         u=u[keep],
-        groups=np.asarray(groups).reshape(-1),
+        groups=groups,
         kinds=np.asarray(babble.kinds)[keep],
         dropped=dropped,
         notes=notes,

@@ -31,6 +31,7 @@ import numpy as np
 
 from facesynth.app.learn.dataset import BabbleSet
 from facesynth.app.learn.lag import Transition, servo_lags
+from facesynth.app.learn.stream import Streaming, Trajectory
 from facesynth.runtime.feature_names import NAMES
 from facesynth.runtime.frames import encode_frame
 from facesynth.runtime.profiles import Profile, available_profiles, load_profile
@@ -84,15 +85,25 @@ class SimBabbler:
             sim.command(spec.channel, float(pulse))
         sim.step(sim.t_ns + SETTLE_NS)
         image = sim.render()
-        features = None
+        face = np.full(len(NAMES), np.nan)
         for _ in range(frames or self.frames):
             sim.step(sim.t_ns + FRAME_NS)
-            frame = encode_frame(
-                image, seq=self._seq, t_capture_ns=sim.t_ns, t_media_ns=sim.t_ns, encoding="raw"
-            )
-            features = self._processor.process(self._backend.process(frame))
-            self._seq += 1
-        return self._read(features)
+            face = self._track(image)
+        return face
+
+    def _track(self, image: np.ndarray | None = None) -> np.ndarray:
+        """The face in ``image`` (default: the head rendered now), tracked and read by F as
+        the camera's next frame."""
+        sim = self._sim
+        frame = encode_frame(
+            sim.render() if image is None else image,
+            seq=self._seq,
+            t_capture_ns=sim.t_ns,
+            t_media_ns=sim.t_ns,
+            encoding="raw",
+        )
+        self._seq += 1
+        return self._read(self._processor.process(self._backend.process(frame)))
 
     @staticmethod
     def _read(features: Features | None) -> np.ndarray:
@@ -110,16 +121,32 @@ class SimBabbler:
         start, faces = sim.t_ns, []
         for index in range(PROBE_FRAMES):
             sim.step(start + index * FRAME_NS)
-            frame = encode_frame(
-                sim.render(),
-                seq=self._seq,
-                t_capture_ns=sim.t_ns,
-                t_media_ns=sim.t_ns,
-                encoding="raw",
-            )
-            faces.append(self._read(self._processor.process(self._backend.process(frame))))
-            self._seq += 1
+            faces.append(self._track())
         return np.arange(PROBE_FRAMES) * FRAME_NS / 1e9, np.array(faces)
+
+    def stream(
+        self, trajectory: Trajectory, seconds: float, every: int = 3, offset_s: float = 0.0
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(t_ns, pulses, faces)``: the head commanded along ``trajectory`` (from
+        ``offset_s`` into it) at the camera's rate for ``seconds`` (the command changing every
+        frame, as ``facesynth learn``'s streaming sends it), every ``every``-th frame tracked:
+        its time (the head's clock, ns), the pulses in force when it was taken, its face (over
+        :data:`NAMES`)."""
+        sim = self._sim
+        start = sim.t_ns
+        times, pulses, faces = [], [], []
+        for index in range(round(seconds * 1e9 / FRAME_NS)):
+            t_ns = index * FRAME_NS
+            sim.step(start + t_ns)
+            command = self.pulses(trajectory.at(offset_s + t_ns / 1e9))
+            for spec, pulse in zip(self.profile.servos, command, strict=True):
+                sim.command(spec.channel, float(pulse))
+            if index % every:
+                continue
+            faces.append(self._track())
+            times.append(sim.t_ns)
+            pulses.append(command)
+        return np.array(times, dtype=np.int64), np.array(pulses), np.array(faces)
 
 
 def babble(
@@ -249,6 +276,45 @@ def babble_simhead(
         ]
     rest = uniform_poses(len(profile.servos), poses - len(first), seed, neutral_every)
     return babble(SimBabbler(profile, head, frames), first + rest)
+
+
+def stream_simhead(
+    profile: Profile,
+    seconds: float,
+    *,
+    head: str = "simhead16",
+    seed: int = 0,
+    sweep_steps: int = SWEEP_STEPS,
+) -> BabbleSet:
+    """``facesynth learn --plan stream`` in virtual time: the sweeps of the plan (each pose
+    looked at settled), the head's response lag probed (:func:`probe_lags`, as a session's
+    sweeps measure it), then ``seconds`` of streaming along the seed's trajectory with every
+    frame tracked (:meth:`SimBabbler.stream`) and a settled neutral every
+    ``Streaming.neutral_every_s``, the frames paired at that lag
+    (:meth:`~facesynth.app.learn.dataset.BabbleSet.with_stream`)."""
+    from facesynth.app.learn.plan import Plan, PlanOptions
+
+    babbler = SimBabbler(profile, head)
+    sweeps = Plan(len(profile.servos), PlanOptions(seed, max(sweep_steps, 1)))
+    poses = [(p.kind, np.array(p.u)) for p in map(sweeps.pose, range(sweeps.sweep_poses))]
+    parts = [babble(babbler, poses)]
+    lags = probe_lags(babbler)
+    trajectory = Trajectory(len(profile.servos), seed)
+    every = Streaming.neutral_every_s
+    streamed = []
+    for start in np.arange(0.0, seconds, every):
+        streamed.append(babbler.stream(trajectory, min(every, seconds - start), 1, start))
+        parts.append(babble(babbler, [("neutral", np.zeros(len(profile.servos)))]))
+    settled = BabbleSet(
+        parts[0].servos,
+        np.vstack([part.commands for part in parts]),
+        parts[0].inputs,
+        np.vstack([part.faces for part in parts]),
+        tuple(kind for part in parts for kind in part.kinds),
+        lags,
+    )
+    times, pulses, faces = (np.concatenate(column) for column in zip(*streamed, strict=True))
+    return settled.with_stream(times, pulses, faces, lags)
 
 
 def hardware_for(head: HeadConfig) -> Profile:

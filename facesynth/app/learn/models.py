@@ -23,6 +23,12 @@ CANDIDATES = ("poly_ridge", "knn", "mlp")
 #: effective command error 0.101 -> 0.095 and 0.129 -> 0.121, for 4-5 times the MLPs' fitting
 #: time (docs/learning.md, *Where the held-out command error is*).
 MLP_MEMBERS = 5
+#: From this many training samples on (a stream's frames: :mod:`facesynth.app.learn.stream`),
+#: an MLP is trained by Adam for :data:`ADAM_EPOCHS` passes over mini-batches, one member: L-BFGS's
+#: 1,000 full-batch iterations on 5,000 frames take 15 s an MLP and did no better (simhead16,
+#: 10 minutes streamed: 0.096 effective either way, docs/learning.md).
+ADAM_FROM = 2000
+ADAM_EPOCHS = 200
 
 
 class FitError(ValueError):
@@ -104,15 +110,16 @@ def _knn(x: np.ndarray, y: np.ndarray, options: FitOptions) -> tuple[Any, KNN]:
 
 def _one_mlp(x: np.ndarray, y: np.ndarray, options: FitOptions, seed: int) -> Any:
     _, _, neural_network, _ = require_sklearn()
+    many = len(x) >= ADAM_FROM
     mlp = neural_network.MLPRegressor(
         hidden_layer_sizes=options.mlp_layers,
         activation="tanh",
-        solver="lbfgs",
+        solver="adam" if many else "lbfgs",
         alpha=options.mlp_alpha,
-        max_iter=1000,
+        max_iter=ADAM_EPOCHS if many else 1000,
         random_state=seed,
     )
-    with warnings.catch_warnings():  # an lbfgs MLP stopping at max_iter is still a model
+    with warnings.catch_warnings():  # an MLP stopping at max_iter is still a model
         warnings.simplefilter("ignore")
         mlp.fit(x, y)
     return mlp
@@ -160,7 +167,8 @@ def side_by_side(
 
 
 def _mlp(x: np.ndarray, y: np.ndarray, options: FitOptions) -> tuple[Any, MLP]:
-    fitted = [_one_mlp(x, y, options, options.seed + k) for k in range(max(options.mlp_members, 1))]
+    members = 1 if len(x) >= ADAM_FROM else max(options.mlp_members, 1)
+    fitted = [_one_mlp(x, y, options, options.seed + k) for k in range(members)]
     layers = side_by_side([list(zip(m.coefs_, m.intercepts_, strict=True)) for m in fitted])
     model = MLP(
         activation="tanh",

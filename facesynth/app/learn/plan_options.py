@@ -36,6 +36,8 @@ ADAPTIVE_SHAPING = {
 #: facesynth that wrote it (kept here as they were, whatever the defaults become).
 OLD_SESSION: dict[str, dict[str, int]] = {
     "fixed": {"sweep_steps": 3, "neutral_every": 25},
+    # stream sessions keep their options from the first; this is there for completeness
+    "stream": {"sweep_steps": 3, "neutral_every": 25},
     "adaptive": {
         "sweep_steps": 6,
         "neutral_every": 25,

@@ -14,6 +14,7 @@ PHASES = {
     "homing": "to neutral",
     "neutral": "learning the neutral face",
     "babbling": "babbling",
+    "streaming": "streaming: learning from every frame",
     "paused": "paused: no face in view",
     "finishing": "back to neutral",
     "done": "done",

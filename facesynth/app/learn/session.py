@@ -17,7 +17,7 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -25,6 +25,7 @@ import numpy as np
 from facesynth.app.learn.dataset import KINDS, BabbleSet
 from facesynth.app.learn.plan import PlanError
 from facesynth.app.learn.plan_options import stored
+from facesynth.app.learn.stream import DEFAULT_LAG_S, MAX_GAP_S, STREAM_KIND
 from facesynth.app.recording.layout import LAYOUT_VERSION, Layout
 from facesynth.app.recording.reader import Recording, RecordingError
 from facesynth.app.recording.writer import SessionWriter
@@ -37,8 +38,9 @@ log = logging.getLogger("facesynth.learn")
 LEARN_FIELD = "learn"
 LEARN_VERSION = "1"
 #: The babbling plans (``facesynth learn --plan``); a session that names none was babbled with
-#: the first, the fixed plan.
-PLANS = ("fixed", "adaptive")
+#: the first, the fixed plan. ``stream``: the fixed plan's sweeps, then streaming
+#: (:mod:`facesynth.app.learn.stream`).
+PLANS = ("fixed", "adaptive", "stream")
 
 
 class SessionError(ValueError):
@@ -63,8 +65,17 @@ class Session:
 
     @property
     def next_pose(self) -> int:
-        """Where a resumed run continues the plan: after the last pose taken."""
-        return max((s.seq for s in self.samples), default=-1) + 1
+        """Where a resumed run continues the plan: after the last pose taken (a stream's frames
+        are no poses of the plan)."""
+        return max((s.seq for s in self.samples if s.kind != STREAM_KIND), default=-1) + 1
+
+    @property
+    def streamed_s(self) -> float:
+        """How long the session has streamed (s; its stream frames' span, gaps left out), where
+        a resumed stream goes on along its trajectory."""
+        times = np.sort([s.t_capture_ns for s in self.samples if s.kind == STREAM_KIND])
+        steps = np.diff(times) / 1e9
+        return float(steps[steps <= MAX_GAP_S].sum())
 
 
 def metadata(
@@ -142,11 +153,28 @@ def check_profile(session: Session, profile: Profile) -> None:
         )
 
 
-def babble_set(samples: list[BabbleSample], profile: Profile) -> BabbleSet:
+def babble_set(
+    samples: list[BabbleSample], profile: Profile, lags: Mapping[str, float] | None = None
+) -> BabbleSet:
     """The samples as a :class:`BabbleSet`: commanded pulses per servo (the profile's order),
-    raw features per input (sorted names; NaN where a sample lacks one), kinds."""
+    raw features per input (sorted names; NaN where a sample lacks one), kinds; a stream's
+    frames after the settled poses, each paired with the commands sent the head's response lag
+    earlier (``lags``, per servo; :meth:`BabbleSet.with_stream`)."""
     servos = tuple(spec.name for spec in profile.servos)
     inputs = tuple(sorted({name for s in samples for name in s.features}))
+    stream = sorted((s for s in samples if s.kind == STREAM_KIND), key=lambda s: s.t_capture_ns)
+    settled = _settled_set([s for s in samples if s.kind != STREAM_KIND], servos, inputs)
+    settled = replace(settled, lags=dict(lags or {}))
+    if not stream:
+        return settled
+    commands, faces = _rows(stream, servos, inputs)
+    times = np.array([s.t_capture_ns for s in stream], dtype=np.int64)
+    return settled.with_stream(times, commands, faces, settled.lags or DEFAULT_LAG_S)
+
+
+def _rows(
+    samples: list[BabbleSample], servos: tuple[str, ...], inputs: tuple[str, ...]
+) -> tuple[np.ndarray, np.ndarray]:
     commands = np.array(
         [[s.commanded.get(name, np.nan) for name in servos] for s in samples], dtype=np.float64
     ).reshape(len(samples), len(servos))
@@ -155,6 +183,13 @@ def babble_set(samples: list[BabbleSample], profile: Profile) -> BabbleSet:
     ).reshape(len(samples), len(inputs))
     if np.isnan(commands).any():
         raise SessionError("a babbling sample lacks a servo of the profile")
+    return commands, faces
+
+
+def _settled_set(
+    samples: list[BabbleSample], servos: tuple[str, ...], inputs: tuple[str, ...]
+) -> BabbleSet:
+    commands, faces = _rows(samples, servos, inputs)
     kinds = tuple(s.kind if s.kind in KINDS else "random" for s in samples)
     return BabbleSet(servos, commands, inputs, faces, kinds)
 

@@ -7,7 +7,8 @@ the features node, so that the neutral it learns is the robot's. The babbler
 (:class:`~facesynth.app.learn.core.Babbler`) publishes stamped ``ServoCommands`` on the rig's
 ``…/servo_commands`` as the translator would (so the control interface's clamping, speed and
 acceleration limits, freshness checks and watchdog all hold), reads ``…/servo_state`` and
-``…/features``, and publishes every settled pose as a ``BabbleSample`` on ``…/babble``; the
+``…/features``, and publishes every settled pose as a ``BabbleSample`` on ``…/babble`` (and,
+while streaming, every frame with a face, as a sample of kind ``stream``); the
 recorder (:mod:`facesynth.app.recording.recorder`) writes those, the features, the servo
 streams and a frame now and then into the session file.
 
@@ -30,10 +31,11 @@ from typing import Any
 
 from facesynth.app.chain import freeze_startup_objects, node_context
 from facesynth.app.engine.router import embedded_bus
-from facesynth.app.learn.core import Babbler, Sample
+from facesynth.app.learn.core import Babbler, Sample, StreamFrame
 from facesynth.app.learn.progress import Progress
 from facesynth.app.learn.session import SessionFile
 from facesynth.app.learn.settle import StalledError
+from facesynth.app.learn.stream import STREAM_KIND
 from facesynth.app.recording.recorder import Recorder, RecordOptions
 from facesynth.app.servo_sender import ServoSender
 from facesynth.app.wiring import StageParts
@@ -72,6 +74,8 @@ class LearnResult:
     #: Poses taken by how the servos were known to be there: ``commanded`` (a fixed wait),
     #: ``measured`` (read back), ``measured timeout`` (read back, not there in time).
     reached: dict[str, int] = field(default_factory=dict)
+    #: Frames taken while streaming (``--plan stream``).
+    streamed: int = 0
 
 
 class BabbleShell:
@@ -123,12 +127,14 @@ class BabbleShell:
                     self.commands.send(
                         ctx,
                         step.targets,
-                        face=step.phase == "babbling",
+                        face=step.phase in ("babbling", "streaming"),
                         profile=self.babbler.profile.name,
                         started_ns=self._started_ns,
                     )
                 if step.sample is not None:
                     self._publish(ctx, step.sample)
+                for frame in step.frames:
+                    self._publish_frame(ctx, frame)
                 if self.babbler.at_neutral and neutral_started is None:
                     neutral_started = now
                     self.on_neutral()
@@ -179,6 +185,25 @@ class BabbleShell:
                 self.babbler.features(
                     message.face, message.raw, message.neutral_ready, now - age, now
                 )
+
+    def _publish_frame(self, ctx: ServiceContext, frame: StreamFrame) -> None:
+        """A streamed frame as a sample of kind ``stream``: taken at ``t_capture_ns`` (the
+        wall clock), one frame, not settled, its commands those in force then."""
+        clock = ctx.clock
+        message = BabbleSample(
+            seq=self.babbler.index,
+            t_capture_ns=clock.time_ns() - max(0, clock.monotonic_ns() - frame.t_ns),
+            t_media_ns=max(0, frame.t_ns - self._started_ns),
+            profile=self.babbler.profile.name,
+            kind=STREAM_KIND,
+            commanded=frame.commanded,
+            features=frame.features,
+            frames=1,
+            settled=False,
+            seed=self.seed,
+        )
+        ctx.bus.publish(keys.stage_key(ctx.rig, "babble"), codec.encode(message))
+        self.samples += 1
 
     def _publish(self, ctx: ServiceContext, sample: Sample) -> None:
         message = BabbleSample(
@@ -306,4 +331,5 @@ async def babble(
         interrupted=interrupted,
         recorded=recorder.recorded[keys.stage_key(rig, "babble")],
         reached=dict(babbler.reached),
+        streamed=babbler.streamed,
     )
