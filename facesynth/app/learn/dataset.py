@@ -16,6 +16,7 @@ from facesynth.app.learn.stream import (
     STREAM_KIND,
     lagged_commands,
     stream_blocks,
+    stream_lag,
 )
 from facesynth.runtime.profiles import Profile
 
@@ -92,16 +93,13 @@ class BabbleSet:
     ) -> BabbleSet:
         """These samples and a stream's frames (``t_ns`` (n,) capture times in order,
         ``commanded`` (n, S) the pulses in force at each, ``faces`` (n, F) over ``inputs``),
-        each face paired with the commands sent the head's lag earlier (``lag_s``: one for every
-        servo, or per servo, the median for a servo not named:
+        each face paired with the commands sent the head's lag earlier (``lag_s``; given per
+        servo, as a session's one-servo moves measure it, the median over the servos within
+        ``[0, MAX_LAG_S]``, for every servo: :func:`~facesynth.app.learn.stream.stream_lag`;
         :func:`~facesynth.app.learn.stream.lagged_commands`); frames with no such command are
         left out."""
-        if isinstance(lag_s, Mapping):
-            known = [float(v) for k, v in lag_s.items() if k in self.servos]
-            default = float(np.median(known)) if known else DEFAULT_LAG_S
-            lags = np.array([float(lag_s.get(name, default)) for name in self.servos])
-        else:
-            lags = np.full(len(self.servos), float(lag_s))
+        lag = stream_lag(lag_s, self.servos) if isinstance(lag_s, Mapping) else float(lag_s)
+        lags = np.full(len(self.servos), lag)
         paired = lagged_commands(t_ns, commanded, lags)
         keep = np.all(np.isfinite(paired), axis=1)
         faces = np.asarray(faces, dtype=np.float64)

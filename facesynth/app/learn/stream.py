@@ -18,6 +18,7 @@ Pure, time as data.
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -27,6 +28,7 @@ __all__ = [
     "DEFAULT_LAG_S",
     "HISTORY_S",
     "MAX_GAP_S",
+    "MAX_LAG_S",
     "STREAM_KIND",
     "StreamFrame",
     "StreamOptions",
@@ -34,6 +36,7 @@ __all__ = [
     "Trajectory",
     "lagged_commands",
     "stream_blocks",
+    "stream_lag",
 ]
 
 #: The sample kind of a streamed frame (:class:`~facesynth.schemas.messages.BabbleSample`).
@@ -42,6 +45,8 @@ STREAM_KIND = "stream"
 BLOCK_S = 2.0
 #: The lag a stream is paired at when the session measured none (s): about simhead16's.
 DEFAULT_LAG_S = 0.1
+#: The longest lag a stream is paired at (s): simhead16_stiff's slowest skin is 0.15 s.
+MAX_LAG_S = 0.25
 #: Frames further apart than this (s: the face was lost, the run paused or was resumed) start a
 #: new stretch, and no command is interpolated across them.
 MAX_GAP_S = 0.5
@@ -115,6 +120,19 @@ class StreamFrame:
 #: How long the babbler (:mod:`facesynth.app.learn.core`) remembers its commands while
 #: streaming, for frames that arrive late (the tracker's latency; seconds).
 HISTORY_S = 3.0
+
+
+def stream_lag(lags: Mapping[str, float], servos: Sequence[str]) -> float:
+    """The one lag a stream is paired at from the per-servo ``lags`` a session measured: their
+    median over ``servos``, within ``[0, MAX_LAG_S]`` (:data:`DEFAULT_LAG_S` when none was
+    measured). One lag, not each servo's own: a weak servo's few moves give a noisy lag (on a
+    10-minute session of simhead16 the eyes' y read -0.06 and -0.03 s, the jaw 0.21 s), and
+    paired at the median, each servo's own or a fixed 0.1 s the held-out error was within
+    0.001 (docs/learning.md)."""
+    known = [float(value) for name, value in lags.items() if name in servos]
+    if not known:
+        return DEFAULT_LAG_S
+    return float(np.clip(np.median(known), 0.0, MAX_LAG_S))
 
 
 def lagged_commands(t_ns: np.ndarray, commanded: np.ndarray, lags_s: np.ndarray) -> np.ndarray:

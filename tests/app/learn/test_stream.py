@@ -15,12 +15,14 @@ from facesynth.app.learn.stream import (
     BLOCK_S,
     DEFAULT_LAG_S,
     MAX_GAP_S,
+    MAX_LAG_S,
     STREAM_KIND,
     StreamError,
     StreamOptions,
     Trajectory,
     lagged_commands,
     stream_blocks,
+    stream_lag,
 )
 from facesynth.runtime.profiles import Profile
 
@@ -214,15 +216,19 @@ def test_with_stream_appends_frames_paired_at_the_lag() -> None:
     assert stretches[4] == 0 and set(stretches[4:]) == {0, 1} and np.all(np.diff(stretches) >= 0)
 
 
-def test_with_stream_takes_a_lag_per_servo() -> None:
-    """A servo not named takes the median of the named ones; an empty mapping the default."""
+def test_a_stream_is_paired_at_the_median_of_the_lags_measured() -> None:
+    """Lags measured per servo: every servo paired at their median (a servo not of the set
+    left out), never below 0 nor above MAX_LAG_S; none measured: the default."""
+    assert stream_lag({"jaw": 0.05, "brow": 0.25, "lip": -0.04, "ear": 9.0}, SERVOS) == 0.05
+    assert stream_lag({"jaw": -0.06, "lip": -0.03}, SERVOS) == 0.0
+    assert stream_lag({"jaw": 0.5, "brow": 0.4}, SERVOS) == MAX_LAG_S
+    assert stream_lag({"ear": 0.05}, SERVOS) == DEFAULT_LAG_S
     base, t = settled(), frames(3.0)
     faces = np.zeros((len(t), 2))
-    out = base.with_stream(ns(t), ramp(t), faces, {"jaw": 0.05, "brow": 0.25})
-    kept = t[t >= 0.25]
+    out = base.with_stream(ns(t), ramp(t), faces, {"jaw": 0.05, "brow": 0.25, "lip": 0.15})
+    kept = t[t >= 0.15 - 1e-9]
     assert len(out) == len(base) + len(kept)
-    lags = np.array([0.05, 0.15, 0.25])  # lip: the median of jaw's and brow's
-    np.testing.assert_allclose(out.commands[4:], ramp(kept[:, None] - lags), atol=1e-6)
+    np.testing.assert_allclose(out.commands[4:], ramp(kept - 0.15), atol=1e-6)
     default = base.with_stream(ns(t), ramp(t), faces, {})
     assert len(default) == len(base) + int((t >= DEFAULT_LAG_S - 1e-9).sum())
     np.testing.assert_allclose(default.commands[-1], ramp(t[-1:] - DEFAULT_LAG_S)[0])
