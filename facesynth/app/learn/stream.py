@@ -4,11 +4,11 @@ After the sweeps, a babbling that waits for each pose to settle takes about one 
 the camera meanwhile sees thirty faces a second that the fit never uses. Streaming keeps the
 head moving instead: each servo follows a :class:`Trajectory` (a few sinusoids of random
 frequency and phase, seeded), and every frame the camera takes becomes a sample, its face
-paired with the commands sent ``lag`` earlier (:func:`lagged_commands`; the lag is the head's
-response lag measured on the sweeps' one-servo moves, :mod:`facesynth.app.learn.session_lag`).
-On simhead16, ten minutes of it gave a held-out command error of 0.078 of range against
-~0.10 from the ~650 settled poses of the same ten minutes (docs/learning.md, "What the
-held-out error needs").
+paired with the commands sent one response lag earlier (:func:`lagged_commands`; the lag
+measured on the sweeps' one-servo moves, :mod:`facesynth.app.learn.session_lag`, reduced to
+one by :func:`stream_lag`). On simhead16 through its camera, ten minutes of it gave held-out
+command errors of 0.089-0.095 of range against 0.100 from the 676 settled poses of the same
+ten minutes, but no better likeness (docs/learning.md, "Learning from every frame").
 
 Neighbouring frames are nearly the same sample, so the fit holds out whole stretches of the
 stream (:func:`stream_blocks`), never single frames whose neighbours it trained on.
