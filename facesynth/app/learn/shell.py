@@ -31,11 +31,11 @@ from typing import Any
 
 from facesynth.app.chain import freeze_startup_objects, node_context
 from facesynth.app.engine.router import embedded_bus
-from facesynth.app.learn.core import Babbler, Sample, StreamFrame
+from facesynth.app.learn.core import Babbler, Sample
 from facesynth.app.learn.progress import Progress
 from facesynth.app.learn.session import SessionFile
 from facesynth.app.learn.settle import StalledError
-from facesynth.app.learn.stream import STREAM_KIND
+from facesynth.app.learn.stream import STREAM_KIND, StreamFrame
 from facesynth.app.recording.recorder import Recorder, RecordOptions
 from facesynth.app.servo_sender import ServoSender
 from facesynth.app.wiring import StageParts
