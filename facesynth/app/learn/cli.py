@@ -69,10 +69,8 @@ log = logging.getLogger("facesynth.learn")
 DEFAULT_RIG = "self"
 
 
-#: ``--plan stream``'s default budget (minutes) and its bound on the plan's poses (only the sweeps
-#: are taken as poses; the budget is the time).
+#: ``--plan stream``'s default budget (minutes): it is bounded by time, not by poses.
 STREAM_MINUTES = 10.0
-STREAM_POSES = 1_000_000
 
 
 class LearnError(ValueError):
@@ -114,15 +112,16 @@ def cmd_learn(args: argparse.Namespace) -> int:
     plan = make_plan(choice, profile, resume)
     options = babble_options(args)
     first = resume.next_pose if resume is not None else 0
+    budget: int | None = poses  # the session's poses to babble to; None: until the minutes end
+    minutes = args.minutes
     if kind == "stream":  # the sweeps, then the stream until the minutes are spent
         if args.poses is not None:
             raise LearnError(
                 "--plan stream babbles for --minutes (default 10), not a number of --poses: "
                 "after the sweeps it learns from every frame"
             )
-        poses = STREAM_POSES
-        args.minutes = STREAM_MINUTES if args.minutes is None else args.minutes  # _babble's
-    if first >= poses:
+        budget, minutes = None, STREAM_MINUTES if minutes is None else minutes
+    if budget is not None and first >= budget:
         print(f"{out} already holds {first} poses (--poses {poses}): nothing to babble")
     else:
         configs = rig_configs(args, out.with_suffix(".commands.jsonl"))
@@ -130,7 +129,16 @@ def cmd_learn(args: argparse.Namespace) -> int:
             run_async(preflight(configs["control"], profile))
         parts = build_parts(args.profile, rig, profile, configs)
         result = _babble(
-            args, rig, profile, (choice, plan), options, first, poses, seed, parts, resume
+            args,
+            rig,
+            profile,
+            (choice, plan),
+            options,
+            first,
+            (budget, minutes),
+            seed,
+            parts,
+            resume,
         )
         rate = result.taken / (result.seconds / 60) if result.seconds > 0 else 0.0
         summary: dict[str, Any] = {
@@ -305,11 +313,14 @@ def _babble(
     plan: tuple[PlanChoice, BabblePlan],
     options: BabbleOptions,
     first: int,
-    poses: int,
+    budget: tuple[int | None, float | None],
     seed: int,
     parts: dict[str, StageParts],
     resume: Session | None,
 ) -> LearnResult:
+    """Babble until the session holds ``budget``'s poses or its minutes are spent (either may
+    be ``None``: no bound), from pose ``first`` of the plan."""
+    poses, minutes = budget
     out = Path(args.session)
     out.parent.mkdir(parents=True, exist_ok=True)
     listen = endpoints(args.listen) or ["tcp/127.0.0.1:0"]
@@ -319,15 +330,18 @@ def _babble(
 
     async def main() -> LearnResult:
         now = time.monotonic()
-        until = now + args.minutes * 60 if args.minutes is not None else None
+        until = now + minutes * 60 if minutes is not None else None
         until_ns = round(until * 1e9) if until is not None else None
         stream = _streaming(plan, profile, seed, resume)
-        budget = Budget(poses=None if stream else poses, until_ns=until_ns)
         babbler = Babbler(
-            profile, plan[1], start=first, budget=budget, options=options, stream=stream
+            profile,
+            plan[1],
+            start=first,
+            budget=Budget(poses=poses, until_ns=until_ns),
+            options=options,
+            stream=stream,
         )
-        total = None if stream else poses
-        progress = Progress(sys.stderr, first=first, total=total, started_s=now, until_s=until)
+        progress = Progress(sys.stderr, first=first, total=poses, started_s=now, until_s=until)
         shell = BabbleShell(babbler, seed=seed, progress=progress, on_neutral=lambda: None)
         meta = metadata(rig, profile, seed, record, plan[0].kind, plan[0].metadata())
         meta["frame_every"] = str(args.frame_every)

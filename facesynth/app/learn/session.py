@@ -17,7 +17,7 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Mapping
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -25,7 +25,7 @@ import numpy as np
 from facesynth.app.learn.dataset import KINDS, BabbleSet
 from facesynth.app.learn.plan import PlanError
 from facesynth.app.learn.plan_options import stored
-from facesynth.app.learn.stream import DEFAULT_LAG_S, MAX_GAP_S, STREAM_KIND
+from facesynth.app.learn.stream import MAX_GAP_S, STREAM_KIND
 from facesynth.app.recording.layout import LAYOUT_VERSION, Layout
 from facesynth.app.recording.reader import Recording, RecordingError
 from facesynth.app.recording.writer import SessionWriter
@@ -162,14 +162,16 @@ def babble_set(
     earlier (``lags``, per servo; :meth:`BabbleSet.with_stream`)."""
     servos = tuple(spec.name for spec in profile.servos)
     inputs = tuple(sorted({name for s in samples for name in s.features}))
+    poses = [s for s in samples if s.kind != STREAM_KIND]
+    commands, faces = _rows(poses, servos, inputs)
+    kinds = tuple(s.kind if s.kind in KINDS else "random" for s in poses)
+    settled = BabbleSet(servos, commands, inputs, faces, kinds, dict(lags or {}))
     stream = sorted((s for s in samples if s.kind == STREAM_KIND), key=lambda s: s.t_capture_ns)
-    settled = _settled_set([s for s in samples if s.kind != STREAM_KIND], servos, inputs)
-    settled = replace(settled, lags=dict(lags or {}))
     if not stream:
         return settled
     commands, faces = _rows(stream, servos, inputs)
     times = np.array([s.t_capture_ns for s in stream], dtype=np.int64)
-    return settled.with_stream(times, commands, faces, settled.lags or DEFAULT_LAG_S)
+    return settled.with_stream(times, commands, faces, settled.lags)
 
 
 def _rows(
@@ -184,14 +186,6 @@ def _rows(
     if np.isnan(commands).any():
         raise SessionError("a babbling sample lacks a servo of the profile")
     return commands, faces
-
-
-def _settled_set(
-    samples: list[BabbleSample], servos: tuple[str, ...], inputs: tuple[str, ...]
-) -> BabbleSet:
-    commands, faces = _rows(samples, servos, inputs)
-    kinds = tuple(s.kind if s.kind in KINDS else "random" for s in samples)
-    return BabbleSet(servos, commands, inputs, faces, kinds)
 
 
 class SessionFile:
