@@ -98,13 +98,16 @@ def test_a_frozen_points_stage_sends_no_old_motion_when_it_resumes(tracker_rig: 
         )
     print(f"{len(commands)} commands, {len(old)} older than {LIMIT_NS / 1e9:g} s from capture")
     assert old == [], f"commands executed long after capture (frame, age s): {old[:10]}"
-    # The backlog was dropped on purpose (by whichever stage it reached), said once per stall.
+    # Whatever old frames reached a stage were dropped on purpose, said at most once per stall.
+    # Whether any reach one is a race, so it is printed, not required: after SIGCONT the
+    # transport's thread may fill P's 2-deep queue with fresh frames before P reads it (the
+    # backlog is dropped oldest-first, silently), and P may have been idle, not mid-frame, when
+    # stopped. The drop itself is tested deterministically in tests/runtime/test_stale_inputs.py.
     said = {
         name: rig.processes.log(rig.log_name(name)).count("dropping")
         for name in ("points", "features", "translator", "control")
     }
     print(f"stale runs said: {said}")
-    assert sum(said.values()) > 0, "no stage said it dropped old frames"
     assert max(said.values()) <= STALLS, said
     # Meanwhile the face held, then went back to neutral (the watchdog), within the limits.
     for stopped_ns, resumed_ns, _ in rows:
