@@ -652,7 +652,7 @@ CASES = [
     ),
     (
         "bench robot live driver",
-        ["bench", "robot", "--driver", "teleporter", "--camera", "0"],
+        ["bench", "robot", "--driver-config", "{driver.toml}", "--camera", "0"],
         "teleporter",
     ),
     (
@@ -663,7 +663,32 @@ CASES = [
     (
         "bench robot two cameras",
         ["bench", "robot", "--driver", "maestro", "--camera", "0", "--ros2-image-topic", "/c"],
-        "--camera or --ros2-image-topic: one camera watches the head",
+        "choose one source, not --camera and --ros2-image-topic",
+    ),
+    (
+        "bench robot rig option without driver",
+        ["bench", "robot", "--baud", "57600"],
+        "--baud goes with --driver (a head outside this process)",
+    ),
+    (
+        "bench robot option of another driver",
+        ["bench", "robot", "--driver", "maestro", "--camera", "0", "--i2c-bus", "1"],
+        "--i2c-bus does not apply to driver maestro",
+    ),
+    (
+        "bench robot board not there",
+        ["bench", "robot", "--driver", "dynamixel", "--port", "/nonexistent", "--camera", "0"],
+        "/nonexistent: cannot open it",
+    ),
+    (
+        "bench robot camera not live",
+        ["bench", "robot", "--driver", "record", "--out", "/nonexistent/r.jsonl", "--ticks", "10"],
+        "source ticks is not a live camera",
+    ),
+    (
+        "bench chain rig option",
+        ["bench", "chain", "--driver", "maestro"],
+        "--driver: bench chain does not read it (bench robot does)",
     ),
     (
         "bench robot closed loop written",

@@ -25,7 +25,8 @@ from facesynth.runtime.plugins import Plugin, Registry
 
 
 class OptionError(ValueError):
-    """Options that do not fit together, or do not fit the chosen plugin."""
+    """Options (or a graph's nodes) that do not fit together, or do not fit the chosen plugin:
+    the one error every command reports as ``facesynth CMD: error: …``."""
 
 
 @dataclass(frozen=True)

@@ -19,9 +19,8 @@ from facesynth.app.wiring import StageParts, build_node
 from facesynth.runtime.profiles import Profile
 from facesynth.services.control.drivers.registry import DRIVERS
 from facesynth.services.sensor.sources.camera import CameraConfig
-from facesynth.services.sensor.sources.registry import SOURCES
 
-__all__ = ["build_parts", "camera_config", "driver_config", "newest", "preflight"]
+__all__ = ["build_parts", "newest", "preflight"]
 
 
 def build_parts(
@@ -57,22 +56,3 @@ async def preflight(config: msgspec.Struct, profile: Profile) -> None:
     driver = DRIVERS.build(config, profile)
     await driver.connect_once(query_only=True)
     await driver.close()
-
-
-def driver_config(name: str, port: str | None) -> msgspec.Struct:
-    """``--driver NAME [--port PORT]`` as a checked driver config."""
-    data = {"driver": name} if port is None else {"driver": name, "port": port}
-    return DRIVERS.parse(data, "--driver")
-
-
-def camera_config(value: str) -> msgspec.Struct:
-    """``--camera VALUE`` (a device index, a /dev/video* path or a stream URL) as a checked
-    config of the camera source (its ``--camera`` field)."""
-    plugin = SOURCES.get("camera")
-    for field in plugin.fields():
-        meta = field.type
-        if isinstance(meta, msgspec.inspect.Metadata) and (meta.extra or {}).get("flag") == (
-            "--camera"
-        ):
-            return SOURCES.parse({"source": "camera", field.name: value}, "--camera")
-    raise ValueError("--camera: the camera source has no --camera field")  # pragma: no cover

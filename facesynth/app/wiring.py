@@ -16,13 +16,14 @@ from typing import Any
 
 import msgspec
 
+from facesynth.app.arguments import OptionError
 from facesynth.app.graph import Graph, plugin_config
 from facesynth.app.nodes import ControlNode, TranslatorNode
 from facesynth.app.profile_choice import settle
 from facesynth.app.router_wait import ONE_SHOT_WAIT_S, RouterWait, kind_of
 from facesynth.app.stages.calibration import build_calibration
 from facesynth.app.stages.control import control_service
-from facesynth.app.stages.descriptor import NodeBuild, OptionError, ServiceBody, StageParts
+from facesynth.app.stages.descriptor import NodeBuild, ServiceBody, StageParts
 from facesynth.app.stages.features import build_processor, state_keeping
 from facesynth.app.stages.points import build_backend
 from facesynth.app.stages.registry import STAGES

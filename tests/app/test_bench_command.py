@@ -7,8 +7,9 @@ import re
 
 import pytest
 
-from facesynth.app.bench.arguments import READERS, add_bench_arguments, unread_options
+from facesynth.app.bench.arguments import READERS, RIG, add_bench_arguments, unread_options
 from facesynth.app.cli import main
+from facesynth.app.stage_args import PLUGIN_FLAGS
 
 
 def _kinds() -> list[str]:
@@ -39,10 +40,21 @@ def test_bench_robot_reads_the_calibration(capsys: pytest.CaptureFixture[str]) -
     assert "does not read it" not in err
 
 
+def _rig_flags(stage: str) -> set[str]:
+    flags = PLUGIN_FLAGS[stage][0]
+    return {flags.selector, flags.config_file or flags.selector} | {f.flag for f in flags.flags()}
+
+
 def _options() -> list[argparse.Action]:
+    """bench's own options (the robot's rig flags come from the plugin registries: below)."""
     parser = argparse.ArgumentParser()
     add_bench_arguments(parser)
-    return [action for action in parser._actions if action.dest not in ("help", "what")]
+    rig = {flag for stage in RIG for flag in _rig_flags(stage)}
+    return [
+        action
+        for action in parser._actions
+        if action.dest not in ("help", "what") and not rig & set(action.option_strings)
+    ]
 
 
 def test_every_option_names_the_benchmarks_that_read_it_in_its_help() -> None:
@@ -91,3 +103,33 @@ def test_options_left_at_their_defaults_are_not_refused() -> None:
     add_bench_arguments(parser)
     for kind in _kinds():
         assert unread_options(parser.parse_args([kind])) == [], kind
+
+
+@pytest.mark.parametrize(
+    "rig",
+    [
+        ["--driver", "dynamixel"],
+        ["--port", "/dev/ttyUSB0"],
+        ["--i2c-bus", "1"],
+        ["--camera", "0"],
+        ["--ros2-image-topic", "/head/image_raw"],
+    ],
+)
+def test_the_robots_rig_flags_are_bench_robots_alone(
+    rig: list[str], capsys: pytest.CaptureFixture[str]
+) -> None:
+    # Declared from the plugin registries, not in READERS: refused all the same elsewhere.
+    assert main(["bench", "tracker", *rig]) == 2
+    err = capsys.readouterr().err
+    assert (
+        f"facesynth bench: error: {rig[0]}: bench tracker does not read it (bench robot does)"
+        in err
+    )
+
+
+def test_bench_keeps_its_own_options_where_a_plugin_has_the_same_flag() -> None:
+    # --fps is the camera source's frame rate too: on bench it stays chain's and the others'.
+    parser = argparse.ArgumentParser()
+    add_bench_arguments(parser)
+    (fps,) = [action for action in parser._actions if "--fps" in action.option_strings]
+    assert fps.dest == "fps" and fps.default == 30.0

@@ -10,9 +10,9 @@ import msgspec
 import numpy as np
 import pytest
 
+from facesynth.app.arguments import OptionError
 from facesynth.app.data import sample_video
 from facesynth.app.stages.closed_loop import robot_face
-from facesynth.app.stages.descriptor import OptionError
 from facesynth.app.stages.robot_camera import RobotCamera
 from facesynth.runtime.profiles import Profile, load_profile, save_learned_profile
 from facesynth.runtime.profiles.learned import Learned, PolyRidge, Report, pack

@@ -42,7 +42,8 @@ def test_bench_robot_watches_the_head_through_a_ros2_camera(tmp_path: Path) -> N
                 [
                     *(sys.executable, "-m", "facesynth", "bench", "robot"),
                     *("--frames", "48", "--profile", "head16"),
-                    *("--driver", "maestro", "--port", str(link), "--ros2-image-topic", TOPIC),
+                    *("--driver", "maestro", "--port", str(link), "--maestro-model", "mini24"),
+                    *("--ros2-image-topic", TOPIC),
                     *("--json", str(out)),
                 ],
                 capture_output=True,

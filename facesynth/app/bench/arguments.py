@@ -7,6 +7,8 @@ from __future__ import annotations
 import argparse
 from typing import Final
 
+from facesynth.app.learn.babble_flags import add_rig_flags, rig_flags_given
+
 #: The benchmarks that read each option (its dest), as its help says.
 READERS: Final[dict[str, frozenset[str]]] = {
     dest: frozenset(kinds.split())
@@ -29,10 +31,6 @@ READERS: Final[dict[str, frozenset[str]]] = {
         "profile": "smoothing drivers robot",
         "head": "robot",
         "json": "robot",
-        "driver": "robot",
-        "port": "robot",
-        "camera": "robot",
-        "ros2_image_topic": "robot",
         "closed_loop": "robot",
         "planned": "robot",
         "learn_poses": "robot",
@@ -48,6 +46,12 @@ READERS: Final[dict[str, frozenset[str]]] = {
         "minutes": "recording",
     }.items()
 }
+
+#: ``bench robot``'s rig for a head outside this process, as ``facesynth learn`` and ``plan``
+#: take it (:mod:`facesynth.app.learn.babble_flags`): the camera watching the head and its servo
+#: driver, each with every plugin's options, neither with a default. The tracker on the head's
+#: frames is the likeness measure's own, so it is not an option. Only ``bench robot`` reads them.
+RIG: Final[dict[str, str | None]] = {"sensor": None, "control": None}
 
 #: Why a benchmark other than ``robot`` refuses ``--calibration`` (the performer's calibration
 #: for her F and T) rather than ignore it.
@@ -86,6 +90,11 @@ def unread_options(args: argparse.Namespace) -> list[str]:
                 f"{flag}: bench {args.what} does not read it "
                 + (f"({why}); {who}" if why else f"({who})")
             )
+    if args.what != "robot":
+        problems += [
+            f"{flag}: bench {args.what} does not read it (bench robot does)"
+            for flag in rig_flags_given(args, RIG)
+        ]
     return problems
 
 
@@ -218,27 +227,6 @@ def add_bench_arguments(p: argparse.ArgumentParser) -> None:
         "well as printing the table",
     )
     p.add_argument(
-        "--driver",
-        metavar="NAME",
-        help="robot: drive a head outside this process in real time through this servo "
-        "driver (maestro, arduino, ssc32; e.g. facesynth simhead's serial port) instead of "
-        "the simulated heads in process; needs --camera or --ros2-image-topic",
-    )
-    p.add_argument("--port", metavar="PORT", help="robot: the --driver's serial port")
-    p.add_argument(
-        "--camera",
-        metavar="CAMERA",
-        help="robot: the camera watching the --driver's head: a device index, a /dev/video* "
-        "path or a stream URL (e.g. http://127.0.0.1:8080/camera.mjpg)",
-    )
-    p.add_argument(
-        "--ros2-image-topic",
-        metavar="TOPIC",
-        help="robot: instead of --camera, the robot's camera on ROS 2 (sensor_msgs "
-        "CompressedImage JPEG on a topic ending in /compressed, else Image rgb8, bgr8 or "
-        "mono8; the [ros2] extra)",
-    )
-    p.add_argument(
         "--closed-loop",
         action="store_true",
         help="robot: also drive each learned --profile with T's loop closed through the "
@@ -314,3 +302,6 @@ def add_bench_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--minutes", type=float, default=10.0, help="recording: session length (default 10)"
     )
+    # robot: a head outside this process, driven in real time through --driver (any servo
+    # driver, with its options) and watched through --camera or --ros2-image-topic.
+    add_rig_flags(p, {flag for action in p._actions for flag in action.option_strings}, RIG)

@@ -12,12 +12,15 @@ from pathlib import Path
 import msgspec
 
 from facesynth.app.engine.robot_loop import Head, RobotError
+from facesynth.app.learn.babble_flags import camera_given, driver_given, rig_flags_given
+from facesynth.app.stage_args import PLUGIN_FLAGS
 from facesynth.app.wiring import OptionError
 from facesynth.runtime.atomic import write_atomic
 from facesynth.runtime.calibration import Calibration, load_calibration
 from facesynth.runtime.outputs import check_output
 from facesynth.runtime.profiles import Profile
 
+from .arguments import RIG
 from .robot import DEFAULT_PROFILES, RobotBench, bench_robot, measure, track_performer
 from .robot_compare import FeatureStream
 from .robot_report import format_robot, robot_json
@@ -71,7 +74,7 @@ def bench_robot_command(args: argparse.Namespace) -> int:
         except ValueError as exc:
             raise RobotError(f"--profile {name}: {exc}") from None
     calibration = performer_calibration(getattr(args, "calibration", None))
-    live = any(v is not None for v in (args.driver, args.camera, args.ros2_image_topic))
+    live = driver_given(args) or camera_given(args)
     ways = [flag for flag in ("closed_loop", "planned") if getattr(args, flag, False)]
     for flag in ways:
         _check_variant(flag, loaded, live, args.learn_poses is not None)
@@ -84,8 +87,9 @@ def bench_robot_command(args: argparse.Namespace) -> int:
     if live:
         result = _live(args, profiles, progress, calibration)
     else:
-        if args.port is not None:
-            raise OptionError("--port goes with --driver (a head outside this process)")
+        stray = rig_flags_given(args, RIG)
+        if stray:
+            raise OptionError(f"{stray[0]} goes with --driver (a head outside this process)")
         heads, open_head = simulated_heads(args.head)
         learn = _learner(args.learn_poses) if args.learn_poses is not None else None
         progress("tracking the performer")
@@ -181,11 +185,32 @@ def _learner(poses: int) -> Callable[[str], list[Profile]]:
     return learn
 
 
-def ros2_camera_config(topic: str) -> msgspec.Struct:
-    """``--ros2-image-topic TOPIC`` as a checked config of the ``ros2`` source."""
-    from facesynth.services.sensor.sources.registry import SOURCES
+def head_rig(args: argparse.Namespace) -> tuple[msgspec.Struct, msgspec.Struct, str]:
+    """The camera's and the servo driver's checked configs for a head outside this process,
+    from the same flags as ``facesynth learn`` takes, and the head's name in the report
+    (``DRIVER PORT | SOURCE WHERE``).
 
-    return SOURCES.parse({"source": "ros2", "topic": topic}, "--ros2-image-topic")
+    Raises:
+        OptionError: no driver or no camera, a simulated ``--head`` beside them, or options
+            that do not fit the plugins chosen.
+    """
+    if not (driver_given(args) and camera_given(args)):
+        raise OptionError(
+            "a head outside this process needs both --driver and --camera (or --ros2-image-topic)"
+        )
+    if args.head:
+        raise OptionError("--head names a simulated head in process; with --driver, omit it")
+    camera = PLUGIN_FLAGS["sensor"][0].config(args, None)
+    driver = PLUGIN_FLAGS["control"][0].config(args, None)
+    return camera, driver, f"{_where(driver)} | {_where(camera)}"
+
+
+def _where(config: msgspec.Struct) -> str:
+    """A plugin config as the report names it: its plugin and, if it has them, the place it
+    reads or writes (a port, a bus, a camera, a topic)."""
+    data = msgspec.to_builtins(config)
+    places = ("port", "bus", "index", "topic")
+    return " ".join(str(data[k]) for k in (next(iter(data)), *places) if data.get(k) is not None)
 
 
 def _live(
@@ -194,34 +219,34 @@ def _live(
     progress: Callable[[str], None],
     calibration: Calibration | None = None,
 ) -> RobotBench:
-    """Every profile on the head behind ``--driver``, watched through ``--camera`` (or the
-    robot's camera on ROS 2, ``--ros2-image-topic``)."""
+    """Every profile on the head behind ``--driver`` (any servo driver, with its options),
+    watched through ``--camera`` (or the robot's camera on ROS 2, ``--ros2-image-topic``)."""
     from facesynth.app.data import sample_video
-    from facesynth.app.robot_rig import camera_config, driver_config
+    from facesynth.app.robot_rig import preflight
+    from facesynth.runtime.profiles import load_profile
+    from facesynth.runtime.service import run_async
     from facesynth.services.control.drivers.registry import DRIVERS
     from facesynth.services.sensor.sources.registry import SOURCES
 
     from .robot_live import CameraFeed, live_profile
 
-    if args.camera is not None and args.ros2_image_topic is not None:
-        raise OptionError("--camera or --ros2-image-topic: one camera watches the head")
-    watch = args.camera if args.camera is not None else args.ros2_image_topic
-    if args.driver is None or watch is None:
+    camera, driver, name = head_rig(args)
+    first = load_profile(profiles[0])
+    if DRIVERS.build(driver, first).moves_hardware:  # a board that is not there: said now
+        run_async(preflight(driver, first))
+    source = SOURCES.build(camera)  # a camera that cannot open: before any tracking
+    if not source.info.live:
+        source.close()
         raise OptionError(
-            "a head outside this process needs both --driver and --camera (or --ros2-image-topic)"
+            f"source {_where(camera)} is not a live camera: bench robot watches the head as "
+            "it moves (--camera or --ros2-image-topic)"
         )
-    if args.head:
-        raise OptionError("--head names a simulated head in process; with --driver, omit it")
-    driver = driver_config(args.driver, args.port)
-    camera = camera_config(watch) if args.camera is not None else ros2_camera_config(watch)
-    feed = CameraFeed(SOURCES.build(camera))  # a camera that cannot open: before any tracking
+    feed = CameraFeed(source)
     try:
         progress("tracking the performer")
         performance = track_performer(
             args.video or str(sample_video()), frames=args.frames, calibration=calibration
         )
-        seen = f"camera {args.camera}" if args.camera is not None else f"ros2 {watch}"
-        name = f"{args.driver} {args.port or ''} | {seen}".replace("  ", " ")
 
         def run(head: str, profile: Profile) -> FeatureStream:
             output = DRIVERS.build(driver, profile)

@@ -7,6 +7,7 @@ driver's flags, from their registries; :func:`rig_configs`: their checked config
 from __future__ import annotations
 
 import argparse
+from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -89,11 +90,17 @@ def babble_options(args: argparse.Namespace) -> BabbleOptions:
     )
 
 
-def add_rig_flags(parser: argparse.ArgumentParser, seen: set[str]) -> None:
+def add_rig_flags(
+    parser: argparse.ArgumentParser,
+    seen: set[str],
+    defaults: Mapping[str, str | None] = RIG_DEFAULTS,
+) -> None:
     """The robot's camera (``--camera``, ``--ros2-image-topic``, … ``--video`` for a dry run),
     the tracker on its frames and its servo driver (``--driver`` with every driver's options,
-    ``--driver-config FILE``), from the plugin registries; ``seen``: flags ``parser`` has."""
-    for stage, default in RIG_DEFAULTS.items():
+    ``--driver-config FILE``), from the plugin registries; ``seen``: flags ``parser`` has
+    (they keep their meaning there). ``defaults``: the rig's stages to take, each with the
+    plugin its help names as the default (``facesynth bench robot``: camera and driver only)."""
+    for stage, default in defaults.items():
         flags, _ = PLUGIN_FLAGS[stage]
         flags.add(parser, seen, default)
 
@@ -109,9 +116,10 @@ def driver_given(args: argparse.Namespace) -> bool:
     return PLUGIN_FLAGS["control"][0].chosen(args)
 
 
-def rig_flags_given(args: argparse.Namespace) -> list[str]:
-    """The rig's flags the command line gives (``--driver``, ``--port``, ``--camera``, …)."""
-    return [flag for stage in RIG_DEFAULTS for flag in PLUGIN_FLAGS[stage][0].given(args)]
+def rig_flags_given(args: argparse.Namespace, stages: Iterable[str] = RIG_DEFAULTS) -> list[str]:
+    """The rig's flags the command line gives (``--driver``, ``--port``, ``--camera``, …), of
+    ``stages`` (default: camera, tracker and driver)."""
+    return [flag for stage in stages for flag in PLUGIN_FLAGS[stage][0].given(args)]
 
 
 def rig_configs(args: argparse.Namespace, record_out: Path) -> dict[str, msgspec.Struct]:

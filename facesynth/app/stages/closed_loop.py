@@ -18,7 +18,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from pathlib import Path
 
-from facesynth.app.stages.descriptor import OptionError
+from facesynth.app.arguments import OptionError
 from facesynth.runtime import keys
 from facesynth.runtime.profiles.loading import ProfileError, resolve_profile
 from facesynth.services.translator.core import TranslationError, Translator

@@ -8,13 +8,8 @@ from typing import Annotated, Any, Literal
 import msgspec
 from msgspec import Meta
 
-from facesynth.app.stages.descriptor import (
-    NodeBuild,
-    OptionError,
-    PluginTable,
-    StageDescriptor,
-    StageParts,
-)
+from facesynth.app.arguments import OptionError
+from facesynth.app.stages.descriptor import NodeBuild, PluginTable, StageDescriptor, StageParts
 from facesynth.app.stages.driver_fit import check_fit
 from facesynth.app.stages.robot import RobotNode
 from facesynth.runtime.profiles import Profile

@@ -25,10 +25,6 @@ if TYPE_CHECKING:
 ServiceBody = Callable[[ServiceContext], Awaitable[Any]]
 
 
-class OptionError(ValueError):
-    """Options or nodes that do not fit together."""
-
-
 @dataclass
 class StageParts:
     """What one node became: its service body, and the objects a runner may look at."""

@@ -6,8 +6,9 @@ from typing import Annotated
 
 from msgspec import Meta
 
+from facesynth.app.arguments import OptionError
 from facesynth.app.stages.calibration import build_calibration
-from facesynth.app.stages.descriptor import NodeBuild, OptionError, StageDescriptor, StageParts
+from facesynth.app.stages.descriptor import NodeBuild, StageDescriptor, StageParts
 from facesynth.app.stages.node import InputAge, StageNode
 from facesynth.app.stages.setup import DEFAULT_NEUTRAL_S
 from facesynth.runtime.capture_age import DEFAULT_MAX_AGE_S
