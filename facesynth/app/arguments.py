@@ -174,10 +174,20 @@ class PluginFlags:
         """Every plugin's field flags."""
         return [flag for plugin in self.registry for flag in self._plugin_flags(plugin)]
 
-    def add(self, parser: argparse.ArgumentParser, seen: set[str], default: str | None) -> None:
-        """Declare ``--NAME``, ``--NAME-config`` and every plugin's field flags."""
+    def add(
+        self,
+        parser: argparse.ArgumentParser,
+        seen: set[str],
+        default: str | None,
+        purpose: str | None = None,
+    ) -> None:
+        """Declare ``--NAME``, ``--NAME-config`` and every plugin's field flags; ``purpose``:
+        what the group is for, under its title in ``--help`` (a command that takes them for
+        one use only)."""
         kind = self.registry.kind
-        group = parser.add_argument_group(f"{kind} ({', '.join(self.registry.names())})")
+        group = parser.add_argument_group(
+            f"{kind} ({', '.join(self.registry.names())})", description=purpose
+        )
         summaries = "; ".join(f"{p.name}: {p.summary.rstrip('.')}" for p in self.registry)
         group.add_argument(
             self.selector,

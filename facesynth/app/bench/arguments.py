@@ -304,4 +304,12 @@ def add_bench_arguments(p: argparse.ArgumentParser) -> None:
     )
     # robot: a head outside this process, driven in real time through --driver (any servo
     # driver, with its options) and watched through --camera or --ros2-image-topic.
-    add_rig_flags(p, {flag for action in p._actions for flag in action.option_strings}, RIG)
+    add_rig_flags(
+        p,
+        {flag for action in p._actions for flag in action.option_strings},
+        RIG,
+        {
+            "sensor": "robot: the camera watching a head outside this process (a live source)",
+            "control": "robot: the servo driver of that head, with its options",
+        },
+    )

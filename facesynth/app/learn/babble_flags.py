@@ -94,15 +94,17 @@ def add_rig_flags(
     parser: argparse.ArgumentParser,
     seen: set[str],
     defaults: Mapping[str, str | None] = RIG_DEFAULTS,
+    purposes: Mapping[str, str] | None = None,
 ) -> None:
     """The robot's camera (``--camera``, ``--ros2-image-topic``, … ``--video`` for a dry run),
     the tracker on its frames and its servo driver (``--driver`` with every driver's options,
     ``--driver-config FILE``), from the plugin registries; ``seen``: flags ``parser`` has
     (they keep their meaning there). ``defaults``: the rig's stages to take, each with the
-    plugin its help names as the default (``facesynth bench robot``: camera and driver only)."""
+    plugin its help names as the default (``facesynth bench robot``: camera and driver only);
+    ``purposes``: what each stage's group is for, in ``--help``."""
     for stage, default in defaults.items():
         flags, _ = PLUGIN_FLAGS[stage]
-        flags.add(parser, seen, default)
+        flags.add(parser, seen, default, (purposes or {}).get(stage))
 
 
 def camera_given(args: argparse.Namespace) -> bool:
