@@ -18,7 +18,7 @@ reach* (against her change clipped into the profile's reach box, gain 1:
   docs/learning.md);
 * **sequence**: the commands that follow the *whole* performance best by the lead figures'
   own measure (correlation, with the amplitude kept), searched through the self-model and
-  rehearsed on the true head (:mod:`~facesynth.app.plan.sequence`): not causal, a
+  rehearsed on the true head (:mod:`~facesynth.app.plan.sequence_rehearsed`): not causal, a
   frame's command knows the frames to come; what this head can show of this performance by
   the likeness measure (the oracle answers least squares per frame, a different question);
 * **plan**: T's commands before its smoothing (inverse model + plan), the head settled at each
@@ -47,7 +47,7 @@ import numpy as np
 from facesynth.app.bench.robot import Performance, reach_box, run_profile, track_performer
 from facesynth.app.bench.robot_compare import FeatureRow, FeatureStream, compare, lead
 from facesynth.app.learn.inprocess import SimBabbler
-from facesynth.app.plan.sequence import ROUNDS, sequence_faces
+from facesynth.app.plan.sequence_rehearsed import ROUNDS, sequence_faces
 from facesynth.app.plan.targets import translate
 from facesynth.runtime.feature_names import NAMES
 from facesynth.runtime.profiles import Profile, load_profile

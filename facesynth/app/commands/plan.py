@@ -153,7 +153,7 @@ def _check_options(args: argparse.Namespace) -> None:
         return
     if not camera_given(args):
         raise ValueError("a rehearsal on the robot needs both --driver and --camera")
-    from facesynth.app.plan.sequence import REHEARSALS
+    from facesynth.app.plan.sequence_rehearsed import REHEARSALS
 
     args.rounds = REHEARSALS if args.rounds is None else args.rounds
     if args.rounds < 1:
@@ -171,7 +171,8 @@ HELP = (
 
 
 def _arguments(p: argparse.ArgumentParser) -> None:
-    from facesynth.app.plan.sequence import AMPLITUDE, REHEARSALS, SMOOTH
+    from facesynth.app.plan.sequence import AMPLITUDE, SMOOTH
+    from facesynth.app.plan.sequence_rehearsed import REHEARSALS
 
     p.add_argument("video", help="the performer's video")
     p.add_argument(

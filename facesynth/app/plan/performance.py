@@ -26,15 +26,8 @@ from pathlib import Path
 
 import numpy as np
 
-from facesynth.app.plan.sequence import (
-    AMPLITUDE,
-    DAMPING,
-    ITERATIONS,
-    REHEARSALS,
-    SMOOTH,
-    rehearsed_commands,
-    sequence_commands,
-)
+from facesynth.app.plan.sequence import AMPLITUDE, ITERATIONS, SMOOTH, sequence_commands
+from facesynth.app.plan.sequence_rehearsed import DAMPING, REHEARSALS, rehearsed_commands
 from facesynth.app.plan.targets import standardized, translate
 from facesynth.runtime import codec, keys
 from facesynth.runtime.profiles import Profile
@@ -139,9 +132,9 @@ def plan_performance(
     """The commands of ``profile`` for the performance F saw as ``features`` (one per video
     frame, in order; see the module), each frame's sent ``lead_frames`` frames early (against
     the head's own lag; the last frame's held at the end). With ``look`` (the robot itself),
-    the plan is rehearsed ``rounds`` times (:func:`~facesynth.app.plan.sequence.
+    the plan is rehearsed ``rounds`` times (:func:`~facesynth.app.plan.sequence_rehearsed.
     rehearsed_commands`, from the plan found through the self-model, damped by
-    :data:`~facesynth.app.plan.sequence.DAMPING`) and the round the robot showed best is
+    :data:`~facesynth.app.plan.sequence_rehearsed.DAMPING`) and the round the robot showed best is
     kept. :class:`PlanError` for a profile that is not learned or has no ``poly_ridge``
     self-model, fewer than 3 frames with a target, a performance that moves
     none of the features the robot can show, a negative lead or fewer than 1 round."""
