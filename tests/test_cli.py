@@ -698,7 +698,7 @@ CASES = [
     (
         "bench robot closed loop live",
         ["bench", "robot", "--closed-loop", "--driver", "maestro", "--camera", "0"],
-        "--closed-loop drives the simulated heads in process; omit --driver",
+        "--closed-loop needs a learned --profile",
     ),
     (
         "bench robot planned written",

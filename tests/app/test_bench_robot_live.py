@@ -16,9 +16,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from simhead16_laugh import laughing, learned_simhead16
 
 from facesynth.app.bench.robot import Performance, RobotError, track_performer
-from facesynth.app.bench.robot_live import CameraFeed, live_profile
+from facesynth.app.bench.robot_live import CameraFeed, live_closed, live_profile
 from facesynth.app.cli import main
 from facesynth.app.data import sample_video
 from facesynth.app.engine.robot_loop import tracker
@@ -119,6 +120,42 @@ def test_a_head_is_driven_and_watched_in_real_time(performance: Performance) -> 
     neutral = profile.neutral_positions()
     assert rig.sent[0] == neutral and rig.sent[-1] == pytest.approx(neutral)  # back at neutral
     assert not driver.open
+
+
+@pytest.mark.slow
+def test_the_loop_closes_through_the_camera_that_measures_the_head() -> None:
+    """T corrects its commands from the faces the same camera shows (stamped on T's clock:
+    a face on another clock is never paired with the commands that made it, and the loop
+    learns nothing), and the head returns to neutral at the end."""
+    rig = Rig()
+    profile = learned_simhead16()
+    laugh = laughing()
+    camera = CameraFeed(HeadCamera(rig))
+    driver = HeadDriver(rig, profile)
+    try:
+        robot, state = asyncio.run(
+            live_closed(laugh, profile, driver, camera, settle_s=0.3, backend=tracker())
+        )
+    finally:
+        camera.close()
+    assert len(robot) == len(laugh.features)
+    # the camera runs at the performer's rate: most of her frames bring a new face to T
+    assert state.updates >= len(laugh.features) // 2, state.updates
+    assert np.abs(state.weights).max() > 0  # and the self-model was corrected from them
+    neutral = profile.neutral_positions()
+    assert rig.sent[-1] == pytest.approx(neutral) and not driver.open
+
+
+def test_a_written_profile_cannot_close_the_loop(performance: Performance) -> None:
+    rig = Rig()
+    profile = load_profile("head16")
+    camera = CameraFeed(HeadCamera(rig))
+    try:
+        with pytest.raises(RobotError, match="head16 is not learned: no closed loop"):
+            asyncio.run(live_closed(performance, profile, HeadDriver(rig, profile), camera))
+    finally:
+        camera.close()
+    assert rig.sent == []  # refused before the head was driven
 
 
 def test_a_camera_without_a_face_is_an_error(performance: Performance) -> None:

@@ -230,7 +230,8 @@ def add_bench_arguments(p: argparse.ArgumentParser) -> None:
         "--closed-loop",
         action="store_true",
         help="robot: also drive each learned --profile with T's loop closed through the "
-        "head's camera, beside its open loop (simulated heads in process)",
+        "head's camera, beside its open loop (the simulated heads in process, or with "
+        "--driver the camera that measures the head)",
     )
     p.add_argument(
         "--planned",

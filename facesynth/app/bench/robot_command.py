@@ -21,10 +21,10 @@ from facesynth.runtime.outputs import check_output
 from facesynth.runtime.profiles import Profile
 
 from .arguments import RIG
-from .robot import DEFAULT_PROFILES, RobotBench, bench_robot, measure, track_performer
+from .robot import DEFAULT_PROFILES, RobotBench, bench_robot, load, measure, track_performer
 from .robot_compare import FeatureStream
 from .robot_report import format_robot, robot_json
-from .robot_variants import Runner
+from .robot_variants import Runner, every_way
 
 
 def simulated_heads(names: list[str] | None) -> tuple[list[str], Callable[[str], Head]]:
@@ -85,7 +85,7 @@ def bench_robot_command(args: argparse.Namespace) -> int:
         print(f"bench robot: {what}", file=sys.stderr, flush=True)
 
     if live:
-        result = _live(args, profiles, progress, calibration)
+        result = _live(args, profiles, progress, calibration, closed="closed_loop" in ways)
     else:
         stray = rig_flags_given(args, RIG)
         if stray:
@@ -131,7 +131,7 @@ def _check_variant(flag: str, profiles: dict[str, Profile], live: bool, learning
 
     option = "--" + flag.replace("_", "-")
     verb = {"closed_loop": "closes the loop on", "planned": "plays plans to"}[flag]
-    if live:
+    if live and flag != "closed_loop":
         raise OptionError(f"{option} drives the simulated heads in process; omit --driver")
     learned = [(name, p.learned) for name, p in profiles.items() if p.learned is not None]
     if not learning and not learned:
@@ -218,9 +218,12 @@ def _live(
     profiles: list[str],
     progress: Callable[[str], None],
     calibration: Calibration | None = None,
+    *,
+    closed: bool = False,
 ) -> RobotBench:
     """Every profile on the head behind ``--driver`` (any servo driver, with its options),
-    watched through ``--camera`` (or the robot's camera on ROS 2, ``--ros2-image-topic``)."""
+    watched through ``--camera`` (or the robot's camera on ROS 2, ``--ros2-image-topic``);
+    with ``closed``, each learned one again with T's loop closed through that camera."""
     from facesynth.app.data import sample_video
     from facesynth.app.robot_rig import preflight
     from facesynth.runtime.profiles import load_profile
@@ -228,7 +231,8 @@ def _live(
     from facesynth.services.control.drivers.registry import DRIVERS
     from facesynth.services.sensor.sources.registry import SOURCES
 
-    from .robot_live import CameraFeed, live_profile
+    from .robot_closed import CLOSED_SUFFIX
+    from .robot_live import CameraFeed, live_closed, live_profile
 
     camera, driver, name = head_rig(args)
     first = load_profile(profiles[0])
@@ -249,9 +253,17 @@ def _live(
         )
 
         def run(head: str, profile: Profile) -> FeatureStream:
+            if profile.name.endswith(CLOSED_SUFFIX):
+                profile = msgspec.structs.replace(
+                    profile, name=profile.name.removesuffix(CLOSED_SUFFIX)
+                )
+                output = DRIVERS.build(driver, profile)
+                return asyncio.run(live_closed(performance, profile, output, feed))[0]
             output = DRIVERS.build(driver, profile)
             return asyncio.run(live_profile(performance, profile, output, feed))
 
-        return measure(performance, [name], profiles, run, progress=progress)
+        ways = [CLOSED_SUFFIX] if closed else []
+        every = [way for profile in profiles for way in every_way(load(profile), ways)]
+        return measure(performance, [name], every, run, progress=progress)
     finally:
         feed.close()

@@ -19,6 +19,11 @@ are played at the video's rate on the monotonic clock:
 * at the end (or on an error, a camera that shows nothing new for 2 s among them) C returns
   the head to neutral within its limits before the driver closes.
 
+With the loop closed (:func:`live_closed`, ``--closed-loop``) each face the camera shows is
+also handed to T, which corrects the next frames' commands from it
+(:mod:`facesynth.services.translator.closed_loop`), as ``run --robot-camera`` does: one camera
+both closes the loop and measures the likeness.
+
 A machine too slow to track each frame in its period plays the frames late rather than
 skipping them; the run time says so.
 """
@@ -31,6 +36,7 @@ import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
+import msgspec
 import numpy as np
 
 from facesynth.app.engine.robot_loop import (
@@ -50,11 +56,12 @@ from facesynth.services.control.drivers.base import ServoDriver
 from facesynth.services.features.core import FeatureProcessor
 from facesynth.services.points.backends.base import PointsBackend
 from facesynth.services.sensor.sources.base import FrameSource, SourceError, pixels
+from facesynth.services.translator.closed_loop import ClosedLoop, LoopOptions, LoopState
 
 from .robot import Performance
 from .robot_compare import FeatureStream
 
-__all__ = ["CameraFeed", "CameraFrame", "live_profile"]
+__all__ = ["CameraFeed", "CameraFrame", "live_closed", "live_profile"]
 
 MAX_STEP_NS = round(MAX_STEP_S * 1e9)
 #: A camera that shows nothing new for this long while the head plays is an error.
@@ -124,6 +131,7 @@ class _Live:
         backend: PointsBackend,
         clock: Callable[[], int],
         calibration: Calibration | None = None,
+        loop: LoopOptions | None = None,
     ) -> None:
         self.profile = profile
         self.driver = driver
@@ -134,6 +142,16 @@ class _Live:
         #: performer's calibration, if any, as ``run`` gives it).
         self.cores = RobotCores.of_profile("robot", profile, calibration=calibration)
         self.control = self.cores.control
+        #: T's clock (the wall clock, as ``run`` gives it) less this run's: camera frames
+        #: arrive on this run's clock and T's closed loop reads them on its own.
+        self.wall_offset_ns = time.time_ns() - clock()
+        #: T's loop closed through this camera (None: open loop).
+        self.closed: ClosedLoop | None = None
+        if loop is not None:
+            try:
+                self.closed = self.cores.translator.close_loop(loop)
+            except ValueError as exc:
+                raise RobotError(str(exc)) from None
         self.processor = FeatureProcessor(neutral_seconds=NEUTRAL_S, neutral_held=True)
         self.seq = 0
         self.seen = 0
@@ -197,11 +215,16 @@ class _Live:
         for performer in performance.features:
             await self.until(start + performer.t_media_ns)
             now = self.clock()
-            _, move = self.cores.command(performer, now, wall_ns=time.time_ns())
+            _, move = self.cores.command(performer, now, wall_ns=now + self.wall_offset_ns)
             await self.send(move)
             features = self.look()
             if features is not None:
                 last, fresh = robot_features(features), now
+                if self.closed is not None:  # T corrects the next frames from this face
+                    seen = features.t_capture_ns + self.wall_offset_ns
+                    self.cores.translator.observe(
+                        msgspec.structs.replace(features, t_capture_ns=seen)
+                    )
             elif now - fresh > CAMERA_STALL_NS:  # else nothing new yet: as before
                 raise RobotError(
                     f"the camera has shown nothing new for {CAMERA_STALL_NS / 1e9:.0f} s"
@@ -233,10 +256,43 @@ async def live_profile(
     time (see the module doc): the robot's raw features per performer frame (a
     :class:`.robot.RobotError` when no face with a neutral is seen within ``timeout_s`` after
     ``settle_s`` at neutral)."""
+    run = _Live(profile, driver, camera, _backend(backend), clock, performance.calibration)
+    return await _played(run, performance, settle_s, timeout_s)
+
+
+async def live_closed(
+    performance: Performance,
+    profile: Profile,
+    driver: ServoDriver,
+    camera: CameraFeed,
+    *,
+    loop: LoopOptions | None = None,
+    settle_s: float = SETTLE_S,
+    timeout_s: float = NEUTRAL_TIMEOUT_S,
+    backend: PointsBackend | None = None,
+    clock: Callable[[], int] = time.monotonic_ns,
+) -> tuple[FeatureStream, LoopState]:
+    """:func:`live_profile` with T's loop closed through the same camera (``bench robot
+    --closed-loop --driver …``): each face the camera shows is handed to T (stamped on T's
+    clock), which corrects the next frames' commands from it, as ``run --robot-camera`` does.
+    The robot's raw features and what the loop learned; a :class:`.robot.RobotError` for a
+    profile whose loop cannot close (not learned, no ``poly_ridge`` self-model)."""
+    options = loop if loop is not None else LoopOptions()
+    run = _Live(profile, driver, camera, _backend(backend), clock, performance.calibration, options)
+    stream = await _played(run, performance, settle_s, timeout_s)
+    assert run.closed is not None
+    return stream, run.closed.state
+
+
+def _backend(backend: PointsBackend | None) -> PointsBackend:
+    return backend if backend is not None else tracker()
+
+
+async def _played(
+    run: _Live, performance: Performance, settle_s: float, timeout_s: float
+) -> FeatureStream:
     period_ns = round(1e9 / performance.fps)
-    backend = backend if backend is not None else tracker()
-    run = _Live(profile, driver, camera, backend, clock, performance.calibration)
-    async with driver:
+    async with run.driver:
         try:
             at_neutral = await run.neutral(period_ns, round(settle_s * 1e9), round(timeout_s * 1e9))
             frames = await run.play(performance, at_neutral)

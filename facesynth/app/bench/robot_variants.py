@@ -18,7 +18,7 @@ from facesynth.runtime.profiles import Profile
 from .robot import Performance, RobotBench, load, measure, run_profile
 from .robot_compare import FeatureStream
 
-__all__ = ["Runner", "bench_variants"]
+__all__ = ["Runner", "bench_variants", "every_way"]
 
 #: Runs one (learned) profile on a head over the performance: the robot's raw features.
 Runner = Callable[[Performance, Profile, Head], FeatureStream]
@@ -46,16 +46,18 @@ def bench_variants(
                 return runner(performance, original, open_head(head))
         return run_profile(performance, profile, open_head(head))
 
-    def every_way(profile: Profile) -> list[Profile]:
-        if profile.learned is None:
-            return [profile]
-        named = [msgspec.structs.replace(profile, name=profile.name + s) for s in variants]
-        return [profile, *named]
-
     def learn_every_way(head: str) -> list[Profile]:
         assert learn is not None
-        return [p for mine in learn(head) for p in every_way(mine)]
+        return [p for mine in learn(head) for p in every_way(mine, variants)]
 
-    loaded = [p for name in profiles for p in every_way(load(name))]
+    loaded = [p for name in profiles for p in every_way(load(name), variants)]
     both = learn_every_way if learn is not None else None
     return measure(performance, heads, loaded, run, progress=progress, learn=both)
+
+
+def every_way(profile: Profile, suffixes: Iterable[str]) -> list[Profile]:
+    """A learned profile, then a copy of it named with each variant's suffix (``NAME (closed
+    loop)``); a written profile alone (it runs open loop only)."""
+    if profile.learned is None:
+        return [profile]
+    return [profile, *(msgspec.structs.replace(profile, name=profile.name + s) for s in suffixes)]
