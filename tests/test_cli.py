@@ -709,7 +709,7 @@ CASES = [
     (
         "bench robot planned live",
         ["bench", "robot", "--planned", "--driver", "maestro", "--camera", "0"],
-        "--planned drives the simulated heads in process; omit --driver",
+        "--planned needs a learned --profile",
     ),
     (
         "bench planned elsewhere",

@@ -19,10 +19,11 @@ import pytest
 from simhead16_laugh import laughing, learned_simhead16
 
 from facesynth.app.bench.robot import Performance, RobotError, track_performer
-from facesynth.app.bench.robot_live import CameraFeed, live_closed, live_profile
+from facesynth.app.bench.robot_live import CameraFeed, live_closed, live_planned, live_profile
 from facesynth.app.cli import main
 from facesynth.app.data import sample_video
 from facesynth.app.engine.robot_loop import tracker
+from facesynth.app.plan.performance import plan_performance
 from facesynth.app.simhead import SimHead, load_head
 from facesynth.runtime.profiles import Profile, load_profile
 from facesynth.schemas.messages import Frame, Points
@@ -144,6 +145,29 @@ def test_the_loop_closes_through_the_camera_that_measures_the_head() -> None:
     assert np.abs(state.weights).max() > 0  # and the self-model was corrected from them
     neutral = profile.neutral_positions()
     assert rig.sent[-1] == pytest.approx(neutral) and not driver.open
+
+
+@pytest.mark.slow
+def test_a_plan_is_played_through_c_instead_of_t() -> None:
+    """Each performer frame, C gets the plan's command for it (the head in real time, the
+    camera watching): the positions sent are the plan's, clamped and speed-limited by C."""
+    rig = Rig()
+    profile = learned_simhead16()
+    laugh = laughing()
+    plan = plan_performance(profile, laugh.features).commands()
+    camera = CameraFeed(HeadCamera(rig))
+    driver = HeadDriver(rig, profile)
+    try:
+        robot = asyncio.run(live_planned(laugh, profile, driver, camera, settle_s=0.3))
+    finally:
+        camera.close()
+    assert len(robot) == len(laugh.features)
+    planned = [command.positions for command in plan]
+    # where C's clamping and speed limits leave it alone, a position sent is the plan's own
+    # (83 of 90 here; T's commands for the same frames match 26, its first frames at neutral)
+    reached = sum(sent in planned for sent in rig.sent)
+    assert reached >= 0.75 * len(planned), (reached, len(planned))
+    assert rig.sent[-1] == pytest.approx(profile.neutral_positions()) and not driver.open
 
 
 def test_a_written_profile_cannot_close_the_loop(performance: Performance) -> None:

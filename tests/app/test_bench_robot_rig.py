@@ -1,6 +1,7 @@
-"""``facesynth bench robot``'s head outside this process, from the same flags as ``facesynth
-learn`` takes (:mod:`facesynth.app.learn.babble_flags`): any servo driver with its options, the
-camera watching the head on any live source, and the head's name in the report."""
+"""``facesynth bench robot``'s head outside this process (facesynth/app/bench/robot_outside.py),
+from the same flags as ``facesynth learn`` takes (:mod:`facesynth.app.learn.babble_flags`): any
+servo driver with its options, the camera watching the head on any live source, and the head's
+name in the report."""
 
 from __future__ import annotations
 
@@ -9,7 +10,7 @@ from pathlib import Path
 import pytest
 
 from facesynth.app.arguments import OptionError
-from facesynth.app.bench.robot_command import head_rig
+from facesynth.app.bench.robot_outside import head_rig
 from facesynth.app.cli import build_parser
 from facesynth.app.learn.babble_flags import rig_configs
 from facesynth.app.robot_rig import newest

@@ -237,7 +237,8 @@ def add_bench_arguments(p: argparse.ArgumentParser) -> None:
         "--planned",
         action="store_true",
         help="robot: also drive each learned --profile with its plan of the whole video "
-        "(facesynth plan) played through C, beside its open loop (simulated heads in process)",
+        "(facesynth plan) played through C, beside its open loop (the simulated heads in "
+        "process, or the head behind --driver)",
     )
     p.add_argument(
         "--learn-poses",

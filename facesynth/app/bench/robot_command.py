@@ -3,17 +3,13 @@
 from __future__ import annotations
 
 import argparse
-import asyncio
 import json
 import sys
 from collections.abc import Callable
 from pathlib import Path
 
-import msgspec
-
 from facesynth.app.engine.robot_loop import Head, RobotError
 from facesynth.app.learn.babble_flags import camera_given, driver_given, rig_flags_given
-from facesynth.app.stage_args import PLUGIN_FLAGS
 from facesynth.app.wiring import OptionError
 from facesynth.runtime.atomic import write_atomic
 from facesynth.runtime.calibration import Calibration, load_calibration
@@ -21,10 +17,10 @@ from facesynth.runtime.outputs import check_output
 from facesynth.runtime.profiles import Profile
 
 from .arguments import RIG
-from .robot import DEFAULT_PROFILES, RobotBench, bench_robot, load, measure, track_performer
-from .robot_compare import FeatureStream
+from .robot import DEFAULT_PROFILES, bench_robot, track_performer
+from .robot_outside import bench_outside
 from .robot_report import format_robot, robot_json
-from .robot_variants import Runner, every_way
+from .robot_variants import Runner
 
 
 def simulated_heads(names: list[str] | None) -> tuple[list[str], Callable[[str], Head]]:
@@ -77,7 +73,7 @@ def bench_robot_command(args: argparse.Namespace) -> int:
     live = driver_given(args) or camera_given(args)
     ways = [flag for flag in ("closed_loop", "planned") if getattr(args, flag, False)]
     for flag in ways:
-        _check_variant(flag, loaded, live, args.learn_poses is not None)
+        _check_variant(flag, loaded, args.learn_poses is not None)
     if args.learn_poses is not None:
         _check_learn(args.learn_poses, live)
 
@@ -85,7 +81,7 @@ def bench_robot_command(args: argparse.Namespace) -> int:
         print(f"bench robot: {what}", file=sys.stderr, flush=True)
 
     if live:
-        result = _live(args, profiles, progress, calibration, closed="closed_loop" in ways)
+        result = bench_outside(args, profiles, ways, progress, calibration)
     else:
         stray = rig_flags_given(args, RIG)
         if stray:
@@ -122,17 +118,14 @@ def bench_robot_command(args: argparse.Namespace) -> int:
     return 0
 
 
-def _check_variant(flag: str, profiles: dict[str, Profile], live: bool, learning: bool) -> None:
-    """``--closed-loop`` / ``--planned``: simulated heads in process, and a learned profile to
-    run that way (one of ``profiles``, loaded by name, or one ``--learn-poses`` learns), each
-    learned one with the ``poly_ridge`` self-model both go through (checked before the
-    performer is tracked)."""
+def _check_variant(flag: str, profiles: dict[str, Profile], learning: bool) -> None:
+    """``--closed-loop`` / ``--planned``: a learned profile to run that way (one of
+    ``profiles``, loaded by name, or one ``--learn-poses`` learns), each learned one with the
+    ``poly_ridge`` self-model both go through (checked before the performer is tracked)."""
     from facesynth.runtime.profiles.learned import PolyRidge
 
     option = "--" + flag.replace("_", "-")
     verb = {"closed_loop": "closes the loop on", "planned": "plays plans to"}[flag]
-    if live and flag != "closed_loop":
-        raise OptionError(f"{option} drives the simulated heads in process; omit --driver")
     learned = [(name, p.learned) for name, p in profiles.items() if p.learned is not None]
     if not learning and not learned:
         raise OptionError(
@@ -183,87 +176,3 @@ def _learner(poses: int) -> Callable[[str], list[Profile]]:
         return [learn_simhead(head, poses)]
 
     return learn
-
-
-def head_rig(args: argparse.Namespace) -> tuple[msgspec.Struct, msgspec.Struct, str]:
-    """The camera's and the servo driver's checked configs for a head outside this process,
-    from the same flags as ``facesynth learn`` takes, and the head's name in the report
-    (``DRIVER PORT | SOURCE WHERE``).
-
-    Raises:
-        OptionError: no driver or no camera, a simulated ``--head`` beside them, or options
-            that do not fit the plugins chosen.
-    """
-    if not (driver_given(args) and camera_given(args)):
-        raise OptionError(
-            "a head outside this process needs both --driver and --camera (or --ros2-image-topic)"
-        )
-    if args.head:
-        raise OptionError("--head names a simulated head in process; with --driver, omit it")
-    camera = PLUGIN_FLAGS["sensor"][0].config(args, None)
-    driver = PLUGIN_FLAGS["control"][0].config(args, None)
-    return camera, driver, f"{_where(driver)} | {_where(camera)}"
-
-
-def _where(config: msgspec.Struct) -> str:
-    """A plugin config as the report names it: its plugin and, if it has them, the place it
-    reads or writes (a port, a bus, a camera, a topic)."""
-    data = msgspec.to_builtins(config)
-    places = ("port", "bus", "index", "topic")
-    return " ".join(str(data[k]) for k in (next(iter(data)), *places) if data.get(k) is not None)
-
-
-def _live(
-    args: argparse.Namespace,
-    profiles: list[str],
-    progress: Callable[[str], None],
-    calibration: Calibration | None = None,
-    *,
-    closed: bool = False,
-) -> RobotBench:
-    """Every profile on the head behind ``--driver`` (any servo driver, with its options),
-    watched through ``--camera`` (or the robot's camera on ROS 2, ``--ros2-image-topic``);
-    with ``closed``, each learned one again with T's loop closed through that camera."""
-    from facesynth.app.data import sample_video
-    from facesynth.app.robot_rig import preflight
-    from facesynth.runtime.profiles import load_profile
-    from facesynth.runtime.service import run_async
-    from facesynth.services.control.drivers.registry import DRIVERS
-    from facesynth.services.sensor.sources.registry import SOURCES
-
-    from .robot_closed import CLOSED_SUFFIX
-    from .robot_live import CameraFeed, live_closed, live_profile
-
-    camera, driver, name = head_rig(args)
-    first = load_profile(profiles[0])
-    if DRIVERS.build(driver, first).moves_hardware:  # a board that is not there: said now
-        run_async(preflight(driver, first))
-    source = SOURCES.build(camera)  # a camera that cannot open: before any tracking
-    if not source.info.live:
-        source.close()
-        raise OptionError(
-            f"source {_where(camera)} is not a live camera: bench robot watches the head as "
-            "it moves (--camera or --ros2-image-topic)"
-        )
-    feed = CameraFeed(source)
-    try:
-        progress("tracking the performer")
-        performance = track_performer(
-            args.video or str(sample_video()), frames=args.frames, calibration=calibration
-        )
-
-        def run(head: str, profile: Profile) -> FeatureStream:
-            if profile.name.endswith(CLOSED_SUFFIX):
-                profile = msgspec.structs.replace(
-                    profile, name=profile.name.removesuffix(CLOSED_SUFFIX)
-                )
-                output = DRIVERS.build(driver, profile)
-                return asyncio.run(live_closed(performance, profile, output, feed))[0]
-            output = DRIVERS.build(driver, profile)
-            return asyncio.run(live_profile(performance, profile, output, feed))
-
-        ways = [CLOSED_SUFFIX] if closed else []
-        every = [way for profile in profiles for way in every_way(load(profile), ways)]
-        return measure(performance, [name], every, run, progress=progress)
-    finally:
-        feed.close()

@@ -22,7 +22,8 @@ are played at the video's rate on the monotonic clock:
 With the loop closed (:func:`live_closed`, ``--closed-loop``) each face the camera shows is
 also handed to T, which corrects the next frames' commands from it
 (:mod:`facesynth.services.translator.closed_loop`), as ``run --robot-camera`` does: one camera
-both closes the loop and measures the likeness.
+both closes the loop and measures the likeness. With a plan (:func:`live_planned`,
+``--planned``) C gets the plan's command for each frame instead of T's.
 
 A machine too slow to track each frame in its period plays the frames late rather than
 skipping them; the run time says so.
@@ -48,11 +49,13 @@ from facesynth.app.engine.robot_loop import (
     tracker,
 )
 from facesynth.app.engine.stepped import RobotCores, sensor_frame
+from facesynth.app.plan.performance import plan_performance
 from facesynth.runtime.calibration import Calibration
 from facesynth.runtime.profiles import Profile
-from facesynth.schemas.messages import Features
+from facesynth.schemas.messages import Features, ServoCommands
 from facesynth.services.control.core import MAX_STEP_S, Move
 from facesynth.services.control.drivers.base import ServoDriver
+from facesynth.services.control.freshness import Arrival
 from facesynth.services.features.core import FeatureProcessor
 from facesynth.services.points.backends.base import PointsBackend
 from facesynth.services.sensor.sources.base import FrameSource, SourceError, pixels
@@ -61,7 +64,7 @@ from facesynth.services.translator.closed_loop import ClosedLoop, LoopOptions, L
 from .robot import Performance
 from .robot_compare import FeatureStream
 
-__all__ = ["CameraFeed", "CameraFrame", "live_closed", "live_profile"]
+__all__ = ["CameraFeed", "CameraFrame", "live_closed", "live_planned", "live_profile"]
 
 MAX_STEP_NS = round(MAX_STEP_S * 1e9)
 #: A camera that shows nothing new for this long while the head plays is an error.
@@ -132,6 +135,7 @@ class _Live:
         clock: Callable[[], int],
         calibration: Calibration | None = None,
         loop: LoopOptions | None = None,
+        planned: list[ServoCommands] | None = None,
     ) -> None:
         self.profile = profile
         self.driver = driver
@@ -145,6 +149,8 @@ class _Live:
         #: T's clock (the wall clock, as ``run`` gives it) less this run's: camera frames
         #: arrive on this run's clock and T's closed loop reads them on its own.
         self.wall_offset_ns = time.time_ns() - clock()
+        #: A plan's commands, one per performer frame, played through C instead of T's.
+        self.planned = planned
         #: T's loop closed through this camera (None: open loop).
         self.closed: ClosedLoop | None = None
         if loop is not None:
@@ -212,11 +218,10 @@ class _Live:
         camera shows nothing new, the last ones: at first ``last``, the neutral's)."""
         start = fresh = self.clock()
         out: list[Mapping[str, float] | None] = []
-        for performer in performance.features:
+        for index, performer in enumerate(performance.features):
             await self.until(start + performer.t_media_ns)
             now = self.clock()
-            _, move = self.cores.command(performer, now, wall_ns=now + self.wall_offset_ns)
-            await self.send(move)
+            await self.send(self._command(index, performer, now))
             features = self.look()
             if features is not None:
                 last, fresh = robot_features(features), now
@@ -231,6 +236,16 @@ class _Live:
                 )
             out.append(last)
         return out
+
+    def _command(self, index: int, performer: Features, now: int) -> Move | None:
+        """C's move for performer frame ``index``: T's command for it, or the plan's (none
+        past the plan's last: C's own moves go on, then its return to neutral)."""
+        wall = now + self.wall_offset_ns
+        if self.planned is None:
+            return self.cores.command(performer, now, wall_ns=wall)[1]
+        if index >= len(self.planned):
+            return None
+        return self.control.command(self.planned[index], Arrival(wall, now))[0]
 
     async def stop(self) -> None:
         """C's return to neutral, sent, before the driver closes."""
@@ -282,6 +297,35 @@ async def live_closed(
     stream = await _played(run, performance, settle_s, timeout_s)
     assert run.closed is not None
     return stream, run.closed.state
+
+
+async def live_planned(
+    performance: Performance,
+    profile: Profile,
+    driver: ServoDriver,
+    camera: CameraFeed,
+    *,
+    settle_s: float = SETTLE_S,
+    timeout_s: float = NEUTRAL_TIMEOUT_S,
+    backend: PointsBackend | None = None,
+    clock: Callable[[], int] = time.monotonic_ns,
+) -> FeatureStream:
+    """:func:`live_profile` with ``profile``'s plan of the whole performance (``facesynth
+    plan``, no lead, not rehearsed) played through C instead of T's commands (``bench robot
+    --planned --driver …``), as ``facesynth replay PLAN --from servo_commands`` gives it to
+    the control service; a :class:`~facesynth.app.plan.performance.PlanError` for a profile
+    without a ``poly_ridge`` self-model."""
+    plan = plan_performance(profile, performance.features)
+    run = _Live(
+        profile,
+        driver,
+        camera,
+        _backend(backend),
+        clock,
+        performance.calibration,
+        planned=plan.commands(),
+    )
+    return await _played(run, performance, settle_s, timeout_s)
 
 
 def _backend(backend: PointsBackend | None) -> PointsBackend:
