@@ -19,7 +19,7 @@ import pytest
 from simhead16_laugh import laughing, learned_simhead16
 
 from facesynth.app.bench.robot import Performance, RobotError, track_performer
-from facesynth.app.bench.robot_live import CameraFeed, live_closed, live_planned, live_profile
+from facesynth.app.bench.robot_live import CameraFeed, live_closed, live_profile
 from facesynth.app.cli import main
 from facesynth.app.data import sample_video
 from facesynth.app.engine.robot_loop import tracker
@@ -158,7 +158,9 @@ def test_a_plan_is_played_through_c_instead_of_t() -> None:
     camera = CameraFeed(HeadCamera(rig))
     driver = HeadDriver(rig, profile)
     try:
-        robot = asyncio.run(live_planned(laugh, profile, driver, camera, settle_s=0.3))
+        robot = asyncio.run(
+            live_profile(laugh, profile, driver, camera, planned=True, settle_s=0.3)
+        )
     finally:
         camera.close()
     assert len(robot) == len(laugh.features)

@@ -22,8 +22,8 @@ are played at the video's rate on the monotonic clock:
 With the loop closed (:func:`live_closed`, ``--closed-loop``) each face the camera shows is
 also handed to T, which corrects the next frames' commands from it
 (:mod:`facesynth.services.translator.closed_loop`), as ``run --robot-camera`` does: one camera
-both closes the loop and measures the likeness. With a plan (:func:`live_planned`,
-``--planned``) C gets the plan's command for each frame instead of T's.
+both closes the loop and measures the likeness. With a plan (:func:`live_profile`'s
+``planned``, ``--planned``) C gets the plan's command for each frame instead of T's.
 
 A machine too slow to track each frame in its period plays the frames late rather than
 skipping them; the run time says so.
@@ -64,7 +64,7 @@ from facesynth.services.translator.closed_loop import ClosedLoop, LoopOptions, L
 from .robot import Performance
 from .robot_compare import FeatureStream
 
-__all__ = ["CameraFeed", "CameraFrame", "live_closed", "live_planned", "live_profile"]
+__all__ = ["CameraFeed", "CameraFrame", "live_closed", "live_profile"]
 
 MAX_STEP_NS = round(MAX_STEP_S * 1e9)
 #: A camera that shows nothing new for this long while the head plays is an error.
@@ -262,6 +262,7 @@ async def live_profile(
     driver: ServoDriver,
     camera: CameraFeed,
     *,
+    planned: bool = False,
     settle_s: float = SETTLE_S,
     timeout_s: float = NEUTRAL_TIMEOUT_S,
     backend: PointsBackend | None = None,
@@ -270,8 +271,23 @@ async def live_profile(
     """One profile driving a head through ``driver``, watched through ``camera``, in real
     time (see the module doc): the robot's raw features per performer frame (a
     :class:`.robot.RobotError` when no face with a neutral is seen within ``timeout_s`` after
-    ``settle_s`` at neutral)."""
-    run = _Live(profile, driver, camera, _backend(backend), clock, performance.calibration)
+    ``settle_s`` at neutral).
+
+    ``planned``: ``profile``'s plan of the whole performance (``facesynth plan``, no lead, not
+    rehearsed) is played through C instead of T's commands (``bench robot --planned --driver
+    …``), as ``facesynth replay PLAN --from servo_commands`` gives it to the control service
+    (a :class:`~facesynth.app.plan.performance.PlanError` for a profile without a
+    ``poly_ridge`` self-model)."""
+    commands = plan_performance(profile, performance.features).commands() if planned else None
+    run = _Live(
+        profile,
+        driver,
+        camera,
+        _backend(backend),
+        clock,
+        performance.calibration,
+        planned=commands,
+    )
     return await _played(run, performance, settle_s, timeout_s)
 
 
@@ -297,35 +313,6 @@ async def live_closed(
     stream = await _played(run, performance, settle_s, timeout_s)
     assert run.closed is not None
     return stream, run.closed.state
-
-
-async def live_planned(
-    performance: Performance,
-    profile: Profile,
-    driver: ServoDriver,
-    camera: CameraFeed,
-    *,
-    settle_s: float = SETTLE_S,
-    timeout_s: float = NEUTRAL_TIMEOUT_S,
-    backend: PointsBackend | None = None,
-    clock: Callable[[], int] = time.monotonic_ns,
-) -> FeatureStream:
-    """:func:`live_profile` with ``profile``'s plan of the whole performance (``facesynth
-    plan``, no lead, not rehearsed) played through C instead of T's commands (``bench robot
-    --planned --driver …``), as ``facesynth replay PLAN --from servo_commands`` gives it to
-    the control service; a :class:`~facesynth.app.plan.performance.PlanError` for a profile
-    without a ``poly_ridge`` self-model."""
-    plan = plan_performance(profile, performance.features)
-    run = _Live(
-        profile,
-        driver,
-        camera,
-        _backend(backend),
-        clock,
-        performance.calibration,
-        planned=plan.commands(),
-    )
-    return await _played(run, performance, settle_s, timeout_s)
 
 
 def _backend(backend: PointsBackend | None) -> PointsBackend:

@@ -27,7 +27,7 @@ from facesynth.services.control.drivers.base import ServoDriver
 from .robot import Performance, RobotBench, load, measure, track_performer
 from .robot_closed import CLOSED_SUFFIX
 from .robot_compare import FeatureStream
-from .robot_live import CameraFeed, live_closed, live_planned, live_profile
+from .robot_live import CameraFeed, live_closed, live_profile
 from .robot_planned import PLANNED_SUFFIX
 from .robot_variants import every_way
 
@@ -46,10 +46,16 @@ async def _closed(
     return (await live_closed(performance, profile, driver, camera))[0]
 
 
+async def _planned(
+    performance: Performance, profile: Profile, driver: ServoDriver, camera: CameraFeed
+) -> FeatureStream:
+    return await live_profile(performance, profile, driver, camera, planned=True)
+
+
 #: ``--closed-loop`` and ``--planned`` on a head outside this process: suffix and way.
 WAYS: dict[str, tuple[str, LiveWay]] = {
     "closed_loop": (CLOSED_SUFFIX, _closed),
-    "planned": (PLANNED_SUFFIX, live_planned),
+    "planned": (PLANNED_SUFFIX, _planned),
 }
 
 
