@@ -29,6 +29,7 @@ from typing import TYPE_CHECKING
 import msgspec
 import numpy as np
 
+from facesynth.app.learn.core import DEFAULT_SPEED_US_S, BabbleOptions
 from facesynth.app.learn.dataset import BabbleSet
 from facesynth.app.learn.lag import Transition, servo_lags
 from facesynth.app.learn.stream import Streaming, Trajectory
@@ -44,6 +45,8 @@ if TYPE_CHECKING:
 
 #: The head's slew and settle lag are over well within this.
 SETTLE_NS = 1_500_000_000
+#: The babbler's pace (a fraction of each servo's ``max_speed``), as ``facesynth learn`` has it.
+PACE = BabbleOptions().pace
 FRAME_NS = 33_333_333
 #: Frames the face is followed for after a probing step (the slowest bundled skin, 0.15 s,
 #: and slew, 1,500 µs/s, are over within them).
@@ -69,7 +72,13 @@ class SimBabbler:
         self._neutral = np.array([s.neutral_us for s in specs])
         self._up = np.array([s.max_us - s.neutral_us for s in specs])
         self._down = np.array([s.neutral_us - s.min_us for s in specs])
+        #: Each servo's profile speed (µs/s), the babbler's default where it sets none.
+        self._speeds = np.array(
+            [s.max_speed if s.max_speed > 0 else DEFAULT_SPEED_US_S for s in specs], dtype=float
+        )
         self._seq = 0
+        #: The pulses in force on the head (every servo), as the babbler last commanded them.
+        self._commanded = self._neutral.astype(np.float64)
         self.look(np.zeros(len(specs)), 6)  # F's neutral: the head at rest
 
     def pulses(self, u: np.ndarray) -> np.ndarray:
@@ -81,8 +90,7 @@ class SimBabbler:
     def look(self, u: np.ndarray, frames: int | None = None) -> np.ndarray:
         """The face (``Features.raw`` over :data:`NAMES`, NaN where absent) at pose ``u``."""
         sim = self._sim
-        for spec, pulse in zip(self.profile.servos, self.pulses(u), strict=True):
-            sim.command(spec.channel, float(pulse))
+        self._command(self.pulses(u))
         sim.step(sim.t_ns + SETTLE_NS)
         image = sim.render()
         face = np.full(len(NAMES), np.nan)
@@ -116,8 +124,7 @@ class SimBabbler:
         as a step: a transition of :mod:`facesynth.app.learn.lag` (settle with :meth:`look`
         for its face after)."""
         sim = self._sim
-        for spec, pulse in zip(self.profile.servos, self.pulses(u), strict=True):
-            sim.command(spec.channel, float(pulse))
+        self._command(self.pulses(u))
         start, faces = sim.t_ns, []
         for index in range(PROBE_FRAMES):
             sim.step(start + index * FRAME_NS)
@@ -125,28 +132,41 @@ class SimBabbler:
         return np.arange(PROBE_FRAMES) * FRAME_NS / 1e9, np.array(faces)
 
     def stream(
-        self, trajectory: Trajectory, seconds: float, every: int = 3, offset_s: float = 0.0
+        self,
+        trajectory: Trajectory,
+        seconds: float,
+        every: int = 3,
+        offset_s: float = 0.0,
+        pace: float = PACE,
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(t_ns, pulses, faces)``: the head commanded along ``trajectory`` (from
         ``offset_s`` into it) at the camera's rate for ``seconds`` (the command changing every
         frame, as ``facesynth learn``'s streaming sends it), every ``every``-th frame tracked:
         its time (the head's clock, ns), the pulses in force when it was taken, its face (over
-        :data:`NAMES`)."""
+        :data:`NAMES`). The commands are paced as the babbler paces them: no servo is asked to
+        move faster than ``pace`` of its profile's ``max_speed``."""
         sim = self._sim
         start = sim.t_ns
+        room = pace * self._speeds * FRAME_NS / 1e9  # µs a frame, per servo
         times, pulses, faces = [], [], []
         for index in range(round(seconds * 1e9 / FRAME_NS)):
             t_ns = index * FRAME_NS
             sim.step(start + t_ns)
-            command = self.pulses(trajectory.at(offset_s + t_ns / 1e9))
-            for spec, pulse in zip(self.profile.servos, command, strict=True):
-                sim.command(spec.channel, float(pulse))
+            goal = self.pulses(trajectory.at(offset_s + t_ns / 1e9))
+            command = self._commanded + np.clip(goal - self._commanded, -room, room)
+            self._command(command)
             if index % every:
                 continue
             faces.append(self._track())
             times.append(sim.t_ns)
             pulses.append(command)
         return np.array(times, dtype=np.int64), np.array(pulses), np.array(faces)
+
+    def _command(self, pulses: np.ndarray) -> None:
+        """Every servo to ``pulses`` at once (kept as the pulses in force)."""
+        for spec, pulse in zip(self.profile.servos, pulses, strict=True):
+            self._sim.command(spec.channel, float(pulse))
+        self._commanded = np.asarray(pulses, dtype=np.float64).copy()
 
 
 def babble(

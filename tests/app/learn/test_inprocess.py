@@ -9,7 +9,14 @@ from synthetic_babble import hardware
 
 from facesynth.app.learn.adaptive import AdaptiveOptions, AdaptivePlan
 from facesynth.app.learn.fit import FitOptions, fit_learned_profile
-from facesynth.app.learn.inprocess import SimBabbler, babble, held_out_error, uniform_poses
+from facesynth.app.learn.inprocess import (
+    FRAME_NS,
+    SimBabbler,
+    babble,
+    held_out_error,
+    uniform_poses,
+)
+from facesynth.app.learn.stream import StreamOptions, Trajectory
 from facesynth.runtime.feature_names import NAMES
 
 
@@ -48,3 +55,26 @@ def test_the_adaptive_plan_babbles_a_simulated_head_with_what_it_saw() -> None:
     # the regions were found from the sweeps it saw (one step each way: coarse, but the
     # mirror-image servos that move mirror-image features show)
     assert ("right_lip_corner", "left_lip_corner") in plan.regions.pairs
+
+
+@pytest.mark.slow
+def test_the_stream_is_paced_as_the_babbler_paces_it() -> None:
+    """No servo is asked to move faster than the pace of its profile speed, frame to frame;
+    a slower pace keeps the commands further behind the trajectory, and each frame's pulses
+    are those in force when it was taken (the head's own channels)."""
+    profile = hardware()
+    trajectory = Trajectory(16, 0, StreamOptions(max_hz=3.0, min_hz=1.0, amplitude=0.5))
+    speeds = np.array([s.max_speed for s in profile.servos])
+    frame_s = FRAME_NS / 1e9
+    behind = {}
+    for pace in (0.8, 0.2):
+        babbler = SimBabbler(profile, "simhead16")
+        times, pulses, faces = babbler.stream(trajectory, 1.0, every=1, pace=pace)
+        assert len(times) == len(pulses) == len(faces) == 30
+        steps = np.abs(np.diff(pulses, axis=0))
+        assert (steps <= pace * speeds * frame_s + 1e-6).all()
+        assert (steps >= pace * speeds * frame_s - 1e-6).any()  # the pace bound this stream
+        goals = np.array([babbler.pulses(trajectory.at(k * frame_s)) for k in range(30)])
+        behind[pace] = float(np.abs(goals - pulses).mean())
+        assert np.isfinite(faces[:, 10]).all()  # the face seen throughout
+    assert behind[0.2] > behind[0.8] > 0
