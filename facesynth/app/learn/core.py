@@ -36,10 +36,16 @@ from dataclasses import dataclass, field
 from facesynth.app.learn.plan import BabblePlan, Pose, to_pulses
 from facesynth.app.learn.settle import Settle, Settled, SettleOptions, StalledError, near
 from facesynth.app.learn.stream import HISTORY_S, StreamFrame, Streaming
-from facesynth.runtime.profiles import Profile
+from facesynth.runtime.profiles import Profile, ServoSpec
 
 #: Pace of a servo whose profile sets no ``max_speed`` (µs/s).
 DEFAULT_SPEED_US_S = 2000.0
+
+
+def paced_speed(servo: ServoSpec, pace: float) -> float:
+    """How fast babbling moves ``servo`` (µs/s): ``pace`` of its profile's ``max_speed``, or of
+    :data:`DEFAULT_SPEED_US_S` where the profile sets none."""
+    return pace * (servo.max_speed if servo.max_speed > 0 else DEFAULT_SPEED_US_S)
 
 
 class BabbleError(ValueError):
@@ -123,10 +129,7 @@ class Babbler:
         self.stream = stream
         self._tol = self.options.settle.reach_tol_us
         self.neutral = profile.neutral_positions()
-        self.speeds = {
-            s.name: self.options.pace * (s.max_speed if s.max_speed > 0 else DEFAULT_SPEED_US_S)
-            for s in profile.servos
-        }
+        self.speeds = {s.name: paced_speed(s, self.options.pace) for s in profile.servos}
         self.phase = "homing"
         self.index = start
         #: Poses taken in this run, and poses skipped (face lost too often).

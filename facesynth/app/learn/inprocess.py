@@ -29,7 +29,7 @@ from typing import TYPE_CHECKING
 import msgspec
 import numpy as np
 
-from facesynth.app.learn.core import DEFAULT_SPEED_US_S, BabbleOptions
+from facesynth.app.learn.core import BabbleOptions, paced_speed
 from facesynth.app.learn.dataset import BabbleSet
 from facesynth.app.learn.lag import Transition, servo_lags
 from facesynth.app.learn.stream import Streaming, Trajectory
@@ -72,13 +72,7 @@ class SimBabbler:
         self._neutral = np.array([s.neutral_us for s in specs])
         self._up = np.array([s.max_us - s.neutral_us for s in specs])
         self._down = np.array([s.neutral_us - s.min_us for s in specs])
-        #: Each servo's profile speed (µs/s), the babbler's default where it sets none.
-        self._speeds = np.array(
-            [s.max_speed if s.max_speed > 0 else DEFAULT_SPEED_US_S for s in specs], dtype=float
-        )
         self._seq = 0
-        #: The pulses in force on the head (every servo), as the babbler last commanded them.
-        self._commanded = self._neutral.astype(np.float64)
         self.look(np.zeros(len(specs)), 6)  # F's neutral: the head at rest
 
     def pulses(self, u: np.ndarray) -> np.ndarray:
@@ -147,13 +141,17 @@ class SimBabbler:
         move faster than ``pace`` of its profile's ``max_speed``."""
         sim = self._sim
         start = sim.t_ns
-        room = pace * self._speeds * FRAME_NS / 1e9  # µs a frame, per servo
+        speeds = np.array([paced_speed(spec, pace) for spec in self.profile.servos])
+        room = speeds * FRAME_NS / 1e9  # µs a frame, per servo
+        channels = [spec.channel for spec in self.profile.servos]
         times, pulses, faces = [], [], []
         for index in range(round(seconds * 1e9 / FRAME_NS)):
             t_ns = index * FRAME_NS
             sim.step(start + t_ns)
             goal = self.pulses(trajectory.at(offset_s + t_ns / 1e9))
-            command = self._commanded + np.clip(goal - self._commanded, -room, room)
+            in_force = sim.pulses()
+            now = np.array([in_force[channel] for channel in channels])
+            command = now + np.clip(goal - now, -room, room)
             self._command(command)
             if index % every:
                 continue
@@ -163,10 +161,9 @@ class SimBabbler:
         return np.array(times, dtype=np.int64), np.array(pulses), np.array(faces)
 
     def _command(self, pulses: np.ndarray) -> None:
-        """Every servo to ``pulses`` at once (kept as the pulses in force)."""
+        """Every servo to ``pulses`` at once."""
         for spec, pulse in zip(self.profile.servos, pulses, strict=True):
             self._sim.command(spec.channel, float(pulse))
-        self._commanded = np.asarray(pulses, dtype=np.float64).copy()
 
 
 def babble(
