@@ -81,7 +81,8 @@ def bench_robot_command(args: argparse.Namespace) -> int:
         print(f"bench robot: {what}", file=sys.stderr, flush=True)
 
     if live:
-        result = bench_outside(args, profiles, ways, progress, calibration)
+        chosen = [loaded[name] for name in profiles]  # loaded once, above
+        result = bench_outside(args, chosen, ways, progress, calibration)
     else:
         stray = rig_flags_given(args, RIG)
         if stray:

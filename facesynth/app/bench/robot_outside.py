@@ -24,7 +24,7 @@ from facesynth.runtime.calibration import Calibration
 from facesynth.runtime.profiles import Profile
 from facesynth.services.control.drivers.base import ServoDriver
 
-from .robot import Performance, RobotBench, load, measure, track_performer
+from .robot import Performance, RobotBench, measure, track_performer
 from .robot_closed import CLOSED_SUFFIX
 from .robot_compare import FeatureStream
 from .robot_live import CameraFeed, live_closed, live_profile
@@ -89,7 +89,7 @@ def where(config: msgspec.Struct) -> str:
 
 def bench_outside(
     args: argparse.Namespace,
-    profiles: list[str],
+    profiles: Sequence[Profile],
     ways: Sequence[str],
     progress: Callable[[str], None],
     calibration: Calibration | None = None,
@@ -105,9 +105,8 @@ def bench_outside(
     from facesynth.services.sensor.sources.registry import SOURCES
 
     camera, driver, name = head_rig(args)
-    first = load(profiles[0])
-    if DRIVERS.build(driver, first).moves_hardware:  # a board that is not there: said now
-        run_async(preflight(driver, first))
+    if DRIVERS.build(driver, profiles[0]).moves_hardware:  # a board that is not there: now
+        run_async(preflight(driver, profiles[0]))
     source = SOURCES.build(camera)  # a camera that cannot open: before any tracking
     if not source.info.live:
         source.close()
@@ -132,7 +131,7 @@ def bench_outside(
             output = DRIVERS.build(driver, profile)
             return asyncio.run(way(performance, profile, output, feed))
 
-        every = [way for profile in profiles for way in every_way(load(profile), chosen)]
+        every = [way for profile in profiles for way in every_way(profile, chosen)]
         return measure(performance, [name], every, run, progress=progress)
     finally:
         feed.close()
